@@ -1,0 +1,18 @@
+#pragma once
+// Errors a user can act on: what went wrong, where (file, key, element), and the fix.
+#include <stdexcept>
+#include <string>
+
+namespace fdem {
+
+/// Bad input: scene file, mesh file or command line. Exit code 2.
+struct InputError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+/// The run itself failed (instability, inverted element). Exit code 3.
+struct RunError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+}  // namespace fdem

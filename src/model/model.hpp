@@ -1,0 +1,68 @@
+#pragma once
+// The discretised model the time loop runs on: plain arrays indexed by integers,
+// built once on the host (model/build.cpp) and copied as they are to a backend.
+#include <array>
+#include <string>
+#include <vector>
+
+#include "core/vec.hpp"
+#include "model/mesh.hpp"
+#include "scene/scene.hpp"
+
+namespace fdem {
+
+/// A set of element indices split into colours: no two elements of one colour share a
+/// node, so a colour's elements can add into node forces in parallel without atomics
+/// and the sum does not depend on the thread count.
+struct Colouring {
+  std::vector<int> order;    // element indices, colour by colour
+  std::vector<int> offsets;  // colour c is order[offsets[c] .. offsets[c+1])
+  int colours() const { return offsets.empty() ? 0 : int(offsets.size()) - 1; }
+};
+
+struct Model {
+  // Nodes. Inside fracture regions every tet owns its four nodes (discontinuous).
+  std::vector<Vec3> X;             // reference positions, m
+  std::vector<real> mass;          // lumped mass (includes mass scaling), kg
+  std::vector<int> node_vertex;    // mesh vertex each node came from
+
+  // TET4
+  std::vector<std::array<int, 4>> tet_nodes;  // positively oriented (V0 > 0)
+  std::vector<Mat3> tet_Xinv;                 // inverse reference edge matrix
+  std::vector<real> tet_V0;                   // reference volume, m^3
+  std::vector<real> tet_eta;                  // viscous damping coefficient, Pa s
+  Colouring tet_colours;
+
+  // CE6: nodes 0-2 on tet A's face, 3-5 the paired nodes of tet B (same vertices, same
+  // order); the face normal (0->1->2, right hand) points from A into B.
+  std::vector<std::array<int, 6>> ce6_nodes;
+  std::vector<std::array<int, 2>> ce6_tets;
+  std::vector<real> ce6_h;                    // characteristic size (reference mean edge length), m
+  Colouring ce6_colours;
+
+  // Boundary: faces on the outer surface (node ids, normal outward) and node groups.
+  std::vector<std::array<int, 3>> surface_faces;
+  std::vector<int> surface_tet;
+  std::vector<int> platen_nodes;        // surface nodes that can touch a platen
+  std::vector<real> platen_node_area;   // tributary reference area of each, m^2
+  std::vector<real> platen_node_h;      // size of the element under each, m
+  std::vector<int> top_nodes, bottom_nodes, lateral_nodes;
+
+  // Geometry of the specimen in the reference configuration.
+  Vec3 box_min{0, 0, 0}, box_max{0, 0, 0};
+  Vec3 axis_point{0, 0, 0};  // the loading axis passes through here along z
+  real height0 = 0;          // m, along z
+  real area0 = 0;            // m^2, loaded cross-section (mean of top and bottom surface areas)
+
+  // Statistics for the build report.
+  real min_altitude = 0;     // m
+  real mean_edge = 0;        // m
+  std::string source;
+};
+
+/// Build the model from a mesh: node splitting, CE6 insertion inside the fracture regions,
+/// surfaces, node groups, masses (with mass scaling), damping and colourings.
+/// Throws InputError for inverted or degenerate tets and non-manifold faces.
+Model build_model(const Mesh& mesh, const Scene& scene);
+
+}  // namespace fdem
