@@ -1,0 +1,75 @@
+#pragma once
+// ParaView output: heavy data in one HDF5 file, an XDMF 3 index next to it.
+//
+//   <folder>/<basename>.h5     /mesh/tets                 M x 4 int32 (written once; topology is constant)
+//                              /frame_000000/x,u,v        N x 3 float64 (node positions, displacement, velocity)
+//                                           /stress       M x 6 float64, order xx, yy, zz, yz, xz, xy (Pa)
+//                                           /von_mises    M float64 (Pa)
+//                                           /<extra>      M float64, one per TetField
+//                                           /crack_faces  K x 3 int32, crack_damage K float64, crack_mode K int32
+//                              attributes on each frame group: time, step, label
+//   <folder>/<basename>.xdmf   Temporal collection; per frame a Spatial collection with a "rock" tet grid
+//                              and (when K > 0) a "cracks" triangle grid. Rewritten atomically after
+//                              every frame (write to .xdmf.tmp, then rename).
+//
+// The .h5 file is opened and closed for every frame, so a crash keeps all earlier frames.
+#include <array>
+#include <string>
+#include <vector>
+
+#include "core/vec.hpp"
+
+namespace fdem {
+
+/// A per-tet scalar written as a cell attribute; name must be non-empty and contain no '/'.
+struct TetField {
+  std::string name;
+  const std::vector<real>* values;  // one value per tet
+};
+
+/// One output frame. Pointers are borrowed for the duration of write(). x and tets are required;
+/// u, v, stress, von_mises and the crack arrays may be null (then they are not written).
+struct FieldFrame {
+  real time = 0;
+  long step = 0;
+  std::string label;  // "" or e.g. "peak", "final", "diagnostic"; stored as an attribute and in the grid name
+  const std::vector<Vec3>* x = nullptr;   // current node positions (discontinuous tets: nodes are per tet)
+  const std::vector<Vec3>* u = nullptr;   // displacement per node
+  const std::vector<Vec3>* v = nullptr;   // velocity per node
+  const std::vector<std::array<int, 4>>* tets = nullptr;  // node ids
+  const std::vector<Sym3>* stress = nullptr;              // Cauchy stress per tet (Pa)
+  const std::vector<real>* von_mises = nullptr;           // per tet (Pa)
+  std::vector<TetField> extra;                            // more per-tet scalars (e.g. rank, active)
+  const std::vector<std::array<int, 3>>* crack_faces = nullptr;  // node ids of damaged/broken CE6 faces
+  const std::vector<real>* crack_damage = nullptr;               // D in [0,1] per crack face
+  const std::vector<int>* crack_mode = nullptr;  // 0 intact(damaged), 1 I, 2 II, 3 mixed
+};
+
+/// Appends frames to <folder>/<basename>.h5 and keeps <folder>/<basename>.xdmf up to date.
+/// Every failure (HDF5, file system, non-finite value, inconsistent sizes) throws RunError
+/// naming the file or the field and index; a failed write() leaves the index of the earlier
+/// frames intact.
+class FieldWriter {
+ public:
+  /// Creates folder if missing, starts a fresh .h5 (truncating an old one) and removes a stale .xdmf.
+  FieldWriter(const std::string& folder, const std::string& basename);
+  /// Appends one frame.
+  void write(const FieldFrame& f);
+  /// Number of frames written so far.
+  int frames() const { return static_cast<int>(grids_.size()); }
+
+  const std::string& h5_path() const { return h5_path_; }
+  const std::string& xdmf_path() const { return xdmf_path_; }
+
+ private:
+  std::string h5_name_;    // file name only, as referenced from the XDMF
+  std::string h5_path_;
+  std::string xdmf_path_;
+  std::vector<std::array<int, 4>> mesh_tets_;  // copy of /mesh/tets, to detect a topology change
+  bool have_mesh_ = false;
+  std::vector<std::string> grids_;  // XDMF text of each frame written so far
+
+  void rewrite_index() const;
+};
+
+}  // namespace fdem

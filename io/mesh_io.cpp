@@ -1,0 +1,843 @@
+// Mesh input: a hand-written gmsh .msh reader (ASCII v2.2 and v4.1), mesh generation through
+// the gmsh API, and mesh validation. See io/mesh_io.hpp.
+#include "io/mesh_io.hpp"
+
+#include <gmsh.h>
+
+#include <algorithm>
+#include <array>
+#include <cctype>
+#include <charconv>
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <mutex>
+#include <sstream>
+#include <string_view>
+#include <system_error>
+#include <unordered_map>
+#include <vector>
+
+#include "core/error.hpp"
+
+namespace fdem {
+namespace {
+
+// ---------------------------------------------------------------------------------------------
+// Small helpers
+
+std::string fmt(double v) {
+  std::ostringstream s;
+  s.precision(6);
+  s << v;
+  return s.str();
+}
+
+/// A piece of file text safe to quote in a message: at most 40 characters, printable ASCII.
+std::string quote(std::string_view t) {
+  std::string s = "'";
+  const std::size_t n = std::min<std::size_t>(t.size(), 40);
+  for (std::size_t i = 0; i < n; ++i) {
+    const unsigned char c = static_cast<unsigned char>(t[i]);
+    s += (c >= 32 && c < 127) ? static_cast<char>(c) : '?';
+  }
+  if (t.size() > n) s += "...";
+  return s + "'";
+}
+
+const char* const kResave =
+    "re-save it from gmsh as an ASCII version 4.1 file, e.g. `gmsh in.msh -save -format msh41 "
+    "-setnumber Mesh.Binary 0 -o out.msh` (or File > Export, format 'Gmsh MSH', version 4.1, "
+    "binary unticked)";
+
+// ---------------------------------------------------------------------------------------------
+// Line-oriented reader over the whole file text. Blank lines are skipped.
+
+class Reader {
+ public:
+  Reader(const std::string& path, const std::string& text) : path_(path), text_(text) {}
+
+  /// Next non-blank line (without the line break and surrounding blanks); false at end of file.
+  bool next(std::string_view& line) {
+    while (pos_ < text_.size()) {
+      const std::size_t end = std::min(text_.find('\n', pos_), text_.size());
+      std::string_view l(text_.data() + pos_, end - pos_);
+      pos_ = end + 1;
+      ++line_no_;
+      const std::size_t a = l.find_first_not_of(" \t\r\v\f");
+      if (a == std::string_view::npos) continue;
+      const std::size_t b = l.find_last_not_of(" \t\r\v\f");
+      line = l.substr(a, b - a + 1);
+      return true;
+    }
+    line_no_ = last_line();
+    return false;
+  }
+
+  /// Next line, which must exist; `inside` says where we are for the end-of-file message.
+  std::string_view need(const std::string& inside) {
+    std::string_view l;
+    if (!next(l))
+      fail("the file ends " + inside + "; it is truncated",
+           "write the file again completely (or re-export it from gmsh)");
+    return l;
+  }
+
+  /// Split a line into whitespace-separated tokens (reusing `out`).
+  static void split(std::string_view l, std::vector<std::string_view>& out) {
+    out.clear();
+    std::size_t i = 0;
+    while (i < l.size()) {
+      while (i < l.size() && std::isspace(static_cast<unsigned char>(l[i]))) ++i;
+      std::size_t j = i;
+      while (j < l.size() && !std::isspace(static_cast<unsigned char>(l[j]))) ++j;
+      if (j > i) out.emplace_back(l.substr(i, j - i));
+      i = j;
+    }
+  }
+
+  [[noreturn]] void fail(const std::string& what, const std::string& fix) const { fail_at(line_no_, what, fix); }
+  [[noreturn]] void fail_at(long line, const std::string& what, const std::string& fix) const {
+    throw InputError(path_ + ":" + std::to_string(line) + ": " + what + "; " + fix);
+  }
+
+  /// Unsigned integer token (tags, counts, types).
+  std::uint64_t u64(std::string_view t, const char* what) const {
+    std::uint64_t v = 0;
+    const char* b = t.data();
+    const char* e = t.data() + t.size();
+    if (b != e && *b == '+') ++b;
+    const auto r = std::from_chars(b, e, v);
+    if (r.ec != std::errc() || r.ptr != e || b == e)
+      fail(std::string("expected ") + what + " (a non-negative integer), found " + quote(t),
+           "fix this line or re-export the mesh from gmsh");
+    return v;
+  }
+  /// Integer token that may be negative (entity tags in v4 blocks).
+  std::int64_t i64(std::string_view t, const char* what) const {
+    std::int64_t v = 0;
+    const char* b = t.data();
+    const char* e = t.data() + t.size();
+    if (b != e && *b == '+') ++b;
+    const auto r = std::from_chars(b, e, v);
+    if (r.ec != std::errc() || r.ptr != e || b == e)
+      fail(std::string("expected ") + what + " (an integer), found " + quote(t),
+           "fix this line or re-export the mesh from gmsh");
+    return v;
+  }
+  /// Finite floating-point token (coordinates).
+  double number(std::string_view t, const char* what) const {
+    double v = 0;
+    const char* b = t.data();
+    const char* e = t.data() + t.size();
+    if (b != e && *b == '+') ++b;
+    const auto r = std::from_chars(b, e, v);
+    if (r.ec == std::errc::result_out_of_range)
+      fail(std::string(what) + " " + quote(t) + " is out of the range of a double",
+           "fix the coordinates (are they in the intended unit?)");
+    if (r.ec != std::errc() || r.ptr != e || b == e)
+      fail(std::string("expected ") + what + " (a number), found " + quote(t),
+           "fix this line or re-export the mesh from gmsh");
+    if (!std::isfinite(v))
+      fail(std::string(what) + " is " + quote(t) + ", not a finite number",
+           "fix the node coordinates where the mesh was made");
+    return v;
+  }
+  /// A count from a section header: it cannot exceed the size of the file (each entry takes at
+  /// least two bytes), so absurd values are rejected before anything is allocated.
+  std::uint64_t count(std::string_view t, const char* what) const {
+    const std::uint64_t n = u64(t, what);
+    if (n > text_.size())
+      fail(std::string(what) + " is " + std::to_string(n) + ", more than a file of " +
+               std::to_string(text_.size()) + " bytes can hold",
+           "the count is corrupt; re-export the mesh from gmsh");
+    return n;
+  }
+  /// How many entries to reserve for a count: no more than the file could hold.
+  std::size_t reserve_for(std::uint64_t n, std::size_t min_bytes_per_entry) const {
+    return static_cast<std::size_t>(std::min<std::uint64_t>(n, text_.size() / min_bytes_per_entry + 1));
+  }
+
+  long line_no() const { return line_no_; }
+  const std::string& path() const { return path_; }
+
+ private:
+  long last_line() const {
+    // Number of the last line of the file (for messages at end of file).
+    long n = 0;
+    for (char c : text_) n += (c == '\n');
+    if (!text_.empty() && text_.back() != '\n') ++n;
+    return std::max(n, 1L);
+  }
+
+  const std::string& path_;
+  const std::string& text_;
+  std::size_t pos_ = 0;
+  long line_no_ = 0;
+};
+
+// ---------------------------------------------------------------------------------------------
+// .msh parsing
+
+struct RawTet {
+  std::uint64_t node[4];
+  std::uint64_t tag;
+  long line;
+};
+
+struct MshData {
+  std::vector<Vec3> coords;
+  std::vector<std::uint64_t> node_tags;
+  std::vector<long> node_lines;
+  std::unordered_map<std::uint64_t, int> node_index;  // tag -> index into coords
+  std::vector<RawTet> tets;
+  std::uint64_t other_elements = 0;  // elements of types other than 4
+  std::uint64_t quadratic_tets = 0;  // 10-node tets (type 11)
+};
+
+/// Number of nodes of the gmsh element types (index = type); 0 = unknown type.
+int nodes_of_type(std::uint64_t type) {
+  static const int n[] = {0, 2, 3, 4, 4, 8, 6, 5, 3, 6, 9, 10, 27, 18, 14, 1, 8, 20, 15, 13};
+  return type < sizeof(n) / sizeof(n[0]) ? n[type] : 0;
+}
+
+void add_node(Reader& r, MshData& d, std::uint64_t tag, Vec3 x, long line) {
+  const auto ins = d.node_index.emplace(tag, static_cast<int>(d.coords.size()));
+  if (!ins.second)
+    r.fail_at(line, "node tag " + std::to_string(tag) + " is defined twice (first on line " +
+                        std::to_string(d.node_lines[ins.first->second]) + ")",
+              "give every node a unique tag");
+  if (d.coords.size() >= static_cast<std::size_t>(2147483647))
+    r.fail_at(line, "more than 2^31-1 nodes", "use a coarser mesh");
+  d.coords.push_back(x);
+  d.node_tags.push_back(tag);
+  d.node_lines.push_back(line);
+}
+
+/// Expect the line that closes a section whose entries have been read.
+void expect_end(Reader& r, const char* end, const std::string& section_what, long header_line) {
+  const std::string_view l = r.need("before " + std::string(end));
+  if (l != end)
+    r.fail(std::string("expected ") + end + " after the " + section_what + " announced on line " +
+               std::to_string(header_line) + ", found " + quote(l),
+           "the count on line " + std::to_string(header_line) +
+               " does not match the number of entries; correct it or re-export the mesh");
+}
+
+/// A data line inside a section with a known count; a '$' line here means the count is too big.
+std::string_view data_line(Reader& r, const char* section, std::uint64_t k, std::uint64_t n, const char* what,
+                           long header_line) {
+  const std::string_view l = r.need("inside " + std::string(section) + " (after " + std::to_string(k) + " of " +
+                                    std::to_string(n) + " " + what + ")");
+  if (l[0] == '$')
+    r.fail("found " + quote(l) + " after " + std::to_string(k) + " " + what + " but line " +
+               std::to_string(header_line) + " announced " + std::to_string(n),
+           "the count does not match the number of entries; correct it or re-export the mesh");
+  return l;
+}
+
+void nodes_v2(Reader& r, MshData& d) {
+  std::vector<std::string_view> tok;
+  Reader::split(r.need("inside $Nodes"), tok);
+  const long header = r.line_no();
+  if (tok.size() != 1) r.fail("expected the number of nodes on this line, found " + std::to_string(tok.size()) + " values", "write the node count alone on the line after $Nodes");
+  const std::uint64_t n = r.count(tok[0], "the number of nodes");
+  d.coords.reserve(r.reserve_for(n, 8));
+  for (std::uint64_t k = 0; k < n; ++k) {
+    Reader::split(data_line(r, "$Nodes", k, n, "nodes", header), tok);
+    if (tok.size() != 4)
+      r.fail("a node line needs 4 values (tag x y z), found " + std::to_string(tok.size()),
+             "fix this line or re-export the mesh");
+    const std::uint64_t tag = r.u64(tok[0], "a node tag");
+    const Vec3 x{r.number(tok[1], "x coordinate"), r.number(tok[2], "y coordinate"), r.number(tok[3], "z coordinate")};
+    add_node(r, d, tag, x, r.line_no());
+  }
+  expect_end(r, "$EndNodes", std::to_string(n) + " nodes", header);
+}
+
+void elements_v2(Reader& r, MshData& d) {
+  std::vector<std::string_view> tok;
+  Reader::split(r.need("inside $Elements"), tok);
+  const long header = r.line_no();
+  if (tok.size() != 1) r.fail("expected the number of elements on this line, found " + std::to_string(tok.size()) + " values", "write the element count alone on the line after $Elements");
+  const std::uint64_t n = r.count(tok[0], "the number of elements");
+  d.tets.reserve(r.reserve_for(n, 16));
+  for (std::uint64_t k = 0; k < n; ++k) {
+    Reader::split(data_line(r, "$Elements", k, n, "elements", header), tok);
+    if (tok.size() < 3)
+      r.fail("an element line needs at least: tag type number-of-tags, found " + std::to_string(tok.size()) + " values",
+             "fix this line or re-export the mesh");
+    const std::uint64_t tag = r.u64(tok[0], "an element tag");
+    const std::uint64_t type = r.u64(tok[1], "an element type");
+    const std::uint64_t ntags = r.u64(tok[2], "the number of element tags");
+    const int nn = nodes_of_type(type);
+    if (type != 4) {
+      ++d.other_elements;
+      d.quadratic_tets += (type == 11);
+      if (nn > 0 && tok.size() != 3 + ntags + static_cast<std::uint64_t>(nn))
+        r.fail("an element of type " + std::to_string(type) + " with " + std::to_string(ntags) + " tags needs " +
+                   std::to_string(3 + ntags + nn) + " values, found " + std::to_string(tok.size()),
+               "fix this line or re-export the mesh");
+      continue;
+    }
+    if (tok.size() != 3 + ntags + 4)
+      r.fail("a tetrahedron (type 4) with " + std::to_string(ntags) + " tags needs " + std::to_string(3 + ntags + 4) +
+                 " values, found " + std::to_string(tok.size()),
+             "fix this line or re-export the mesh");
+    for (std::size_t i = 3; i < 3 + ntags; ++i) r.i64(tok[i], "an element tag value");
+    RawTet t{};
+    for (int i = 0; i < 4; ++i) t.node[i] = r.u64(tok[3 + ntags + i], "a node tag");
+    t.tag = tag;
+    t.line = r.line_no();
+    d.tets.push_back(t);
+  }
+  expect_end(r, "$EndElements", std::to_string(n) + " elements", header);
+}
+
+void nodes_v4(Reader& r, MshData& d) {
+  std::vector<std::string_view> tok;
+  Reader::split(r.need("inside $Nodes"), tok);
+  const long header = r.line_no();
+  if (tok.size() != 4)
+    r.fail("expected 4 values (numEntityBlocks numNodes minNodeTag maxNodeTag), found " + std::to_string(tok.size()),
+           "fix this line or re-export the mesh as version 4.1");
+  const std::uint64_t blocks = r.count(tok[0], "the number of node blocks");
+  const std::uint64_t n = r.count(tok[1], "the number of nodes");
+  r.u64(tok[2], "the smallest node tag");
+  r.u64(tok[3], "the largest node tag");
+  d.coords.reserve(r.reserve_for(n, 8));
+  std::uint64_t total = 0;
+  std::vector<std::uint64_t> tags;
+  std::vector<long> lines;
+  for (std::uint64_t b = 0; b < blocks; ++b) {
+    Reader::split(data_line(r, "$Nodes", b, blocks, "node blocks", header), tok);
+    const long block_line = r.line_no();
+    if (tok.size() != 4)
+      r.fail("a node block header needs 4 values (entityDim entityTag parametric numNodesInBlock), found " +
+                 std::to_string(tok.size()),
+             "fix this line or re-export the mesh as version 4.1");
+    const std::uint64_t dim = r.u64(tok[0], "the entity dimension");
+    r.i64(tok[1], "the entity tag");
+    const std::uint64_t param = r.u64(tok[2], "the parametric flag");
+    const std::uint64_t m = r.count(tok[3], "the number of nodes in the block");
+    if (dim > 3) r.fail("entity dimension " + std::to_string(dim) + " is not 0..3", "fix this line or re-export the mesh");
+    if (param > 1) r.fail("the parametric flag must be 0 or 1, found " + std::to_string(param), "fix this line or re-export the mesh");
+    total += m;
+    if (total > n)
+      r.fail("the node blocks hold more nodes than the " + std::to_string(n) + " announced on line " + std::to_string(header),
+             "the counts do not match; correct them or re-export the mesh");
+    tags.clear();
+    lines.clear();
+    tags.reserve(r.reserve_for(m, 2));
+    for (std::uint64_t k = 0; k < m; ++k) {
+      Reader::split(data_line(r, "$Nodes", k, m, "node tags of the block", block_line), tok);
+      if (tok.size() != 1)
+        r.fail("expected one node tag on this line, found " + std::to_string(tok.size()) + " values",
+               "the node count on line " + std::to_string(block_line) + " may be wrong; correct it or re-export the mesh");
+      tags.push_back(r.u64(tok[0], "a node tag"));
+    }
+    const std::size_t want = 3 + (param ? dim : 0);
+    for (std::uint64_t k = 0; k < m; ++k) {
+      Reader::split(data_line(r, "$Nodes", k, m, "node coordinates of the block", block_line), tok);
+      if (tok.size() != want)
+        r.fail("a node coordinate line of this block needs " + std::to_string(want) + " values, found " +
+                   std::to_string(tok.size()),
+               "the node count on line " + std::to_string(block_line) + " may be wrong; correct it or re-export the mesh");
+      const Vec3 x{r.number(tok[0], "x coordinate"), r.number(tok[1], "y coordinate"), r.number(tok[2], "z coordinate")};
+      for (std::size_t i = 3; i < want; ++i) r.number(tok[i], "parametric coordinate");
+      add_node(r, d, tags[k], x, r.line_no());
+    }
+  }
+  if (total != n)
+    r.fail_at(header, "announces " + std::to_string(n) + " nodes but its blocks hold " + std::to_string(total),
+              "correct the count or re-export the mesh");
+  expect_end(r, "$EndNodes", std::to_string(blocks) + " node blocks", header);
+}
+
+void elements_v4(Reader& r, MshData& d) {
+  std::vector<std::string_view> tok;
+  Reader::split(r.need("inside $Elements"), tok);
+  const long header = r.line_no();
+  if (tok.size() != 4)
+    r.fail("expected 4 values (numEntityBlocks numElements minElementTag maxElementTag), found " +
+               std::to_string(tok.size()),
+           "fix this line or re-export the mesh as version 4.1");
+  const std::uint64_t blocks = r.count(tok[0], "the number of element blocks");
+  const std::uint64_t n = r.count(tok[1], "the number of elements");
+  r.u64(tok[2], "the smallest element tag");
+  r.u64(tok[3], "the largest element tag");
+  std::uint64_t total = 0;
+  for (std::uint64_t b = 0; b < blocks; ++b) {
+    Reader::split(data_line(r, "$Elements", b, blocks, "element blocks", header), tok);
+    const long block_line = r.line_no();
+    if (tok.size() != 4)
+      r.fail("an element block header needs 4 values (entityDim entityTag elementType numElementsInBlock), found " +
+                 std::to_string(tok.size()),
+             "fix this line or re-export the mesh as version 4.1");
+    r.u64(tok[0], "the entity dimension");
+    r.i64(tok[1], "the entity tag");
+    const std::uint64_t type = r.u64(tok[2], "the element type");
+    const std::uint64_t m = r.count(tok[3], "the number of elements in the block");
+    total += m;
+    if (total > n)
+      r.fail("the element blocks hold more elements than the " + std::to_string(n) + " announced on line " +
+                 std::to_string(header),
+             "the counts do not match; correct them or re-export the mesh");
+    const int nn = nodes_of_type(type);
+    if (type == 4) d.tets.reserve(d.tets.size() + r.reserve_for(m, 10));
+    for (std::uint64_t k = 0; k < m; ++k) {
+      Reader::split(data_line(r, "$Elements", k, m, "elements of the block", block_line), tok);
+      const std::size_t want = 1 + static_cast<std::size_t>(nn);
+      if (nn > 0 && tok.size() != want)
+        r.fail("an element of type " + std::to_string(type) + " needs " + std::to_string(want) +
+                   " values (tag and " + std::to_string(nn) + " node tags), found " + std::to_string(tok.size()),
+               "the element count on line " + std::to_string(block_line) +
+                   " may be wrong; correct it or re-export the mesh");
+      if (type != 4) {
+        ++d.other_elements;
+        d.quadratic_tets += (type == 11);
+        continue;
+      }
+      RawTet t{};
+      t.tag = r.u64(tok[0], "an element tag");
+      for (int i = 0; i < 4; ++i) t.node[i] = r.u64(tok[1 + i], "a node tag");
+      t.line = r.line_no();
+      d.tets.push_back(t);
+    }
+  }
+  if (total != n)
+    r.fail_at(header, "announces " + std::to_string(n) + " elements but its blocks hold " + std::to_string(total),
+              "correct the count or re-export the mesh");
+  expect_end(r, "$EndElements", std::to_string(blocks) + " element blocks", header);
+}
+
+void skip_section(Reader& r, std::string_view name) {
+  const long start = r.line_no();
+  const std::string end = "$End" + std::string(name.substr(1));
+  std::string_view l;
+  while (r.next(l))
+    if (l == end) return;
+  r.fail_at(start, "section " + quote(name) + " has no closing " + end,
+            "the file is truncated or damaged; re-export the mesh");
+}
+
+std::string read_file(const std::string& path) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const auto st = fs::status(path, ec);
+  if (!fs::exists(st))
+    throw InputError(path + ": mesh file does not exist; check the path (mesh.file is relative to the scene file)");
+  if (fs::is_directory(st)) throw InputError(path + ": is a directory, not a mesh file; give the path of a .msh file");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path + ": mesh file cannot be opened for reading; check its permissions");
+  std::ostringstream s;
+  s << in.rdbuf();
+  if (in.bad()) throw InputError(path + ": error while reading the mesh file; check the file system");
+  return s.str();
+}
+
+// ---------------------------------------------------------------------------------------------
+// Validation
+
+/// Labels for messages: file meshes name element tags, node tags and lines.
+struct Labels {
+  std::string prefix;                               // "file" or "source"
+  const std::vector<std::uint64_t>* node_tags = nullptr;  // per vertex
+  const std::vector<std::uint64_t>* tet_tags = nullptr;   // per tet
+  const std::vector<long>* tet_lines = nullptr;           // per tet
+
+  std::string tet(std::size_t t) const {
+    if (tet_tags)
+      return prefix + ":" + std::to_string((*tet_lines)[t]) + ": tetrahedron (element tag " +
+             std::to_string((*tet_tags)[t]) + ")";
+    return prefix + ": tet " + std::to_string(t + 1) + " (1-based index in the mesh)";
+  }
+  std::string tet_name(std::size_t t) const {
+    if (tet_tags) return "element " + std::to_string((*tet_tags)[t]) + " (line " + std::to_string((*tet_lines)[t]) + ")";
+    return "tet " + std::to_string(t + 1);
+  }
+  std::string vertex(int v) const {
+    if (node_tags) return "node " + std::to_string((*node_tags)[v]);
+    return "vertex " + std::to_string(v + 1);
+  }
+  std::string vertices(int a, int b, int c) const {
+    if (node_tags)
+      return "nodes " + std::to_string((*node_tags)[a]) + ", " + std::to_string((*node_tags)[b]) + ", " +
+             std::to_string((*node_tags)[c]);
+    return "vertices " + std::to_string(a + 1) + ", " + std::to_string(b + 1) + ", " + std::to_string(c + 1) +
+           " (1-based)";
+  }
+};
+
+double orient(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
+  return dot(b - a, cross(c - a, d - a));  // 6 x signed volume
+}
+
+void validate(const Mesh& m, const Labels& L) {
+  const std::size_t nv = m.vertices.size();
+  const std::size_t nt = m.tets.size();
+  if (nt == 0) throw InputError(L.prefix + ": the mesh has no tetrahedra; mesh the volume (3D), not only its surface");
+  if (nv > static_cast<std::size_t>(2147483647)) throw InputError(L.prefix + ": more than 2^31-1 vertices");
+  for (std::size_t v = 0; v < nv; ++v) {
+    const Vec3& x = m.vertices[v];
+    if (!std::isfinite(x.x) || !std::isfinite(x.y) || !std::isfinite(x.z))
+      throw InputError(L.prefix + ": " + L.vertex(static_cast<int>(v)) + " has a non-finite coordinate (" + fmt(x.x) +
+                       ", " + fmt(x.y) + ", " + fmt(x.z) + "); fix the coordinates");
+  }
+  for (std::size_t t = 0; t < nt; ++t) {
+    const auto& q = m.tets[t];
+    for (int i = 0; i < 4; ++i) {
+      if (q[i] < 0 || static_cast<std::size_t>(q[i]) >= nv)
+        throw InputError(L.tet(t) + " refers to vertex index " + std::to_string(q[i]) + ", outside [0, " +
+                         std::to_string(nv) + "); fix the connectivity");
+      for (int j = 0; j < i; ++j)
+        if (q[i] == q[j])
+          throw InputError(L.tet(t) + " uses " + L.vertex(q[i]) + " twice; a tetrahedron needs 4 distinct vertices, "
+                           "remove or remesh it");
+    }
+    const Vec3 &a = m.vertices[q[0]], &b = m.vertices[q[1]], &c = m.vertices[q[2]], &d = m.vertices[q[3]];
+    const double vol = std::abs(orient(a, b, c, d)) / 6;
+    const double edge = (norm(b - a) + norm(c - a) + norm(d - a) + norm(c - b) + norm(d - b) + norm(d - c)) / 6;
+    if (!(vol > 1e-12 * edge * edge * edge))
+      throw InputError(L.tet(t) + " has zero or near-zero volume (" + fmt(vol) + " m^3 with mean edge " + fmt(edge) +
+                       " m): its 4 vertices are (nearly) coplanar; remesh with optimisation (gmsh -optimize) or "
+                       "remove the element");
+  }
+  // Faces, bucketed by their smallest vertex: count, prefix-sum, fill, sort each bucket.
+  struct Face {
+    int b, c, t;
+  };
+  static const int kFace[4][3] = {{1, 2, 3}, {0, 2, 3}, {0, 1, 3}, {0, 1, 2}};
+  std::vector<std::size_t> start(nv + 1, 0);
+  auto face_of = [&](std::size_t t, int f) {
+    std::array<int, 3> k = {m.tets[t][kFace[f][0]], m.tets[t][kFace[f][1]], m.tets[t][kFace[f][2]]};
+    std::sort(k.begin(), k.end());
+    return k;
+  };
+  for (std::size_t t = 0; t < nt; ++t)
+    for (int f = 0; f < 4; ++f) ++start[face_of(t, f)[0] + 1];
+  for (std::size_t v = 0; v < nv; ++v) start[v + 1] += start[v];
+  std::vector<Face> faces(start[nv]);
+  {
+    std::vector<std::size_t> fill(start.begin(), start.end() - 1);
+    for (std::size_t t = 0; t < nt; ++t)
+      for (int f = 0; f < 4; ++f) {
+        const auto k = face_of(t, f);
+        faces[fill[k[0]]++] = {k[1], k[2], static_cast<int>(t)};
+      }
+  }
+  auto opposite = [&](int t, int a, int b, int c) {
+    for (int v : m.tets[t])
+      if (v != a && v != b && v != c) return v;
+    return -1;
+  };
+  for (std::size_t a = 0; a < nv; ++a) {
+    const auto first = faces.begin() + start[a], last = faces.begin() + start[a + 1];
+    std::sort(first, last, [](const Face& x, const Face& y) {
+      return x.b != y.b ? x.b < y.b : (x.c != y.c ? x.c < y.c : x.t < y.t);
+    });
+    for (auto i = first; i != last;) {
+      auto j = i + 1;
+      while (j != last && j->b == i->b && j->c == i->c) ++j;
+      const int ia = static_cast<int>(a);
+      if (j - i > 2)
+        throw InputError(L.prefix + ": the face with " + L.vertices(ia, i->b, i->c) + " is shared by " +
+                         std::to_string(j - i) + " tetrahedra (" + L.tet_name(i->t) + ", " + L.tet_name((i + 1)->t) +
+                         ", " + L.tet_name((i + 2)->t) + (j - i > 3 ? ", ..." : "") +
+                         "), a face can be shared by at most two (non-manifold mesh); remesh the volume");
+      if (j - i == 2) {
+        const Vec3 &pa = m.vertices[a], &pb = m.vertices[i->b], &pc = m.vertices[i->c];
+        const double s1 = orient(pa, pb, pc, m.vertices[opposite(i->t, ia, i->b, i->c)]);
+        const double s2 = orient(pa, pb, pc, m.vertices[opposite((i + 1)->t, ia, i->b, i->c)]);
+        if ((s1 > 0) == (s2 > 0))
+          throw InputError(L.prefix + ": " + L.tet_name(i->t) + " and " + L.tet_name((i + 1)->t) + " share the face with " +
+                           L.vertices(ia, i->b, i->c) +
+                           " and lie on the same side of it (overlapping or duplicated tetrahedra); remesh the volume");
+      }
+      i = j;
+    }
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// gmsh session
+
+std::mutex g_gmsh_mutex;
+
+std::string exception_text() {
+  try {
+    throw;
+  } catch (const std::exception& e) {
+    return e.what();
+  } catch (const std::string& s) {  // gmsh 4.8 throws the last error message as a std::string
+    return s;
+  } catch (...) {
+    return "unknown error";
+  }
+}
+
+class GmshSession {
+ public:
+  GmshSession() {
+#if GMSH_API_VERSION_MAJOR > 4 || (GMSH_API_VERSION_MAJOR == 4 && GMSH_API_VERSION_MINOR >= 11)
+    owns_ = !gmsh::isInitialized();
+#else
+    owns_ = true;  // no way to ask gmsh < 4.11; fdem initialises gmsh only here
+#endif
+    if (owns_) gmsh::initialize(0, nullptr, /*readConfigFiles=*/false);
+    try {
+      gmsh::option::setNumber("General.Terminal", std::getenv("FDEM_GMSH_VERBOSE") ? 1 : 0);
+      gmsh::model::add("fdem");
+    } catch (...) {
+      if (owns_) gmsh::finalize();
+      throw;
+    }
+  }
+  ~GmshSession() {
+    try {
+      gmsh::model::remove();
+      if (owns_) gmsh::finalize();
+    } catch (...) {
+    }
+  }
+  GmshSession(const GmshSession&) = delete;
+  GmshSession& operator=(const GmshSession&) = delete;
+
+ private:
+  bool owns_ = true;
+};
+
+Mesh mesh_with_gmsh(const MeshSpec& s, const std::string& what) {
+  namespace occ = gmsh::model::occ;
+  const real h = s.element_size;
+  gmsh::option::setNumber("General.NumThreads", 1);
+  gmsh::option::setNumber("Mesh.MaxNumThreads1D", 1);
+  gmsh::option::setNumber("Mesh.MaxNumThreads2D", 1);
+  gmsh::option::setNumber("Mesh.MaxNumThreads3D", 1);
+  gmsh::option::setNumber("Geometry.OCCParallel", 0);
+  gmsh::option::setNumber("Mesh.Algorithm", 6);    // Frontal-Delaunay surfaces
+  gmsh::option::setNumber("Mesh.Algorithm3D", 1);  // Delaunay volumes
+  gmsh::option::setNumber("Mesh.ElementOrder", 1);
+  gmsh::option::setNumber("Mesh.MeshSizeMax", h);
+  gmsh::option::setNumber("Mesh.MeshSizeMin", 0.5 * h);
+  gmsh::option::setNumber("Mesh.MeshSizeFromPoints", 0);
+  gmsh::option::setNumber("Mesh.MeshSizeExtendFromBoundary", 1);
+  gmsh::option::setNumber("Mesh.Optimize", 1);     // tetrahedron optimiser: removes slivers
+  gmsh::option::setNumber("Mesh.Smoothing", 5);    // Laplacian passes; with 1 (default) a few poor tets stay
+
+  if (s.shape == "cylinder") {
+    occ::addCylinder(0, 0, 0, 0, 0, s.height, s.diameter / 2);
+  } else if (s.shape == "disc") {
+    const real r = s.diameter / 2, t = s.height;
+    const int vol = occ::addCylinder(0, -t / 2, r, 0, t, 0, r);
+    // The seam of the lateral surface runs along x = 0, z = diameter (checked: OCC puts it at the
+    // local x axis, which is +z here). Split the lateral face along x = 0, z = 0 as well, so both
+    // platen contact lines are mesh edges and the disc touches the platens exactly at z = 0, D.
+    const int p0 = occ::addPoint(0, -t / 2, 0), p1 = occ::addPoint(0, t / 2, 0);
+    const int line = occ::addLine(p0, p1);
+    gmsh::vectorpair out;
+    std::vector<gmsh::vectorpair> map;
+    occ::fragment({{3, vol}}, {{1, line}}, out, map);
+  } else {
+    occ::addBox(0, 0, 0, s.size.x, s.size.y, s.size.z);
+  }
+  occ::synchronize();
+  gmsh::model::mesh::generate(3);
+
+  std::vector<std::size_t> node_tags, tet_tags, tet_nodes;
+  std::vector<double> xyz, param;
+  gmsh::model::mesh::getNodes(node_tags, xyz, param, -1, -1, false, false);
+  gmsh::model::mesh::getElementsByType(4, tet_tags, tet_nodes);
+  if (tet_tags.empty()) throw InputError(what + ": gmsh produced no tetrahedra; check the dimensions and element_size");
+
+  // Compact renumbering in gmsh's node order, keeping only nodes used by tetrahedra.
+  std::unordered_map<std::size_t, int> index;
+  index.reserve(node_tags.size());
+  for (std::size_t i = 0; i < node_tags.size(); ++i) index.emplace(node_tags[i], static_cast<int>(i));
+  std::vector<int> used(node_tags.size(), -1);
+  for (std::size_t tag : tet_nodes) {
+    const auto it = index.find(tag);
+    if (it == index.end()) throw InputError(what + ": gmsh returned a tetrahedron with an unknown node");
+    used[it->second] = 0;
+  }
+  Mesh mesh;
+  mesh.source = what;
+  for (std::size_t i = 0; i < node_tags.size(); ++i)
+    if (used[i] == 0) {
+      used[i] = static_cast<int>(mesh.vertices.size());
+      mesh.vertices.push_back({xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]});
+    }
+  mesh.tets.resize(tet_tags.size());
+  for (std::size_t t = 0; t < tet_tags.size(); ++t)
+    for (int k = 0; k < 4; ++k) mesh.tets[t][k] = used[index.at(tet_nodes[4 * t + k])];
+  return mesh;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+
+void validate_mesh(const Mesh& mesh) {
+  Labels L;
+  L.prefix = mesh.source.empty() ? std::string("mesh") : mesh.source;
+  validate(mesh, L);
+}
+
+Mesh read_msh(const std::string& path, real scale) {
+  if (!(scale > 0) || !std::isfinite(scale))
+    throw InputError(path + ": mesh scale must be a positive finite number, got " + fmt(scale) +
+                     "; set mesh.scale to e.g. 1 (metres) or 1e-3 (millimetres)");
+  const std::string text = read_file(path);
+  Reader r(path, text);
+  MshData d;
+
+  std::string_view l;
+  if (!r.next(l)) throw InputError(path + ": the mesh file is empty; " + kResave);
+  if (l != "$MeshFormat")
+    r.fail("expected $MeshFormat on the first line, found " + quote(l) + ": this is not a gmsh .msh file",
+           std::string("give a gmsh mesh; if it is one, ") + kResave);
+  std::vector<std::string_view> tok;
+  const std::string_view format_line = r.need("inside $MeshFormat");
+  Reader::split(format_line, tok);
+  if (tok.size() != 3)
+    r.fail("expected 'version file-type data-size' (e.g. '4.1 0 8'), found " + quote(format_line), kResave);
+  const std::string_view version = tok[0];
+  if (tok[1] != "0") {
+    if (tok[1] == "1")
+      r.fail("this is a binary .msh file; fdem reads ASCII .msh files only", kResave);
+    r.fail("file-type must be 0 (ASCII), found " + quote(tok[1]), kResave);
+  }
+  int major = 0;
+  if (version == "2" || version == "2.0" || version == "2.1" || version == "2.2")
+    major = 2;
+  else if (version == "4.1")
+    major = 4;
+  else
+    r.fail(".msh format version " + quote(version) + " is not supported (fdem reads versions 2.2 and 4.1)", kResave);
+  r.u64(tok[2], "the data size");
+  {
+    const std::string_view e = r.need("inside $MeshFormat");
+    if (e != "$EndMeshFormat") r.fail("expected $EndMeshFormat, found " + quote(e), kResave);
+  }
+
+  bool have_nodes = false, have_elements = false;
+  while (r.next(l)) {
+    if (l[0] != '$')
+      r.fail("unexpected text " + quote(l) + " outside any section", "remove it or re-export the mesh from gmsh");
+    if (l == "$Nodes" || l == "$Elements") {
+      bool& have = (l == "$Nodes") ? have_nodes : have_elements;
+      if (have) r.fail("a second " + std::string(l) + " section", "a .msh file may contain only one; re-export the mesh");
+      have = true;
+      if (l == "$Nodes")
+        major == 2 ? nodes_v2(r, d) : nodes_v4(r, d);
+      else
+        major == 2 ? elements_v2(r, d) : elements_v4(r, d);
+    } else if (l.rfind("$End", 0) == 0) {
+      r.fail("unexpected " + quote(l) + " without its opening section", "the file is damaged; re-export the mesh");
+    } else {
+      skip_section(r, l);
+    }
+  }
+  if (!have_nodes) r.fail("the file has no $Nodes section", "export the mesh (not only the geometry) from gmsh");
+  if (!have_elements) r.fail("the file has no $Elements section", "export the mesh (not only the geometry) from gmsh");
+  if (d.tets.empty()) {
+    if (d.quadratic_tets)
+      throw InputError(path + ": the file has " + std::to_string(d.quadratic_tets) +
+                       " 10-node tetrahedra (type 11) but no 4-node ones (type 4), the only kind fdem uses; mesh "
+                       "with first-order elements (Mesh.ElementOrder 1, or gmsh -3 -order 1) and export again");
+    throw InputError(path + ": the file contains no 4-node tetrahedra (element type 4)" +
+                     (d.other_elements ? ", only " + std::to_string(d.other_elements) +
+                                             " elements of other types (points, lines, triangles...)"
+                                       : std::string()) +
+                     "; mesh the volume in 3D (gmsh -3), not only its surface, and export again");
+  }
+
+  // Resolve node tags, drop unused nodes, renumber in file order.
+  std::vector<int> vidx(d.coords.size(), -1);
+  for (const RawTet& t : d.tets)
+    for (int i = 0; i < 4; ++i) {
+      const auto it = d.node_index.find(t.node[i]);
+      if (it == d.node_index.end())
+        r.fail_at(t.line, "element " + std::to_string(t.tag) + " refers to node " + std::to_string(t.node[i]) +
+                              ", which is not in $Nodes",
+                  "add the node or fix the element's node list");
+      vidx[it->second] = 0;
+    }
+  Mesh mesh;
+  mesh.source = path;
+  std::vector<std::uint64_t> vtags;
+  for (std::size_t i = 0; i < d.coords.size(); ++i)
+    if (vidx[i] == 0) {
+      vidx[i] = static_cast<int>(mesh.vertices.size());
+      mesh.vertices.push_back(scale * d.coords[i]);
+      vtags.push_back(d.node_tags[i]);
+    }
+  mesh.tets.resize(d.tets.size());
+  std::vector<std::uint64_t> ttags(d.tets.size());
+  std::vector<long> tlines(d.tets.size());
+  for (std::size_t t = 0; t < d.tets.size(); ++t) {
+    for (int i = 0; i < 4; ++i) mesh.tets[t][i] = vidx[d.node_index.at(d.tets[t].node[i])];
+    ttags[t] = d.tets[t].tag;
+    tlines[t] = d.tets[t].line;
+  }
+  Labels L;
+  L.prefix = path;
+  L.node_tags = &vtags;
+  L.tet_tags = &ttags;
+  L.tet_lines = &tlines;
+  validate(mesh, L);
+  return mesh;
+}
+
+Mesh generate_mesh(const MeshSpec& s) {
+  const real h = s.element_size;
+  std::string what;
+  real volume = 0;
+  auto positive = [](real v) { return v > 0 && std::isfinite(v); };
+  if (!positive(h))
+    throw InputError("mesh.element_size must be a positive length in metres, got " + fmt(h));
+  if (s.shape == "cylinder" || s.shape == "disc") {
+    if (!positive(s.diameter) || !positive(s.height))
+      throw InputError("mesh: a " + s.shape + " needs diameter > 0 and height > 0 (m), got diameter " +
+                       fmt(s.diameter) + ", height " + fmt(s.height));
+    what = "generated " + s.shape + " (diameter " + fmt(s.diameter) + " m, " +
+           (s.shape == "disc" ? "thickness " : "height ") + fmt(s.height) + " m, element_size " + fmt(h) + " m)";
+    volume = 3.14159265358979323846 * s.diameter * s.diameter / 4 * s.height;
+  } else if (s.shape == "box") {
+    if (!positive(s.size.x) || !positive(s.size.y) || !positive(s.size.z))
+      throw InputError("mesh: a box needs size > 0 in x, y and z (m), got (" + fmt(s.size.x) + ", " + fmt(s.size.y) +
+                       ", " + fmt(s.size.z) + ")");
+    what = "generated box (" + fmt(s.size.x) + " x " + fmt(s.size.y) + " x " + fmt(s.size.z) + " m, element_size " +
+           fmt(h) + " m)";
+    volume = s.size.x * s.size.y * s.size.z;
+  } else {
+    throw InputError("mesh.shape " + quote(s.shape) + " is unknown; use cylinder, disc or box, or give mesh.file");
+  }
+  // About 6-8 tets per h^3 of volume; refuse what gmsh would take hours on (or run out of memory).
+  const double estimate = 8 * volume / (h * h * h);
+  if (estimate > 5e7)
+    throw InputError(what + ": would give about " + fmt(estimate / 1e6) +
+                     " million tetrahedra; increase element_size or mesh it outside fdem and give mesh.file");
+
+  std::lock_guard<std::mutex> lock(g_gmsh_mutex);
+  Mesh mesh;
+  try {
+    GmshSession session;
+    mesh = mesh_with_gmsh(s, what);
+  } catch (const InputError&) {
+    throw;
+  } catch (...) {
+    throw InputError(what + ": gmsh failed: " + exception_text() + "; check the dimensions and element_size");
+  }
+  validate_mesh(mesh);
+  return mesh;
+}
+
+Mesh load_mesh(const MeshSpec& spec) {
+  if (!spec.file.empty()) return read_msh(spec.file, spec.scale);
+  return generate_mesh(spec);
+}
+
+}  // namespace fdem

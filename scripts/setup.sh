@@ -1,0 +1,18 @@
+#!/usr/bin/env bash
+# Install the Debian 12 packages fdem needs, only those that are missing.
+set -euo pipefail
+packages=(build-essential cmake pkg-config git
+  libopenmpi-dev openmpi-bin libhdf5-openmpi-dev libmetis-dev petsc-dev
+  libeigen3-dev libgtest-dev libgmsh-dev libyaml-cpp-dev libcli11-dev
+  python3 python3-matplotlib)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if ((${#missing[@]})); then
+  echo "fdem setup: installing ${missing[*]}"
+  sudo=""
+  if [ "$(id -u)" -ne 0 ]; then sudo="sudo"; fi
+  $sudo apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi

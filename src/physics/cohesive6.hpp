@@ -1,0 +1,258 @@
+#pragma once
+// CE6: six-node zero-thickness intrinsic cohesive element between tets A and B.
+// Nodes 0,1,2 on A's face, 3,4,5 the paired nodes of B (same vertices, same order);
+// n by the right-hand rule 0->1->2 points from A into B.
+//
+//   m_i = (x_i + x_{i+3})/2,  n = unit((m1-m0) x (m2-m0)),  A = |.|/2
+//   d_i = x_{i+3} - x_i (reference gap 0); point k at the midpoint of edge (k, k+1 mod 3):
+//   d_k = (d_k + d_{k+1})/2,  o = n.d_k,  s_vec = d_k - o n,  s = |s_vec|,  weight A/3
+//   overlap (o<0):  sigma = P_overlap o / h         (never damaged, also when broken)
+//   tension (o>=0): o_p = 2 h f_t / P_open, x = o/o_p, sigma = z(D) f_t (2x - x^2) (x<1), z(D) f_t (x>=1)
+//   shear:          f_s = c + max(0, -sigma_overlap) tan(phi)
+//                   s_p = 2 h f_s / P_tan,  y = s/s_p, tau = z(D) f_s (2y - y^2) (y<1), z(D) f_s (y>=1)
+//   softening:      o_r = o_p + (G_I  - 2/3 f_t o_p)/(f_t Z),  s_r = s_p + (G_II - 2/3 f_s s_p)/(f_s Z),
+//                   Z = int_0^1 z(D) dD, so the work of a monotone pure-mode separation is G exactly.
+//   damage:         Dn = max(0, o-o_p)/(o_r-o_p), Ds = max(0, s-s_p)/(s_r-s_p),
+//                   D = max(D_old, min(1, sqrt(Dn^2 + Ds^2)))
+//   z(D):           Munjiza: [1 - (a+b-1)/(a+b) exp(D (a+c b)/((a+b)(1-a-b)))] [a(1-D) + b(1-D)^c],
+//                   a = 0.63, b = 1.8, c = 6;  linear: 1 - D
+//   broken (>= 2 of 3 points at D = 1; mode from Dn^2/(Dn^2+Ds^2) of those points: >= 0.9 I,
+//   <= 0.1 II, else mixed): no cohesion; overlap penalty + Coulomb friction with an elastic
+//   predictor tau_trial = (P_tan/h)(s_vec - slip_t), |tau| <= mu_rock |sigma|; open: traction 0.
+//   traction t_k = sigma n + tau s_vec/s; force (A/3) t_k shared half/half by the two node pairs
+//   of point k: +(A/6) t_k on the A node, -(A/6) t_k on the B node (opening pulls B back).
+//   power  = sum_k (A/3) t_k . d_k_dot = -sum_i f_i . v_i
+//   stored = sum_k (A/3) [z(D)(Phi_n(o) + Phi_s(s)) + P_overlap o^2/(2h) (o<0)],
+//            Phi(a) = f p (x^2 - x^3/3) for x = a/p < 1, f (a - p/3) beyond;
+//            broken: overlap energy + (P_tan/h)|s_vec - slip|^2 / 2.
+#include <cmath>
+
+#include "core/config.hpp"
+#include "core/vec.hpp"
+#include "scene/scene.hpp"
+
+namespace fdem {
+
+/// CE6 parameters, derived once on the host from Material (make_ce6_params).
+struct Ce6Params {
+  real ft, cohesion, tan_phi, GI, GII, P_open, P_tan, P_overlap, mu_rock;
+  int softening;  // 0 = Munjiza (a=0.63, b=1.8, c=6), 1 = linear z = 1 - D
+  real Z;         // integral of z(D) over D in [0,1] for the chosen curve
+};
+
+/// Per-CE6 persistent state; zero-initialised = intact.
+struct Ce6State {
+  real D[3];     // damage at the 3 integration points, monotone, in [0,1]
+  Vec3 slip[3];  // friction anchor (global coordinates), used once broken
+  int mode;      // 0 intact, 1 broke in mode I, 2 mode II, 3 mixed
+};
+
+/// power: rate of work the interface absorbs (W); stored: recoverable elastic energy (J).
+struct Ce6Eval {
+  real power;
+  real stored;
+};
+
+/// Softening curve z(D): 1 at D <= 0, 0 at D >= 1.
+FDEM_HD real softening_z(real D, int softening) {
+  if (D <= 0) return 1;
+  if (D >= 1) return 0;
+  const real u = 1 - D;
+  if (softening == 1) return u;
+  const real a = real(0.63), b = real(1.8), c = 6;
+  const real ab = a + b;
+  const real u2 = u * u;
+  const real uc = u2 * u2 * u2;  // (1-D)^c with c = 6
+  return (1 - ((ab - 1) / ab) * std::exp(D * (a + c * b) / (ab * (1 - ab)))) * (a * u + b * uc);
+}
+
+/// Z = integral of z over [0,1]: exact 1/2 for linear, composite Simpson (1024 intervals,
+/// error below 1e-11) for Munjiza.
+FDEM_HD real softening_integral(int softening) {
+  if (softening == 1) return real(0.5);
+  const int n = 1024;
+  const real dq = real(1) / n;
+  real sum = softening_z(0, softening) + softening_z(1, softening);
+  for (int i = 1; i < n; ++i) sum += real(i % 2 ? 4 : 2) * softening_z(i * dq, softening);
+  return sum * dq / 3;
+}
+
+/// Host only (Material holds std::string).
+inline Ce6Params make_ce6_params(const Material& m) {
+  Ce6Params p;
+  p.ft = m.tensile_strength;
+  p.cohesion = m.cohesion;
+  p.tan_phi = std::tan(m.friction_angle * real(3.14159265358979323846) / 180);
+  p.GI = m.fracture_energy_I;
+  p.GII = m.fracture_energy_II;
+  p.P_open = m.cohesive_penalty_open;
+  p.P_tan = m.cohesive_penalty_tangential;
+  p.P_overlap = m.cohesive_penalty_overlap;
+  p.mu_rock = m.friction_rock;
+  p.softening = m.softening == "linear" ? 1 : 0;
+  p.Z = softening_integral(p.softening);
+  return p;
+}
+
+FDEM_HD bool ce6_broken(const Ce6State& s) { return s.mode != 0; }
+
+FDEM_HD real ce6_max_damage(const Ce6State& s) {
+  real d = s.D[0];
+  if (s.D[1] > d) d = s.D[1];
+  if (s.D[2] > d) d = s.D[2];
+  return d;
+}
+
+namespace ce6_detail {
+
+/// Pre-peak curve: strength (2x - x^2) for x = a/peak < 1, strength beyond (a >= 0).
+FDEM_HD real prepeak(real a, real peak, real strength) {
+  if (a >= peak) return strength;
+  const real x = a / peak;  // peak > a >= 0 here
+  return strength * x * (2 - x);
+}
+
+/// Its integral from 0 to a: strength peak (x^2 - x^3/3), strength (a - peak/3) beyond.
+FDEM_HD real prepeak_energy(real a, real peak, real strength) {
+  if (a >= peak) return strength * (a - peak / 3);
+  const real x = a / peak;
+  return strength * peak * x * x * (1 - x / 3);
+}
+
+/// Softening width (r - p) for strength f, peak p and fracture energy G; <= 0 means none.
+FDEM_HD real softening_width(real G, real f, real p, real Z) {
+  const real den = f * Z;
+  return den > 0 ? (G - real(2) / 3 * f * p) / den : real(0);
+}
+
+/// Damage measure past the peak: (a - p)/w, or 1 at once where there is no softening width.
+FDEM_HD real past_peak(real a, real p, real w) {
+  if (!(a > p)) return 0;
+  return w > 0 ? (a - p) / w : real(1);
+}
+
+}  // namespace ce6_detail
+
+/// Forces on the six nodes (overwritten), damage/slip/mode update of `s`, power and stored energy.
+/// h is the element's characteristic size.
+FDEM_HD Ce6Eval cohesive6_forces(const Ce6Params& p, const Vec3 (&x)[6], const Vec3 (&v)[6], real h,
+                                 Ce6State& s, Vec3 (&f)[6]) {
+  using namespace ce6_detail;
+  for (int i = 0; i < 6; ++i) f[i] = Vec3{0, 0, 0};
+  Ce6Eval out{0, 0};
+
+  const Vec3 m0 = real(0.5) * (x[0] + x[3]);
+  const Vec3 m1 = real(0.5) * (x[1] + x[4]);
+  const Vec3 m2 = real(0.5) * (x[2] + x[5]);
+  const Vec3 nn = cross(m1 - m0, m2 - m0);
+  const real n2 = norm(nn);  // 2 A
+  if (!(n2 > 0) || !(h > 0)) return out;
+  const Vec3 n = (real(1) / n2) * nn;
+  const real w = n2 / 6;  // A/3, weight of one integration point
+
+  const real k_ov = p.P_overlap / h;  // overlap stiffness per unit area
+  const real k_t = p.P_tan / h;       // tangential (friction spring) stiffness per unit area
+  const real o_p = p.P_open > 0 ? 2 * h * p.ft / p.P_open : real(0);
+  const real w_n = softening_width(p.GI, p.ft, o_p, p.Z);
+
+  Vec3 d[3], dd[3];
+  for (int i = 0; i < 3; ++i) {
+    d[i] = x[i + 3] - x[i];
+    dd[i] = v[i + 3] - v[i];
+  }
+
+  // Kinematics at the three points and, while intact, the damage update.
+  real o[3], sl[3], fs[3], sp[3], Dn[3], Ds[3];
+  Vec3 sv[3], dkdot[3];
+  const bool was_broken = s.mode != 0;
+  for (int k = 0; k < 3; ++k) {
+    const int a = k, b = (k + 1) % 3;
+    const Vec3 dk = real(0.5) * (d[a] + d[b]);
+    dkdot[k] = real(0.5) * (dd[a] + dd[b]);
+    o[k] = dot(n, dk);
+    sv[k] = dk - o[k] * n;
+    sl[k] = norm(sv[k]);
+    const real sig_ov = o[k] < 0 ? k_ov * o[k] : real(0);
+    fs[k] = p.cohesion + (-sig_ov) * p.tan_phi;
+    sp[k] = p.P_tan > 0 ? 2 * h * fs[k] / p.P_tan : real(0);
+    Dn[k] = past_peak(o[k], o_p, w_n);
+    Ds[k] = past_peak(sl[k], sp[k], softening_width(p.GII, fs[k], sp[k], p.Z));
+    if (!was_broken) {
+      real Dc = std::sqrt(Dn[k] * Dn[k] + Ds[k] * Ds[k]);
+      if (Dc > 1) Dc = 1;
+      if (Dc > s.D[k]) s.D[k] = Dc;
+    }
+  }
+
+  // Breaking: at least two points fully damaged; the mode from those points' mix.
+  if (!was_broken) {
+    int count = 0;
+    real num = 0, den = 0;
+    for (int k = 0; k < 3; ++k) {
+      if (s.D[k] >= 1) {
+        ++count;
+        num += Dn[k] * Dn[k];
+        den += Dn[k] * Dn[k] + Ds[k] * Ds[k];
+      }
+    }
+    if (count >= 2) {
+      const real share = den > 0 ? num / den : real(0.5);
+      s.mode = share >= real(0.9) ? 1 : (share <= real(0.1) ? 2 : 3);
+    }
+  }
+  const bool broken = s.mode != 0;
+
+  for (int k = 0; k < 3; ++k) {
+    Vec3 t{0, 0, 0};
+    real e = 0;  // stored energy per unit area
+    if (o[k] < 0) {
+      const real sig = k_ov * o[k];
+      t = sig * n;
+      e = real(0.5) * k_ov * o[k] * o[k];
+    }
+    if (broken) {
+      if (o[k] < 0) {
+        // Coulomb friction: elastic predictor on the anchor projected to the current plane.
+        const real tmax = p.mu_rock * (-k_ov * o[k]);
+        const Vec3 anchor = s.slip[k] - dot(n, s.slip[k]) * n;
+        const Vec3 rel = sv[k] - anchor;
+        const Vec3 trial = k_t * rel;
+        const real tn = norm(trial);
+        if (tn > tmax && tn > 0) {
+          const Vec3 dir = (real(1) / tn) * trial;
+          s.slip[k] = sv[k] - (k_t > 0 ? tmax / k_t : real(0)) * dir;
+          t += tmax * dir;
+          e += k_t > 0 ? real(0.5) * tmax * tmax / k_t : real(0);
+        } else {
+          s.slip[k] = anchor;
+          t += trial;
+          e += real(0.5) * k_t * dot(rel, rel);
+        }
+      } else {
+        s.slip[k] = sv[k];
+      }
+    } else {
+      const real z = softening_z(s.D[k], p.softening);
+      if (o[k] >= 0) {
+        t = (z * prepeak(o[k], o_p, p.ft)) * n;
+        e = z * prepeak_energy(o[k], o_p, p.ft);
+      }
+      if (sl[k] > 0) {
+        t += (z * prepeak(sl[k], sp[k], fs[k]) / sl[k]) * sv[k];
+        e += z * prepeak_energy(sl[k], sp[k], fs[k]);
+      }
+      s.slip[k] = sv[k];  // anchor follows until the break
+    }
+    out.power += w * dot(t, dkdot[k]);
+    out.stored += w * e;
+    const Vec3 fk = real(0.5) * w * t;
+    const int a = k, b = (k + 1) % 3;
+    f[a] += fk;
+    f[b] += fk;
+    f[a + 3] -= fk;
+    f[b + 3] -= fk;
+  }
+  return out;
+}
+
+}  // namespace fdem

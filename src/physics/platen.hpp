@@ -1,0 +1,45 @@
+#pragma once
+// Rigid platen: an analytic plane with unit normal n pointing into the rock.
+// Node-to-plane penalty: gap g = (p - x).n > 0 means the node is inside the platen;
+// normal force k g n with k = P_n_con A_trib / h (N/m). Coulomb friction by a
+// tangential elastic predictor k_t = k anchored at `anchor` (the stick point, in
+// platen coordinates): t = -k (x_t - anchor); if |t| > mu k g the anchor slides so
+// that |t| = mu k g. Out of contact the anchor follows the node.
+#include "core/vec.hpp"
+
+namespace fdem {
+
+struct PlatenEval {
+  Vec3 force;        // on the node, N
+  real stored;       // penalty + friction-spring energy, J
+  real dissipated;   // friction work in this call (slip distance x friction force), J
+};
+
+/// `xr` is the node position relative to the platen's reference point (moves with it).
+FDEM_HD PlatenEval platen_node_force(Vec3 xr, Vec3 n, real k, real mu, Vec3& anchor) {
+  PlatenEval e{{0, 0, 0}, 0, 0};
+  const real g = -dot(xr, n);
+  const Vec3 xt = xr - dot(xr, n) * n;  // tangential position on the platen
+  if (!(g > 0)) {
+    anchor = xt;
+    return e;
+  }
+  const real fn = k * g;
+  Vec3 d = xt - anchor;
+  real dn = norm(d);
+  const real limit = mu * fn;
+  if (k * dn > limit) {
+    const real keep = limit / k;  // spring length at the slip limit
+    const Vec3 dir = (1 / dn) * d;
+    const Vec3 new_anchor = xt - keep * dir;
+    e.dissipated = limit * norm(new_anchor - anchor);
+    anchor = new_anchor;
+    d = keep * dir;
+    dn = keep;
+  }
+  e.force = fn * n - k * d;
+  e.stored = real(0.5) * k * (g * g + dn * dn);
+  return e;
+}
+
+}  // namespace fdem

@@ -1,0 +1,567 @@
+// Scene file reader: YAML text -> validated Scene. Every problem found is reported as
+// "<file>: <key.path>: <what is wrong>; <what is allowed / the fix>", all of them at once.
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <cctype>
+#include <fstream>
+#include <iomanip>
+#include <limits>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "core/error.hpp"
+#include "scene/scene.hpp"
+
+namespace fdem {
+namespace {
+
+namespace fs = std::filesystem;
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+std::string fmt(double v) {
+  std::ostringstream s;
+  s << std::setprecision(6) << v;
+  return s.str();
+}
+
+std::string join_path(const std::string& path, const std::string& key) {
+  return path.empty() ? key : path + "." + key;
+}
+
+std::string last_key(const std::string& path) {
+  const auto dot = path.find_last_of('.');
+  return dot == std::string::npos ? path : path.substr(dot + 1);
+}
+
+std::string describe(const YAML::Node& n) {
+  switch (n.Type()) {
+    case YAML::NodeType::Null: return "nothing";
+    case YAML::NodeType::Sequence: return "a list";
+    case YAML::NodeType::Map: return "a map";
+    case YAML::NodeType::Scalar: return "'" + n.Scalar() + "'";
+    default: return "an undefined value";
+  }
+}
+
+// Edit distance, for "did you mean" hints on misspelled keys.
+size_t distance(const std::string& a, const std::string& b) {
+  std::vector<size_t> row(b.size() + 1);
+  for (size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (size_t i = 1; i <= a.size(); ++i) {
+    size_t diag = row[0];
+    row[0] = i;
+    for (size_t j = 1; j <= b.size(); ++j) {
+      const size_t up = row[j];
+      const bool same = std::tolower(a[i - 1]) == std::tolower(b[j - 1]);
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diag + (same ? 0 : 1)});
+      diag = up;
+    }
+  }
+  return row[b.size()];
+}
+
+/// Allowed interval of a number; open or closed at each end; optionally integers only.
+struct Range {
+  double lo = -kInf, hi = kInf;
+  bool lo_open = false, hi_open = false;
+  bool integer = false;
+
+  bool contains(double v) const {
+    if (lo_open ? !(v > lo) : !(v >= lo)) return false;
+    if (hi_open ? !(v < hi) : !(v <= hi)) return false;
+    return true;
+  }
+  std::string text(const std::string& name) const {
+    std::string s;
+    const bool has_lo = lo > -kInf, has_hi = hi < kInf;
+    if (has_lo && has_hi)
+      s = fmt(lo) + (lo_open ? " < " : " <= ") + name + (hi_open ? " < " : " <= ") + fmt(hi);
+    else if (has_lo)
+      s = name + (lo_open ? " > " : " >= ") + fmt(lo);
+    else if (has_hi)
+      s = name + (hi_open ? " < " : " <= ") + fmt(hi);
+    else
+      s = "any finite " + name;
+    return "allowed " + s + (integer ? " (a whole number)" : "");
+  }
+};
+Range positive() { return {0, kInf, true, false}; }
+Range at_least(double lo) { return {lo, kInf, false, false}; }
+Range closed(double lo, double hi) { return {lo, hi, false, false}; }
+Range count_at_least(double lo, double hi = kInf) { return {lo, hi, false, false, true}; }
+
+/// Walks the YAML tree, fills the Scene and collects every error.
+class Reader {
+ public:
+  explicit Reader(std::string file) : file_(std::move(file)) {}
+
+  const std::vector<std::string>& errors() const { return errors_; }
+
+  void error(const std::string& path, const std::string& what, const std::string& fix) {
+    std::string msg = file_ + ": ";
+    if (!path.empty()) msg += path + ": ";
+    msg += what;
+    if (!fix.empty()) msg += "; " + fix;
+    errors_.push_back(msg);
+  }
+
+  /// True if `n` is a map whose keys are all in `allowed` (unknown/duplicate keys are reported).
+  bool check_map(const YAML::Node& n, const std::string& path, const std::vector<std::string>& allowed) {
+    std::string list;
+    for (const auto& k : allowed) list += (list.empty() ? "" : ", ") + k;
+    if (!n.IsMap()) {
+      error(path, "expected a map of keys, got " + describe(n), "allowed keys: " + list);
+      return false;
+    }
+    std::vector<std::string> seen;
+    for (const auto& kv : n) {
+      if (!kv.first.IsScalar()) {
+        error(path, "a key is " + describe(kv.first) + ", not a plain name", "allowed keys: " + list);
+        continue;
+      }
+      const std::string key = kv.first.Scalar();
+      if (std::find(seen.begin(), seen.end(), key) != seen.end())
+        error(join_path(path, key), "key given twice", "give each key once");
+      seen.push_back(key);
+      if (std::find(allowed.begin(), allowed.end(), key) != allowed.end()) continue;
+      std::string hint;
+      size_t best = 3;
+      for (const auto& a : allowed) {
+        const size_t d = distance(key, a);
+        if (d < best) best = d, hint = "did you mean '" + a + "'? ";
+      }
+      if (hint.empty() && key.size() >= 3)
+        for (const auto& a : allowed)
+          if (a.find(key) != std::string::npos || key.find(a) != std::string::npos) {
+            hint = "did you mean '" + a + "'? ";
+            break;
+          }
+      error(join_path(path, key), "unknown key", hint + "allowed keys in " + (path.empty() ? "the top level" : path) +
+                                                     ": " + list);
+    }
+    return true;
+  }
+
+  /// Reads number `key` of map `n` into `out` if present and inside `r`. Returns true if assigned.
+  template <class T>
+  bool number(const YAML::Node& n, const std::string& path, const std::string& key, const Range& r, T& out) {
+    const YAML::Node v = n[key];
+    if (!v) return false;
+    const std::string p = join_path(path, key);
+    double x = 0;
+    if (!scalar_number(v, p, r, x)) return false;
+    out = static_cast<T>(x);
+    return true;
+  }
+
+  /// A number given directly (list entries). Returns false (and reports) if bad.
+  bool scalar_number(const YAML::Node& v, const std::string& p, const Range& r, double& x) {
+    const std::string name = last_key(p);
+    if (!v.IsScalar()) {
+      error(p, "expected a number, got " + describe(v), r.text(name));
+      return false;
+    }
+    try {
+      x = v.as<double>();
+    } catch (const YAML::Exception&) {
+      error(p, "'" + v.Scalar() + "' is not a number", r.text(name));
+      return false;
+    }
+    if (!std::isfinite(x)) {
+      error(p, "'" + v.Scalar() + "' is not a finite number", r.text(name));
+      return false;
+    }
+    if (!r.contains(x)) {
+      error(p, v.Scalar() + " is out of range", r.text(name));
+      return false;
+    }
+    if (r.integer && std::fabs(x) > 1e15) {
+      error(p, v.Scalar() + " is too large", r.text(name) + ", at most 1e15");
+      return false;
+    }
+    if (r.integer && x != std::floor(x)) {
+      error(p, v.Scalar() + " is not a whole number", r.text(name));
+      return false;
+    }
+    return true;
+  }
+
+  /// Reads a non-empty string. Returns true if assigned.
+  bool text(const YAML::Node& n, const std::string& path, const std::string& key, std::string& out,
+            const std::string& allowed) {
+    const YAML::Node v = n[key];
+    if (!v) return false;
+    const std::string p = join_path(path, key);
+    if (!v.IsScalar() || v.Scalar().empty()) {
+      error(p, "expected a text value, got " + describe(v), allowed);
+      return false;
+    }
+    out = v.Scalar();
+    return true;
+  }
+
+  /// Reads one of a fixed set of words. Returns true if assigned.
+  bool choice(const YAML::Node& n, const std::string& path, const std::string& key,
+              const std::vector<std::string>& options, std::string& out) {
+    std::string list;
+    for (const auto& o : options) list += (list.empty() ? "" : " | ") + o;
+    std::string s;
+    if (!text(n, path, key, s, "allowed: " + list)) return false;
+    if (std::find(options.begin(), options.end(), s) == options.end()) {
+      error(join_path(path, key), "'" + s + "' is not recognised", "allowed: " + list);
+      return false;
+    }
+    out = s;
+    return true;
+  }
+
+  bool boolean(const YAML::Node& n, const std::string& path, const std::string& key, bool& out) {
+    const YAML::Node v = n[key];
+    if (!v) return false;
+    try {
+      if (v.IsScalar()) {
+        out = v.as<bool>();
+        return true;
+      }
+    } catch (const YAML::Exception&) {
+    }
+    error(join_path(path, key), "expected true or false, got " + describe(v), "allowed: true | false");
+    return false;
+  }
+
+  /// A list of three numbers [x, y, z].
+  bool vec3(const YAML::Node& v, const std::string& p, const Range& r, Vec3& out) {
+    if (!v.IsSequence() || v.size() != 3) {
+      error(p, "expected a list of three numbers [x, y, z], got " + describe(v) +
+                   (v.IsSequence() ? " of " + std::to_string(v.size()) : ""),
+            "write e.g. " + p.substr(p.find_last_of('.') + 1) + ": [0.01, 0.01, 0.02]");
+      return false;
+    }
+    Vec3 x{0, 0, 0};
+    bool ok = true;
+    for (int i = 0; i < 3; ++i) {
+      double c = 0;
+      if (scalar_number(v[i], p + "[" + std::to_string(i) + "]", r, c))
+        x[i] = c;
+      else
+        ok = false;
+    }
+    if (ok) out = x;
+    return ok;
+  }
+
+  // ---- sections -------------------------------------------------------------------------
+
+  void material(const YAML::Node& n, Material& m) {
+    const std::string p = "material";
+    if (!check_map(n, p, {"density", "youngs_modulus", "poisson_ratio", "tensile_strength", "cohesion",
+                          "friction_angle", "fracture_energy_I", "fracture_energy_II", "contact_penalty",
+                          "cohesive_penalty_open", "cohesive_penalty_tangential", "cohesive_penalty_overlap",
+                          "friction_platen", "friction_rock", "softening"}))
+      return;
+    number(n, p, "density", positive(), m.density);
+    number(n, p, "youngs_modulus", positive(), m.youngs_modulus);
+    number(n, p, "poisson_ratio", Range{0, 0.5, false, true}, m.poisson_ratio);
+    number(n, p, "tensile_strength", positive(), m.tensile_strength);
+    number(n, p, "cohesion", positive(), m.cohesion);
+    number(n, p, "friction_angle", Range{0, 90, false, true}, m.friction_angle);
+    number(n, p, "fracture_energy_I", positive(), m.fracture_energy_I);
+    number(n, p, "fracture_energy_II", positive(), m.fracture_energy_II);
+    number(n, p, "contact_penalty", positive(), m.contact_penalty);
+    number(n, p, "cohesive_penalty_open", positive(), m.cohesive_penalty_open);
+    number(n, p, "cohesive_penalty_tangential", positive(), m.cohesive_penalty_tangential);
+    number(n, p, "cohesive_penalty_overlap", positive(), m.cohesive_penalty_overlap);
+    number(n, p, "friction_platen", at_least(0), m.friction_platen);
+    number(n, p, "friction_rock", at_least(0), m.friction_rock);
+    choice(n, p, "softening", {"munjiza", "linear"}, m.softening);
+  }
+
+  void mesh(const YAML::Node& n, const std::string& scene_dir, MeshSpec& m) {
+    const std::string p = "mesh";
+    if (n.IsNull()) {
+      error(p, "has no value", "give exactly one of mesh.generate or mesh.file");
+      return;
+    }
+    if (!check_map(n, p, {"generate", "file", "scale"})) return;
+    const bool gen = bool(n["generate"]), file = bool(n["file"]);
+    if (gen == file) {
+      error(p, gen ? "both generate and file are given" : "neither generate nor file is given",
+            "give exactly one of mesh.generate (shape cylinder|disc|box) or mesh.file (a gmsh .msh file)");
+      return;
+    }
+    if (gen) {
+      if (n["scale"]) error(p + ".scale", "only applies to mesh.file", "remove it; give generated sizes in m");
+      generate(n["generate"], m);
+      return;
+    }
+    number(n, p, "scale", positive(), m.scale);
+    std::string f;
+    if (!text(n, p, "file", f, "give the path of a gmsh .msh file, relative to the scene file's folder")) return;
+    const fs::path resolved = fs::path(f).is_absolute() ? fs::path(f) : (fs::path(scene_dir) / f).lexically_normal();
+    std::error_code ec;
+    if (!fs::is_regular_file(resolved, ec))
+      error(p + ".file", "'" + resolved.string() + "' does not exist or is not a file",
+            "paths are relative to the scene file's folder" +
+                (scene_dir.empty() ? std::string() : " (" + scene_dir + ")"));
+    m.file = resolved.string();
+    m.shape.clear();
+  }
+
+  void generate(const YAML::Node& n, MeshSpec& m) {
+    const std::string p = "mesh.generate";
+    const std::vector<std::string> shapes = {"cylinder", "disc", "box"};
+    if (!n.IsMap()) {
+      check_map(n, p, {"shape", "diameter", "height", "size", "element_size"});
+      return;
+    }
+    if (!n["shape"]) {
+      error(p + ".shape", "missing", "allowed: cylinder | disc | box");
+      check_map(n, p, {"shape", "diameter", "height", "size", "element_size"});
+      return;
+    }
+    std::string shape;
+    if (!choice(n, p, "shape", shapes, shape)) {
+      check_map(n, p, {"shape", "diameter", "height", "size", "element_size"});
+      return;
+    }
+    const size_t errors_before = errors_.size();
+    const bool round = shape != "box";
+    check_map(n, p, round ? std::vector<std::string>{"shape", "diameter", "height", "element_size"}
+                          : std::vector<std::string>{"shape", "size", "element_size"});
+    m.shape = shape;
+    m.file.clear();
+    auto require = [&](const std::string& key, const std::string& what) {
+      if (!n[key]) error(p + "." + key, "missing for shape " + shape, "give " + what);
+    };
+    if (round) {
+      require("diameter", "the diameter in m");
+      require("height", shape == "disc" ? "the thickness in m" : "the height in m");
+      number(n, p, "diameter", positive(), m.diameter);
+      number(n, p, "height", positive(), m.height);
+    } else {
+      require("size", "the edge lengths [lx, ly, lz] in m");
+      if (n["size"]) vec3(n["size"], p + ".size", positive(), m.size);
+    }
+    require("element_size", "the target element edge length in m");
+    number(n, p, "element_size", positive(), m.element_size);
+    if (errors_.size() != errors_before) return;
+    const double smallest = round ? std::min(m.diameter, m.height) : std::min({m.size.x, m.size.y, m.size.z});
+    if (!(m.element_size < smallest))
+      error(p + ".element_size", fmt(m.element_size) + " m is not smaller than the specimen (smallest dimension " +
+                                     fmt(smallest) + " m)",
+            "use element_size < " + fmt(smallest) + " m (several elements across the specimen)");
+  }
+
+  void fracture_regions(const YAML::Node& n, FractureRegions& fr) {
+    const std::string p = "fracture_regions";
+    const std::string allowed = "allowed: all | none | a list of {box: {min: [x, y, z], max: [x, y, z]}}";
+    if (n.IsScalar() && (n.Scalar() == "all" || n.Scalar() == "none")) {
+      fr.everywhere = n.Scalar() == "all";
+      fr.boxes.clear();
+      return;
+    }
+    if (!n.IsSequence()) {
+      error(p, describe(n) + " is not recognised", allowed);
+      return;
+    }
+    if (n.size() == 0) {
+      error(p, "the list is empty", "write `fracture_regions: none` for no cohesive elements");
+      return;
+    }
+    fr.everywhere = false;
+    fr.boxes.clear();
+    for (size_t i = 0; i < n.size(); ++i) {
+      const std::string pi = p + "[" + std::to_string(i) + "]";
+      if (!check_map(n[i], pi, {"box"})) continue;
+      const YAML::Node b = n[i]["box"];
+      if (!b) {
+        error(pi + ".box", "missing", allowed);
+        continue;
+      }
+      const std::string pb = pi + ".box";
+      if (!check_map(b, pb, {"min", "max"})) continue;
+      FractureRegions::Box box{{0, 0, 0}, {0, 0, 0}};
+      bool ok = true;
+      for (const char* k : {"min", "max"}) {
+        if (!b[k]) {
+          error(pb + "." + k, "missing", "give the corner as [x, y, z] in m");
+          ok = false;
+        } else {
+          ok = vec3(b[k], pb + "." + k, Range{}, std::string(k) == "min" ? box.min : box.max) && ok;
+        }
+      }
+      if (!ok) continue;
+      for (int c = 0; c < 3; ++c) {
+        if (!(box.min[c] < box.max[c])) {
+          error(pb, "min " + std::string(1, "xyz"[c]) + " = " + fmt(box.min[c]) + " is not below max " +
+                        std::string(1, "xyz"[c]) + " = " + fmt(box.max[c]),
+                "each component of min must be smaller than the same component of max");
+          ok = false;
+          break;
+        }
+      }
+      if (ok) fr.boxes.push_back(box);
+    }
+  }
+
+  void platens(const YAML::Node& n, Platens& pl) {
+    const std::string p = "platens";
+    if (n.IsScalar() && n.Scalar() == "none") {
+      pl.enabled = false;
+      return;
+    }
+    if (n.IsScalar() || n.IsNull()) {
+      error(p, describe(n) + " is not recognised", "allowed: none | a map with velocity, ramp_time");
+      return;
+    }
+    if (!check_map(n, p, {"velocity", "ramp_time"})) return;
+    pl.enabled = true;
+    number(n, p, "velocity", Range{0, 10, true, false}, pl.velocity);
+    number(n, p, "ramp_time", at_least(0), pl.ramp_time);
+  }
+
+  void solver(const YAML::Node& n, SolverSettings& s, bool platens_on) {
+    const std::string p = "solver";
+    if (!check_map(n, p, {"time_step_safety", "time_step", "mass_scaling", "damping_scale", "threads", "end"})) return;
+    number(n, p, "time_step_safety", Range{0, 2, true, false}, s.time_step_safety);
+    number(n, p, "time_step", at_least(0), s.time_step);
+    number(n, p, "mass_scaling", closed(1, 1e6), s.mass_scaling);
+    number(n, p, "damping_scale", closed(0, 100), s.damping_scale);
+    number(n, p, "threads", count_at_least(0, 65536), s.threads);
+    const std::string need = "give at least one of axial_strain, post_peak_fraction, time, steps > 0";
+    const YAML::Node e = n["end"];
+    if (!e) {
+      error(p + ".end", "missing", need + ", e.g. end: {axial_strain: 0.004, post_peak_fraction: 0.6}");
+      return;
+    }
+    const std::string pe = p + ".end";
+    const size_t errors_before = errors_.size();
+    if (!check_map(e, pe, {"axial_strain", "post_peak_fraction", "time", "steps"})) return;
+    EndCondition& end = s.end;
+    number(e, pe, "axial_strain", closed(0, 1), end.axial_strain);
+    number(e, pe, "post_peak_fraction", Range{0, 1, false, true}, end.post_peak_fraction);
+    number(e, pe, "time", at_least(0), end.time);
+    number(e, pe, "steps", count_at_least(0), end.steps);
+    if (errors_.size() != errors_before) return;
+    if (end.axial_strain <= 0 && end.post_peak_fraction <= 0 && end.time <= 0 && end.steps <= 0)
+      error(pe, "no end condition is set (all values are 0)", need);
+    else if (!platens_on && end.time <= 0 && end.steps <= 0)
+      error(pe, "axial_strain and post_peak_fraction need platens, and `platens: none` is set",
+            "give end.time or end.steps > 0");
+  }
+
+  void output(const YAML::Node& n, OutputSettings& o) {
+    const std::string p = "output";
+    if (!check_map(n, p, {"folder", "monitor_interval", "field_interval", "progress_interval", "plot"})) return;
+    text(n, p, "folder", o.folder, "give a folder path, relative to the current directory");
+    number(n, p, "monitor_interval", count_at_least(1), o.monitor_interval);
+    number(n, p, "field_interval", count_at_least(0), o.field_interval);
+    number(n, p, "progress_interval", at_least(0), o.progress_interval);
+    boolean(n, p, "plot", o.plot);
+  }
+
+  /// Cross-checks between sections, run only when the values involved are valid.
+  void cohesive_law(const Scene& s) {
+    if (s.mesh.shape.empty()) return;  // mesh from a file: no element size known here
+    const Material& m = s.material;
+    const double h = s.mesh.element_size;
+    const double o_p = 2 * h * m.tensile_strength / m.cohesive_penalty_open;
+    const double gi_min = 2.0 / 3.0 * m.tensile_strength * o_p;
+    if (!(m.fracture_energy_I > gi_min))
+      error("material.fracture_energy_I",
+            fmt(m.fracture_energy_I) + " J/m^2 is too small for the cohesive law: need > (2/3)*tensile_strength*o_p = " +
+                fmt(gi_min) + " J/m^2, o_p = 2*element_size*tensile_strength/cohesive_penalty_open",
+            "raise fracture_energy_I or cohesive_penalty_open, or lower mesh.generate.element_size or "
+            "tensile_strength");
+    const double s_p = 2 * h * m.cohesion / m.cohesive_penalty_tangential;
+    const double gii_min = 2.0 / 3.0 * m.cohesion * s_p;
+    if (!(m.fracture_energy_II > gii_min))
+      error("material.fracture_energy_II",
+            fmt(m.fracture_energy_II) + " J/m^2 is too small for the cohesive law: need > (2/3)*cohesion*s_p = " +
+                fmt(gii_min) + " J/m^2, s_p = 2*element_size*cohesion/cohesive_penalty_tangential",
+            "raise fracture_energy_II or cohesive_penalty_tangential, or lower mesh.generate.element_size or "
+            "cohesion");
+  }
+
+  Scene scene(const YAML::Node& root, const std::string& file) {
+    Scene s;
+    s.file = file;
+    const std::string stem = fs::path(file).stem().string();
+    s.name = stem.empty() ? "scene" : stem;
+    if (!check_map(root, "", {"name", "material", "mesh", "fracture_regions", "platens", "solver", "output"}))
+      return s;
+    const std::string scene_dir = fs::path(file).parent_path().string();
+    text(root, "", "name", s.name, "give a short name for the run");
+    const size_t before = errors_.size();
+    // A section left empty (`material:` with nothing under it) keeps its defaults.
+    auto given = [&](const char* key) { return root[key] && !root[key].IsNull(); };
+    if (given("material")) material(root["material"], s.material);
+    if (root["mesh"])
+      mesh(root["mesh"], scene_dir, s.mesh);
+    else
+      error("mesh", "missing", "give mesh.generate (e.g. {shape: cylinder, diameter: 0.02, height: 0.04, "
+                               "element_size: 0.004}) or mesh.file");
+    if (errors_.size() == before) cohesive_law(s);
+    if (root["fracture_regions"]) fracture_regions(root["fracture_regions"], s.fracture);
+    if (given("platens")) platens(root["platens"], s.platens);
+    if (given("solver"))
+      solver(root["solver"], s.solver, s.platens.enabled);
+    else
+      error("solver.end", "missing (no solver section)",
+            "give solver.end with at least one of axial_strain, post_peak_fraction, time, steps > 0");
+    s.output.folder = (fs::path("out") / s.name).string();
+    if (given("output")) output(root["output"], s.output);
+    return s;
+  }
+
+ private:
+  std::string file_;
+  std::vector<std::string> errors_;
+};
+
+}  // namespace
+
+Scene parse_scene(const std::string& yaml_text, const std::string& file) {
+  const std::string label = file.empty() ? "<scene>" : file;
+  YAML::Node root;
+  try {
+    root = YAML::Load(yaml_text);
+  } catch (const YAML::Exception& e) {
+    std::string where;
+    if (!e.mark.is_null())
+      where = "line " + std::to_string(e.mark.line + 1) + ", column " + std::to_string(e.mark.column + 1) + ": ";
+    throw InputError(label + ": " + where + "invalid YAML: " + e.msg +
+                     "; check indentation, colons and brackets near that place");
+  }
+  if (!root || root.IsNull())
+    throw InputError(label + ": the file is empty; a scene needs at least mesh and solver.end "
+                             "(see docs/scene-format.md)");
+  Reader reader(label);
+  Scene s = reader.scene(root, file);
+  const auto& errors = reader.errors();
+  if (!errors.empty()) {
+    std::string msg;
+    for (const auto& e : errors) msg += (msg.empty() ? "" : "\n") + e;
+    throw InputError(msg);
+  }
+  return s;
+}
+
+Scene load_scene(const std::string& path) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (!fs::exists(path, ec))
+    throw InputError(path + ": the scene file does not exist; check the path (scenes/ucs_small.yaml is an example)");
+  if (fs::is_directory(path, ec)) throw InputError(path + ": is a folder, not a scene file; give a .yaml file");
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream text;
+  if (in) text << in.rdbuf();
+  if (!in || in.bad()) throw InputError(path + ": cannot read the scene file; check its permissions");
+  return parse_scene(text.str(), path);
+}
+
+}  // namespace fdem

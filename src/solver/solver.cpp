@@ -1,0 +1,355 @@
+#include "solver/solver.hpp"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "core/error.hpp"
+#include "core/for_each.hpp"
+#include "physics/integrate.hpp"
+#include "physics/platen.hpp"
+#include "physics/tet4.hpp"
+#include "physics/time_step.hpp"
+
+namespace fdem {
+namespace {
+
+std::string fmt(real v) {
+  std::ostringstream s;
+  s.precision(3);
+  s << v;
+  return s.str();
+}
+
+template <std::size_t K>
+void gather(const std::vector<Vec3>& a, const std::array<int, K>& ids, Vec3 (&out)[K]) {
+  for (std::size_t i = 0; i < K; ++i) out[i] = a[ids[i]];
+}
+
+}  // namespace
+
+Solver::Solver(const Scene& scene, Model model) : scene_(scene), model_(std::move(model)) {
+  const Material& mat = scene_.material;
+  const SolverSettings& sol = scene_.solver;
+  if (sol.threads > 0) omp_set_num_threads(sol.threads);
+  lambda_ = mat.lame_lambda();
+  mu_ = mat.lame_mu();
+  ce6p_ = make_ce6_params(mat);
+  const std::size_t nn = model_.X.size();
+  x = model_.X;
+  v.assign(nn, {0, 0, 0});
+  f.assign(nn, {0, 0, 0});
+  ce6.assign(model_.ce6_nodes.size(), Ce6State{});
+  for (std::size_t c = 0; c < ce6.size(); ++c) {
+    // Friction anchors start where the faces are (zero relative sliding).
+    for (auto& s : ce6[c].slip) s = {0, 0, 0};
+  }
+  platen_anchor.resize(model_.platen_nodes.size());
+  for (std::size_t i = 0; i < model_.platen_nodes.size(); ++i) {
+    const Vec3 p = model_.X[model_.platen_nodes[i]];
+    platen_anchor[i] = {p.x, p.y, 0};
+  }
+  inv_mass_.resize(nn);
+  for (std::size_t n = 0; n < nn; ++n) inv_mass_[n] = 1 / model_.mass[n];
+
+  // Stable step: the smallest over tets, CE6 node pairs and platen contacts.
+  const real M = lambda_ + 2 * mu_;
+  const real rho = sol.mass_scaling * mat.density;
+  stable_.dt_tet = stable_.dt_ce6 = stable_.dt_platen = 1e300;
+  int lim_tet = -1, lim_ce6 = -1, lim_platen = -1;
+  for (std::size_t t = 0; t < model_.tet_nodes.size(); ++t) {
+    const real dt = tet4_stable_step(model_.tet_Xinv[t], lambda_, mu_, model_.tet_eta[t], rho);
+    if (dt < stable_.dt_tet) stable_.dt_tet = dt, lim_tet = int(t);
+  }
+  const real P_ce6 = std::max({mat.cohesive_penalty_open, mat.cohesive_penalty_tangential, mat.cohesive_penalty_overlap});
+  for (std::size_t c = 0; c < model_.ce6_nodes.size(); ++c) {
+    const auto& q = model_.ce6_nodes[c];
+    const real area = 0.5 * norm(cross(model_.X[q[1]] - model_.X[q[0]], model_.X[q[2]] - model_.X[q[0]]));
+    const real k = P_ce6 * area / (3 * model_.ce6_h[c]);
+    for (int i = 0; i < 3; ++i) {
+      const real dt = pair_stable_step(model_.mass[q[i]], model_.mass[q[i + 3]], k);
+      if (dt < stable_.dt_ce6) stable_.dt_ce6 = dt, lim_ce6 = int(c);
+    }
+  }
+  platen_k_.resize(model_.platen_nodes.size());
+  for (std::size_t i = 0; i < model_.platen_nodes.size(); ++i) {
+    platen_k_[i] = mat.contact_penalty * model_.platen_node_area[i] / model_.platen_node_h[i];
+    if (!scene_.platens.enabled) continue;
+    const real dt = 2 * std::sqrt(model_.mass[model_.platen_nodes[i]] / platen_k_[i]);
+    if (dt < stable_.dt_platen) stable_.dt_platen = dt, lim_platen = int(i);
+  }
+  const real dmin = std::min({stable_.dt_tet, stable_.dt_ce6, stable_.dt_platen});
+  if (dmin == stable_.dt_tet)
+    stable_.limit = "TET4 #" + std::to_string(lim_tet + 1) + " (wave speed and damping)";
+  else if (dmin == stable_.dt_ce6)
+    stable_.limit = "CE6 #" + std::to_string(lim_ce6 + 1) + " (cohesive penalty " + fmt(P_ce6) + " Pa)";
+  else
+    stable_.limit = "platen contact at node " + std::to_string(model_.platen_nodes[lim_platen] + 1) +
+                    " (contact penalty " + fmt(mat.contact_penalty) + " Pa)";
+  stable_.dt = sol.time_step_safety * dmin;
+  dt_ = sol.time_step > 0 ? sol.time_step : stable_.dt;
+
+  top_z0_ = model_.box_max.z;
+  bottom_z0_ = model_.box_min.z;
+  const real c = std::sqrt(M / rho);
+  ramp_ = scene_.platens.ramp_time > 0 ? scene_.platens.ramp_time : 10 * model_.height0 / c;
+  real volume = 0;
+  for (real V : model_.tet_V0) volume += V;
+  energy_floor_ = 1e-3 * mat.tensile_strength * mat.tensile_strength / (2 * mat.youngs_modulus) * volume;
+  compute_forces();
+}
+
+void Solver::prescribe(int node, int mask, Vec3 velocity) {
+  fixed_node_.push_back(node);
+  fixed_mask_.push_back(mask);
+  fixed_velocity_.push_back(velocity);
+  for (int d = 0; d < 3; ++d)
+    if (mask >> d & 1) v[node][d] = velocity[d];
+}
+
+void Solver::compute_forces() {
+  const Model& m = model_;
+  const std::size_t nn = x.size();
+  for_each(nn, [&](std::size_t n) { f[n] = {0, 0, 0}; });
+
+  real p_visc = 0, jmin = 1;
+  int jmin_tet = -1;
+  for (int c = 0; c < m.tet_colours.colours(); ++c) {
+    const int b = m.tet_colours.offsets[c], e = m.tet_colours.offsets[c + 1];
+#pragma omp parallel for schedule(static) reduction(+ : p_visc)
+    for (int k = b; k < e; ++k) {
+      const int t = m.tet_colours.order[k];
+      const auto& q = m.tet_nodes[t];
+      Vec3 xe[4], ve[4], fe[4];
+      gather(x, q, xe);
+      gather(v, q, ve);
+      const Tet4Eval r = tet4_forces(xe, ve, m.tet_Xinv[t], m.tet_V0[t], lambda_, mu_, m.tet_eta[t], fe);
+      if (!(r.J > 0)) {
+#pragma omp critical(fdem_jmin)
+        if (jmin_tet < 0 || t < jmin_tet) jmin_tet = t, jmin = r.J;
+      }
+      for (int i = 0; i < 4; ++i) f[q[i]] += fe[i];
+      p_visc += r.viscous_power;
+    }
+  }
+  if (jmin_tet >= 0) {
+    const SolverSettings& s = scene_.solver;
+    throw RunError("step " + std::to_string(step_) + " (t = " + fmt(time_) + " s): TET4 #" + std::to_string(jmin_tet + 1) +
+                   " inverted (J = " + fmt(jmin) + "). The run is unstable: the time step " + fmt(dt_) +
+                   " s is too large for the stiffness. Fix: lower solver.time_step_safety (now " +
+                   fmt(s.time_step_safety) + ", stable is <= 1), lower the cohesive or contact penalties, or raise "
+                   "solver.mass_scaling (now " + fmt(s.mass_scaling) + ")");
+  }
+
+  real p_coh = 0, p_fric = 0;
+  for (int c = 0; c < m.ce6_colours.colours(); ++c) {
+    const int b = m.ce6_colours.offsets[c], e = m.ce6_colours.offsets[c + 1];
+#pragma omp parallel for schedule(static) reduction(+ : p_coh, p_fric)
+    for (int k = b; k < e; ++k) {
+      const int i = m.ce6_colours.order[k];
+      const auto& q = m.ce6_nodes[i];
+      Vec3 xe[6], ve[6], fe[6];
+      gather(x, q, xe);
+      gather(v, q, ve);
+      const bool was_broken = ce6_broken(ce6[i]);
+      const Ce6Eval r = cohesive6_forces(ce6p_, xe, ve, m.ce6_h[i], ce6[i], fe);
+      for (int j = 0; j < 6; ++j) f[q[j]] += fe[j];
+      (was_broken ? p_fric : p_coh) += r.power;
+    }
+  }
+
+  real ftop = 0, fbot = 0, dfric = 0;
+  if (scene_.platens.enabled) {
+    const Material& mat = scene_.material;
+    const Vec3 up{0, 0, 1}, down{0, 0, -1};
+    const real ztop = top_z0_ - top_offset, zbot = bottom_z0_;
+    const int np = int(m.platen_nodes.size());
+#pragma omp parallel for schedule(static) reduction(+ : ftop, fbot, dfric)
+    for (int i = 0; i < np; ++i) {
+      const int n = m.platen_nodes[i];
+      // A node can touch at most one platen at a time: the nearer one.
+      const bool near_top = x[n].z > 0.5 * (ztop + zbot);
+      const Vec3 xr = x[n] - Vec3{0, 0, near_top ? ztop : zbot};
+      const PlatenEval r = platen_node_force(xr, near_top ? down : up, platen_k_[i], mat.friction_platen, platen_anchor[i]);
+      f[n] += r.force;
+      (near_top ? ftop : fbot) += r.force.z;
+      dfric += r.dissipated;
+    }
+  }
+  force_top_ = ftop;
+  force_bottom_ = fbot;
+  p_viscous_ = p_visc;
+  p_cohesive_ = p_coh;
+  p_friction_ = p_fric;
+  d_platen_friction_ = dfric;
+}
+
+void Solver::check_finite(real vmax2) const {
+  if (std::isfinite(vmax2)) return;
+  throw RunError("step " + std::to_string(step_) + " (t = " + fmt(time_) +
+                 " s): a node velocity is no longer finite. The run is unstable; lower solver.time_step_safety (now " +
+                 fmt(scene_.solver.time_step_safety) + ") or the penalties, or raise solver.mass_scaling");
+}
+
+void Solver::step() {
+  const real dt = dt_;
+  // Energies of the interval [t, t+dt] from the forces at t.
+  const real speed = scene_.platens.enabled ? ramped_speed(time_ + 0.5 * dt, scene_.platens.velocity, ramp_) : 0;
+  w_external_ += force_top_ * (-speed * dt);
+  w_viscous_ += p_viscous_ * dt;
+  w_cohesive_ += p_cohesive_ * dt;
+  w_friction_ += p_friction_ * dt;
+  w_platen_friction_ += d_platen_friction_;
+
+  real vmax2 = 0;
+  const int nn = int(x.size());
+#pragma omp parallel for schedule(static) reduction(max : vmax2)
+  for (int n = 0; n < nn; ++n) {
+    central_difference(x[n], v[n], f[n], inv_mass_[n], dt);
+    vmax2 = std::max(vmax2, dot(v[n], v[n]));
+  }
+  for (std::size_t i = 0; i < fixed_node_.size(); ++i) {
+    const int n = fixed_node_[i];
+    for (int d = 0; d < 3; ++d)
+      if (fixed_mask_[i] >> d & 1) {
+        x[n][d] += dt * (fixed_velocity_[i][d] - v[n][d]);
+        v[n][d] = fixed_velocity_[i][d];
+      }
+  }
+  check_finite(vmax2);
+  top_offset += speed * dt;
+  time_ += dt;
+  ++step_;
+  compute_forces();
+}
+
+Monitors Solver::measure() {
+  const Model& m = model_;
+  Monitors r;
+  r.step = step_;
+  r.time = time_;
+  r.axial_strain = top_offset / m.height0;
+  r.force_top = -force_top_;
+  r.force_bottom = force_bottom_;
+  r.axial_stress = m.area0 > 0 ? 0.5 * (r.force_top + r.force_bottom) / m.area0 : 0;
+  real lat = 0;
+  const int nl = int(m.lateral_nodes.size());
+#pragma omp parallel for reduction(+ : lat)
+  for (int i = 0; i < nl; ++i) {
+    const int n = m.lateral_nodes[i];
+    Vec3 rr = m.X[n] - m.axis_point;
+    rr.z = 0;
+    const real r2 = dot(rr, rr);
+    if (r2 > 0) lat += dot(x[n] - m.X[n], rr) / r2;
+  }
+  r.lateral_strain = nl > 0 ? -lat / nl : 0;
+  r.volumetric_strain = r.axial_strain + 2 * r.lateral_strain;
+
+  real ke = 0;
+  const int nn = int(x.size());
+#pragma omp parallel for reduction(+ : ke)
+  for (int n = 0; n < nn; ++n) ke += 0.5 * m.mass[n] * dot(v[n], v[n]);
+  real se = 0;
+  const int nt = int(m.tet_nodes.size());
+#pragma omp parallel for reduction(+ : se)
+  for (int t = 0; t < nt; ++t) {
+    Vec3 xe[4], ve[4], fe[4];
+    gather(x, m.tet_nodes[t], xe);
+    gather(v, m.tet_nodes[t], ve);
+    se += tet4_forces(xe, ve, m.tet_Xinv[t], m.tet_V0[t], lambda_, mu_, 0, fe).strain_energy;
+  }
+  real coh_stored = 0, fric_stored = 0;
+  long damaged = 0, broken = 0, b1 = 0, b2 = 0, b3 = 0;
+  const int nc = int(ce6.size());
+#pragma omp parallel for reduction(+ : coh_stored, fric_stored, damaged, broken, b1, b2, b3)
+  for (int i = 0; i < nc; ++i) {
+    Vec3 xe[6], ve[6], fe[6];
+    gather(x, m.ce6_nodes[i], xe);
+    gather(v, m.ce6_nodes[i], ve);
+    Ce6State s = ce6[i];  // a copy: measuring must not advance the state
+    const real stored = cohesive6_forces(ce6p_, xe, ve, m.ce6_h[i], s, fe).stored;
+    const int mode = ce6[i].mode;
+    if (mode != 0) {
+      fric_stored += stored;
+      ++broken;
+      b1 += mode == 1;
+      b2 += mode == 2;
+      b3 += mode == 3;
+    } else {
+      coh_stored += stored;
+      damaged += ce6_max_damage(ce6[i]) > 0;
+    }
+  }
+  real pl_stored = 0;
+  if (scene_.platens.enabled) {
+    const real ztop = top_z0_ - top_offset, zbot = bottom_z0_;
+    const int np = int(m.platen_nodes.size());
+#pragma omp parallel for reduction(+ : pl_stored)
+    for (int i = 0; i < np; ++i) {
+      const int n = m.platen_nodes[i];
+      const bool near_top = x[n].z > 0.5 * (ztop + zbot);
+      Vec3 anchor = platen_anchor[i];
+      pl_stored += platen_node_force(x[n] - Vec3{0, 0, near_top ? ztop : zbot}, Vec3{0, 0, near_top ? -1.0 : 1.0},
+                                     platen_k_[i], scene_.material.friction_platen, anchor)
+                       .stored;
+    }
+  }
+  r.damaged = damaged;
+  r.broken = broken;
+  r.broken_I = b1;
+  r.broken_II = b2;
+  r.broken_mixed = b3;
+  r.kinetic = ke;
+  r.strain = se;
+  r.cohesive_stored = coh_stored;
+  r.cohesive_dissipated = w_cohesive_ - coh_stored;
+  r.friction = w_friction_;  // friction-spring energy of broken faces is counted with their work
+  r.viscous = w_viscous_;
+  r.platen_stored = pl_stored;
+  r.platen_friction = w_platen_friction_;
+  r.external_work = w_external_;
+  (void)fric_stored;
+  const real internal = ke + se + w_cohesive_ + w_friction_ + w_viscous_ + pl_stored + w_platen_friction_;
+  r.energy_error = std::fabs(w_external_ - internal) / std::max(std::fabs(w_external_), energy_floor_);
+  if (!std::isfinite(internal) || ke > 2 * std::fabs(w_external_) + energy_floor_) {
+    if (fixed_node_.empty())
+      throw RunError("step " + std::to_string(step_) + " (t = " + fmt(time_) + " s): kinetic energy " + fmt(ke) +
+                     " J exceeds twice the external work " + fmt(w_external_) +
+                     " J: the run is unstable. Fix: lower solver.time_step_safety (now " +
+                     fmt(scene_.solver.time_step_safety) + ") or the penalties, or raise solver.mass_scaling");
+  }
+  return r;
+}
+
+void Solver::tet_stress(std::vector<Sym3>& stress, std::vector<real>& von_mises) const {
+  const Model& m = model_;
+  const int nt = int(m.tet_nodes.size());
+  stress.resize(nt);
+  von_mises.resize(nt);
+#pragma omp parallel for
+  for (int t = 0; t < nt; ++t) {
+    Vec3 xe[4], ve[4], fe[4];
+    gather(x, m.tet_nodes[t], xe);
+    gather(v, m.tet_nodes[t], ve);
+    stress[t] = tet4_forces(xe, ve, m.tet_Xinv[t], m.tet_V0[t], lambda_, mu_, m.tet_eta[t], fe).stress;
+    von_mises[t] = fdem::von_mises(stress[t]);
+  }
+}
+
+void Solver::crack_faces(std::vector<std::array<int, 3>>& faces, std::vector<real>& damage, std::vector<int>& mode) const {
+  faces.clear();
+  damage.clear();
+  mode.clear();
+  for (std::size_t i = 0; i < ce6.size(); ++i) {
+    const real d = ce6_broken(ce6[i]) ? 1 : ce6_max_damage(ce6[i]);
+    if (d <= 0) continue;
+    const auto& q = model_.ce6_nodes[i];
+    faces.push_back({q[0], q[1], q[2]});
+    damage.push_back(d);
+    mode.push_back(ce6[i].mode);
+  }
+}
+
+}  // namespace fdem

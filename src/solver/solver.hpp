@@ -1,0 +1,86 @@
+#pragma once
+// The CPU backend's time loop: forces (TET4, CE6, platens), central-difference
+// integration, loading, measured outputs and the energy balance.
+#include <string>
+#include <vector>
+
+#include "model/model.hpp"
+#include "physics/cohesive6.hpp"
+#include "scene/scene.hpp"
+
+namespace fdem {
+
+/// One row of the monitor CSV (SI units; stresses and strains compression positive).
+struct Monitors {
+  long step = 0;
+  real time = 0;
+  real axial_strain = 0, axial_stress = 0, lateral_strain = 0, volumetric_strain = 0;
+  real force_top = 0, force_bottom = 0;  // N, platen reactions along the axis (compression positive)
+  long damaged = 0, broken = 0, broken_I = 0, broken_II = 0, broken_mixed = 0;
+  real kinetic = 0, strain = 0, cohesive_stored = 0, cohesive_dissipated = 0, friction = 0, viscous = 0;
+  real platen_stored = 0, platen_friction = 0, external_work = 0;
+  real energy_error = 0;  // |external - (everything else)| / max(external, floor)
+};
+
+struct StableStep {
+  real dt = 0;            // s, including the safety factor
+  real dt_tet = 0, dt_ce6 = 0, dt_platen = 0;  // s, without it
+  std::string limit;      // which part limits, e.g. "CE6 #12 (P_overlap)"
+};
+
+class Solver {
+ public:
+  Solver(const Scene& scene, Model model);
+
+  const Model& model() const { return model_; }
+  const Scene& scene() const { return scene_; }
+  const StableStep& stable_step() const { return stable_; }
+  real dt() const { return dt_; }
+  long step_count() const { return step_; }
+  real time() const { return time_; }
+
+  /// Advance one step. Throws RunError (naming the element, step and a fix) when the
+  /// run becomes unstable: an inverted tet or a non-finite velocity.
+  void step();
+  /// Reductions over the whole model; also checks the energy for runaway growth.
+  Monitors measure();
+
+  /// Prescribe velocity components (mask bit 0 = x, 1 = y, 2 = z) of a node.
+  void prescribe(int node, int mask, Vec3 velocity);
+
+  /// Per-tet Cauchy stress and von Mises stress at the current state (for output).
+  void tet_stress(std::vector<Sym3>& stress, std::vector<real>& von_mises) const;
+  /// Damaged or broken CE6 faces (A side), their damage and break mode (for output).
+  void crack_faces(std::vector<std::array<int, 3>>& faces, std::vector<real>& damage, std::vector<int>& mode) const;
+
+  // State (node arrays indexed by node id; CE6 state by CE6 id).
+  std::vector<Vec3> x, v, f;
+  std::vector<Ce6State> ce6;
+  std::vector<Vec3> platen_anchor;  // friction anchors per platen node (top/bottom share: one at a time)
+  real top_offset = 0;              // m, downward travel of the top platen from its start
+
+ private:
+  void compute_forces();
+  void check_finite(real vmax2) const;
+
+  Scene scene_;
+  Model model_;
+  StableStep stable_;
+  Ce6Params ce6p_{};
+  real lambda_ = 0, mu_ = 0, dt_ = 0, time_ = 0;
+  long step_ = 0;
+  std::vector<real> inv_mass_;
+  std::vector<real> platen_k_;
+  std::vector<int> fixed_node_, fixed_mask_;
+  std::vector<Vec3> fixed_velocity_;
+  real top_z0_ = 0, bottom_z0_ = 0, ramp_ = 0;
+  // Platen reactions (N, on the rock, along +z) from the last force evaluation.
+  real force_top_ = 0, force_bottom_ = 0;
+  // Energies integrated over time, J.
+  real w_external_ = 0, w_cohesive_ = 0, w_friction_ = 0, w_viscous_ = 0, w_platen_friction_ = 0;
+  real p_cohesive_ = 0, p_friction_ = 0, p_viscous_ = 0, d_platen_friction_ = 0;  // from the last evaluation
+  real platen_stored_ = 0;
+  real energy_floor_ = 0;
+};
+
+}  // namespace fdem

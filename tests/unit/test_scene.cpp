@@ -1,0 +1,270 @@
+// Scene files: the default scene, defaults of a minimal scene, and one test per kind of bad input.
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include "core/error.hpp"
+#include "scene/scene.hpp"
+
+#ifndef FDEM_TEST_DATA
+#define FDEM_TEST_DATA "/work/main/tests/data"
+#endif
+#ifndef FDEM_SOURCE_DIR
+#define FDEM_SOURCE_DIR FDEM_TEST_DATA "/../.."
+#endif
+
+using namespace fdem;
+
+namespace {
+
+const std::string kData = FDEM_TEST_DATA;
+
+/// The message of the InputError that loading `path` throws ("" if none is thrown).
+std::string load_error(const std::string& path) {
+  try {
+    load_scene(path);
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+std::string parse_error(const std::string& text, const std::string& file = "mem.yaml") {
+  try {
+    parse_scene(text, file);
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+}  // namespace
+
+TEST(Scene, DefaultSceneParses) {
+  const Scene s = load_scene(std::string(FDEM_SOURCE_DIR) + "/scenes/ucs_small.yaml");
+  EXPECT_EQ(s.name, "ucs_small");
+  const Material def;
+  EXPECT_DOUBLE_EQ(s.material.density, def.density);
+  EXPECT_DOUBLE_EQ(s.material.youngs_modulus, 12.2e9);
+  EXPECT_DOUBLE_EQ(s.material.cohesive_penalty_overlap, 12200e9);
+  EXPECT_EQ(s.material.softening, "munjiza");
+  EXPECT_EQ(s.mesh.shape, "cylinder");
+  EXPECT_TRUE(s.mesh.file.empty());
+  EXPECT_DOUBLE_EQ(s.mesh.diameter, 0.02);
+  EXPECT_DOUBLE_EQ(s.mesh.height, 0.04);
+  EXPECT_DOUBLE_EQ(s.mesh.element_size, 0.003);
+  EXPECT_TRUE(s.fracture.everywhere);
+  EXPECT_TRUE(s.fracture.boxes.empty());
+  EXPECT_TRUE(s.platens.enabled);
+  EXPECT_DOUBLE_EQ(s.platens.velocity, 0.1);
+  EXPECT_DOUBLE_EQ(s.platens.ramp_time, 0);
+  EXPECT_DOUBLE_EQ(s.solver.mass_scaling, 5);
+  EXPECT_DOUBLE_EQ(s.solver.time_step_safety, 0.5);
+  EXPECT_DOUBLE_EQ(s.solver.end.axial_strain, 0.006);
+  EXPECT_DOUBLE_EQ(s.solver.end.post_peak_fraction, 0.5);
+  EXPECT_DOUBLE_EQ(s.solver.end.time, 0);
+  EXPECT_EQ(s.solver.end.steps, 0);
+  EXPECT_EQ(s.output.folder, "out/ucs_small");
+  EXPECT_EQ(s.output.monitor_interval, 50);
+  EXPECT_EQ(s.output.field_interval, 0);
+  EXPECT_TRUE(s.output.plot);
+}
+
+TEST(Scene, MinimalSceneGetsTable2Defaults) {
+  const Scene s = load_scene(kData + "/scenes/minimal.yaml");
+  EXPECT_EQ(s.name, "minimal");  // the file stem
+  const Material& m = s.material;
+  EXPECT_DOUBLE_EQ(m.density, 1800);
+  EXPECT_DOUBLE_EQ(m.youngs_modulus, 12.2e9);
+  EXPECT_DOUBLE_EQ(m.poisson_ratio, 0.25);
+  EXPECT_DOUBLE_EQ(m.tensile_strength, 1.2e6);
+  EXPECT_DOUBLE_EQ(m.cohesion, 4.2e6);
+  EXPECT_DOUBLE_EQ(m.friction_angle, 25);
+  EXPECT_DOUBLE_EQ(m.fracture_energy_I, 2.0);
+  EXPECT_DOUBLE_EQ(m.fracture_energy_II, 26.5);
+  EXPECT_DOUBLE_EQ(m.contact_penalty, 122e9);
+  EXPECT_DOUBLE_EQ(m.cohesive_penalty_open, 1220e9);
+  EXPECT_DOUBLE_EQ(m.cohesive_penalty_tangential, 1220e9);
+  EXPECT_DOUBLE_EQ(m.cohesive_penalty_overlap, 12200e9);
+  EXPECT_DOUBLE_EQ(m.friction_platen, 0.1);
+  EXPECT_DOUBLE_EQ(m.friction_rock, 0.5);
+  EXPECT_EQ(m.softening, "munjiza");
+  const Platens pl;
+  EXPECT_TRUE(s.platens.enabled);
+  EXPECT_DOUBLE_EQ(s.platens.velocity, pl.velocity);
+  EXPECT_TRUE(s.fracture.everywhere);
+  const SolverSettings so;
+  EXPECT_DOUBLE_EQ(s.solver.time_step_safety, so.time_step_safety);
+  EXPECT_DOUBLE_EQ(s.solver.mass_scaling, so.mass_scaling);
+  EXPECT_DOUBLE_EQ(s.solver.damping_scale, so.damping_scale);
+  EXPECT_EQ(s.solver.threads, 0);
+  EXPECT_EQ(s.solver.end.steps, 1000);
+  EXPECT_EQ(s.output.folder, "out/minimal");  // default: out/<name>
+  EXPECT_EQ(s.output.monitor_interval, 100);
+  EXPECT_TRUE(s.output.plot);
+}
+
+TEST(Scene, MeshFileRelativeToSceneFolderWithRegions) {
+  const Scene s = load_scene(kData + "/scenes/from_file.yaml");
+  EXPECT_EQ(s.name, "tiny_from_file");
+  EXPECT_TRUE(s.mesh.shape.empty());
+  EXPECT_EQ(s.mesh.file, kData + "/scenes/tiny.msh");
+  EXPECT_DOUBLE_EQ(s.mesh.scale, 1e-3);
+  EXPECT_FALSE(s.platens.enabled);
+  EXPECT_FALSE(s.fracture.everywhere);
+  ASSERT_EQ(s.fracture.boxes.size(), 2u);
+  EXPECT_DOUBLE_EQ(s.fracture.boxes[1].min.x, -1);
+  EXPECT_DOUBLE_EQ(s.fracture.boxes[1].max.z, 0.2);
+  EXPECT_DOUBLE_EQ(s.solver.end.time, 1e-3);
+  EXPECT_FALSE(s.output.plot);
+  EXPECT_DOUBLE_EQ(s.output.progress_interval, 0);
+}
+
+TEST(Scene, BoxAndNoFractureRegions) {
+  const Scene s = load_scene(kData + "/scenes/box.yaml");
+  EXPECT_EQ(s.mesh.shape, "box");
+  EXPECT_DOUBLE_EQ(s.mesh.size.y, 0.02);
+  EXPECT_DOUBLE_EQ(s.mesh.size.z, 0.03);
+  EXPECT_FALSE(s.fracture.everywhere);
+  EXPECT_TRUE(s.fracture.boxes.empty());
+  EXPECT_DOUBLE_EQ(s.platens.velocity, 0.05);
+  EXPECT_DOUBLE_EQ(s.platens.ramp_time, 1e-4);
+  EXPECT_EQ(s.solver.end.steps, 50000);
+}
+
+TEST(Scene, ParseFromTextLabelsMessages) {
+  const Scene s = parse_scene("mesh: {generate: {shape: disc, diameter: 0.05, height: 0.025, element_size: 0.002}}\n"
+                              "solver: {end: {time: 0.01}}\n",
+                              "brazilian.yaml");
+  EXPECT_EQ(s.name, "brazilian");
+  EXPECT_EQ(s.file, "brazilian.yaml");
+  EXPECT_EQ(s.mesh.shape, "disc");
+  const std::string msg = parse_error("mesh: {generate: {shape: disc, diameter: 0.05, height: 0.025, "
+                                      "element_size: 0.002}}\nsolver: {end: {time: -1}}\n");
+  EXPECT_NE(msg.find("mem.yaml: solver.end.time: -1 is out of range; allowed time >= 0"), std::string::npos) << msg;
+}
+
+TEST(Scene, MessageFormatMatchesTheContract) {
+  const std::string f = kData + "/bad_scenes/poisson_half.yaml";
+  EXPECT_EQ(load_error(f), f + ": material.poisson_ratio: 0.5 is out of range; allowed 0 <= poisson_ratio < 0.5");
+}
+
+TEST(Scene, TypoGetsASuggestion) {
+  const std::string msg = load_error(kData + "/bad_scenes/typo_key.yaml");
+  EXPECT_NE(msg.find("did you mean 'density'?"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("youngs_modulus"), std::string::npos) << msg;  // lists the allowed keys
+}
+
+TEST(Scene, AllErrorsAreCollected) {
+  const std::string msg = load_error(kData + "/bad_scenes/many_errors.yaml");
+  for (const char* key : {"material.density", "material.poisson_ratio", "solver.mass_scaling", "output.plott"})
+    EXPECT_NE(msg.find(key), std::string::npos) << key << " not in:\n" << msg;
+}
+
+TEST(Scene, MissingOrUnreadableSceneFile) {
+  const std::string nowhere = kData + "/bad_scenes/no_such_scene.yaml";
+  const std::string msg = load_error(nowhere);
+  EXPECT_NE(msg.find(nowhere), std::string::npos) << msg;
+  EXPECT_NE(msg.find("does not exist"), std::string::npos) << msg;
+  const std::string folder = load_error(kData + "/bad_scenes");
+  EXPECT_NE(folder.find("folder"), std::string::npos) << folder;
+}
+
+// One bad file per row: the file (in tests/data/bad_scenes) and what its message must contain besides the
+// file name: the key path, or for files without a usable tree the kind of problem.
+struct BadScene {
+  const char* file;
+  const char* key;
+};
+
+class BadScenes : public ::testing::TestWithParam<BadScene> {};
+
+TEST_P(BadScenes, ThrowsInputErrorNamingFileAndKey) {
+  const std::string path = kData + "/bad_scenes/" + GetParam().file;
+  try {
+    load_scene(path);
+    FAIL() << path << " was accepted";
+  } catch (const InputError& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find(path + ": "), std::string::npos) << msg;
+    EXPECT_NE(msg.find(GetParam().key), std::string::npos) << "expected '" << GetParam().key << "' in:\n" << msg;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Files, BadScenes,
+    ::testing::Values(BadScene{"missing_mesh.yaml", ": mesh: missing"},
+                      BadScene{"missing_end.yaml", "solver.end: missing"},
+                      BadScene{"end_all_zero.yaml", "solver.end: no end condition"},
+                      BadScene{"negative_modulus.yaml", "material.youngs_modulus: -12.2e9 is out of range"},
+                      BadScene{"poisson_half.yaml", "material.poisson_ratio"},
+                      BadScene{"unknown_top_key.yaml", ": boundary_conditions: unknown key"},
+                      BadScene{"typo_key.yaml", "material.densty: unknown key"},
+                      BadScene{"string_for_number.yaml", "material.density: 'heavy' is not a number"},
+                      BadScene{"map_for_number.yaml", "material.density: expected a number, got a map"},
+                      BadScene{"list_for_map.yaml", "material: expected a map of keys, got a list"},
+                      BadScene{"element_too_large.yaml", "mesh.generate.element_size"},
+                      BadScene{"missing_mesh_file.yaml", "mesh.file: '"},
+                      BadScene{"generate_and_file.yaml", "mesh: both generate and file"},
+                      BadScene{"bad_shape.yaml", "mesh.generate.shape: 'sphere'"},
+                      BadScene{"missing_diameter.yaml", "mesh.generate.diameter: missing"},
+                      BadScene{"box_size_two.yaml", "mesh.generate.size"},
+                      BadScene{"scale_with_generate.yaml", "mesh.scale"},
+                      BadScene{"invalid_yaml.yaml", "invalid YAML"},
+                      BadScene{"empty.yaml", "empty"},
+                      BadScene{"comments_only.yaml", "empty"},
+                      BadScene{"scalar_document.yaml", "expected a map of keys"},
+                      BadScene{"gi_too_small.yaml", "material.fracture_energy_I"},
+                      BadScene{"gii_too_small.yaml", "material.fracture_energy_II"},
+                      BadScene{"box_min_above_max.yaml", "fracture_regions[1].box"},
+                      BadScene{"bad_fracture_regions.yaml", "fracture_regions: 'some'"},
+                      BadScene{"friction_angle_90.yaml", "material.friction_angle"},
+                      BadScene{"bad_softening.yaml", "material.softening"},
+                      BadScene{"platen_too_fast.yaml", "platens.velocity: 20 is out of range; allowed 0 < velocity <= 10"},
+                      BadScene{"no_platens_strain_end.yaml", "solver.end"},
+                      BadScene{"safety_too_big.yaml", "solver.time_step_safety"},
+                      BadScene{"negative_mass_scaling.yaml", "solver.mass_scaling"},
+                      BadScene{"fractional_steps.yaml", "solver.end.steps: 10.5 is not a whole number"},
+                      BadScene{"unknown_end_key.yaml", "solver.end.strain: unknown key"},
+                      BadScene{"monitor_interval_zero.yaml", "output.monitor_interval"},
+                      BadScene{"plot_not_bool.yaml", "output.plot"},
+                      BadScene{"duplicate_key.yaml", "material.density: key given twice"},
+                      BadScene{"many_errors.yaml", "material.density"}),
+    [](const ::testing::TestParamInfo<BadScene>& info) {
+      std::string n = info.param.file;
+      n = n.substr(0, n.find('.'));
+      return n;
+    });
+
+TEST(Scene, InvalidYamlReportsLineAndColumn) {
+  const std::string msg = load_error(kData + "/bad_scenes/invalid_yaml.yaml");
+  EXPECT_NE(msg.find("line "), std::string::npos) << msg;
+  EXPECT_NE(msg.find("column "), std::string::npos) << msg;
+}
+
+TEST(Scene, CohesiveCheckSkippedForMeshFiles) {
+  // A G_I far too small for generated 4 mm elements is not checked when the mesh comes from a file.
+  const std::string dir = kData + "/scenes/";
+  const Scene s = parse_scene("material: {fracture_energy_I: 1e-6}\nmesh: {file: tiny.msh}\nsolver: {end: {steps: 1}}\n",
+                              dir + "inline.yaml");
+  EXPECT_DOUBLE_EQ(s.material.fracture_energy_I, 1e-6);
+  const std::string msg = parse_error(
+      "material: {fracture_energy_I: 1e-6}\n"
+      "mesh: {generate: {shape: cylinder, diameter: 0.02, height: 0.04, element_size: 0.004}}\n"
+      "solver: {end: {steps: 1}}\n");
+  EXPECT_NE(msg.find("material.fracture_energy_I"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("raise fracture_energy_I"), std::string::npos) << msg;
+}
+
+TEST(Scene, EmptySectionsKeepDefaults) {
+  const Scene s = parse_scene("name: empty_sections\nmaterial:\nplatens:\noutput:\n"
+                              "mesh: {generate: {shape: box, size: [0.01, 0.01, 0.02], element_size: 0.002}}\n"
+                              "solver: {end: {axial_strain: 0.01}}\n",
+                              "x.yaml");
+  EXPECT_DOUBLE_EQ(s.material.density, 1800);
+  EXPECT_TRUE(s.platens.enabled);
+  EXPECT_EQ(s.output.folder, "out/empty_sections");
+  const std::string msg = parse_error("mesh:\nsolver:\n");
+  EXPECT_NE(msg.find("mem.yaml: mesh: has no value"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("mem.yaml: solver.end: missing"), std::string::npos) << msg;
+}
