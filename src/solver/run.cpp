@@ -147,7 +147,7 @@ RunSummary run_scene(Solver& solver, std::ostream& log) {
         std::snprintf(line, sizeof line,
                       "step %ld  t %.4g s  axial strain %.3e  stress %.3f MPa  broken CE6 %ld  %.0f steps/s  ETA %s",
                       n, solver.time(), strain, mon.axial_stress / 1e6, mon.broken, n / std::max(wall, 1e-9),
-                      frac > 0 ? duration(wall / frac - wall).c_str() : "?");
+                      !reason.empty() ? "done" : frac > 0 ? duration(wall / frac - wall).c_str() : "?");
         log << line << std::endl;
         next_progress = wall + out.progress_interval;
       }

@@ -52,18 +52,22 @@ TEST(ElasticUcs, ModulusWithinThreePercentOfEAtHundredE) {
   const Scene scene = elastic_scene(100, 5);
   const real E = measured_modulus(scene);
   EXPECT_NEAR(E / scene.material.youngs_modulus, 1.0, 0.03) << "effective modulus " << E / 1e9 << " GPa";
+  RecordProperty("effective_modulus_GPa", std::to_string(E / 1e9));
 }
 
 TEST(ElasticUcs, SoftCohesivePenaltyIsVisiblyMoreCompliant) {
   const Scene stiff = elastic_scene(100, 5), soft = elastic_scene(1, 5);
   const real E100 = measured_modulus(stiff), E1 = measured_modulus(soft);
   EXPECT_LT(E1, 0.8 * E100) << "1 E: " << E1 / 1e9 << " GPa, 100 E: " << E100 / 1e9 << " GPa";
+  RecordProperty("modulus_1E_GPa", std::to_string(E1 / 1e9));
 }
 
 TEST(ElasticUcs, MassScalingFiveGivesTheSameQuasiStaticModulus) {
   const real E1 = measured_modulus(elastic_scene(100, 1));
   const real E5 = measured_modulus(elastic_scene(100, 5));
   EXPECT_NEAR(E5 / E1, 1.0, 0.02) << "m = 1: " << E1 / 1e9 << " GPa, m = 5: " << E5 / 1e9 << " GPa";
+  RecordProperty("modulus_m1_GPa", std::to_string(E1 / 1e9));
+  RecordProperty("modulus_m5_GPa", std::to_string(E5 / 1e9));
 }
 
 TEST(ElasticUcs, EnergyBalanceErrorBelowOnePercentOfExternalWork) {
@@ -76,4 +80,5 @@ TEST(ElasticUcs, EnergyBalanceErrorBelowOnePercentOfExternalWork) {
   // Quasi-static: the work went mostly into strain energy, not motion.
   EXPECT_LT(last.kinetic, 0.05 * last.external_work);
   EXPECT_EQ(last.broken, 0);
+  RecordProperty("energy_error", std::to_string(last.energy_error));
 }
