@@ -3,6 +3,7 @@
 #include "io/mesh_io.hpp"
 
 #include <gmsh.h>
+#include <omp.h>
 
 #include <algorithm>
 #include <array>
@@ -588,6 +589,8 @@ class GmshSession {
 #endif
     if (owns_) gmsh::initialize(0, nullptr, /*readConfigFiles=*/false);
     try {
+      // gmsh applies General.NumThreads to the process-wide OpenMP setting; the solver's
+      // thread count must not be left at gmsh's 1 (see ~GmshSession).
       gmsh::option::setNumber("General.Terminal", std::getenv("FDEM_GMSH_VERBOSE") ? 1 : 0);
       gmsh::model::add("fdem");
     } catch (...) {
@@ -601,12 +604,14 @@ class GmshSession {
       if (owns_) gmsh::finalize();
     } catch (...) {
     }
+    omp_set_num_threads(omp_threads_);
   }
   GmshSession(const GmshSession&) = delete;
   GmshSession& operator=(const GmshSession&) = delete;
 
  private:
   bool owns_ = true;
+  int omp_threads_ = omp_get_max_threads();
 };
 
 Mesh mesh_with_gmsh(const MeshSpec& s, const std::string& what) {

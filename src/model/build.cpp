@@ -91,6 +91,34 @@ Model build_model(const Mesh& mesh, const Scene& scene) {
     if (tet4_volume(x) < 0) std::swap(q[2], q[3]);
   }
   m.mean_edge = edge_sum / (6.0 * nt);
+
+  // Renumber tets along a Morton (Z-order) curve of their centroids, so that the nodes and
+  // CE6s that follow them are close in memory when neighbours are close in space.
+  {
+    Vec3 lo = mesh.vertices[tv[0][0]], hi = lo;
+    for (const Vec3& x : mesh.vertices)
+      for (int d = 0; d < 3; ++d) lo[d] = std::min(lo[d], x[d]), hi[d] = std::max(hi[d], x[d]);
+    std::vector<std::pair<std::uint64_t, int>> key(nt);
+    for (int t = 0; t < nt; ++t) {
+      Vec3 c{0, 0, 0};
+      for (int i = 0; i < 4; ++i) c += 0.25 * mesh.vertices[tv[t][i]];
+      std::uint64_t code = 0;
+      for (int d = 0; d < 3; ++d) {
+        const real u = hi[d] > lo[d] ? (c[d] - lo[d]) / (hi[d] - lo[d]) : 0;
+        const auto q = std::uint64_t(std::min<real>(u * (1 << 21), (1 << 21) - 1));
+        for (int b = 0; b < 21; ++b) code |= ((q >> b) & 1u) << (3 * b + d);
+      }
+      key[t] = {code, t};
+    }
+    std::sort(key.begin(), key.end());
+    std::vector<std::array<int, 4>> sorted(nt);
+    m.tet_input.resize(nt);
+    for (int t = 0; t < nt; ++t) {
+      sorted[t] = tv[key[t].second];
+      m.tet_input[t] = key[t].second;
+    }
+    tv.swap(sorted);
+  }
   const real vol_floor = 1e-9 * m.mean_edge * m.mean_edge * m.mean_edge;
 
   // Faces: sort (sorted triple, tet, local) and pair equal keys.
@@ -151,6 +179,10 @@ Model build_model(const Mesh& mesh, const Scene& scene) {
     i = j;
   }
 
+  // CE6s follow their first tet, so they too are in Morton order.
+  std::sort(cohesive.begin(), cohesive.end(),
+            [](const Pair& p, const Pair& q) { return p.a != q.a ? p.a < q.a : p.b < q.b; });
+
   // Compact node numbering in order of first corner (deterministic).
   std::vector<int> node_of_root(parent.size(), -1);
   m.tet_nodes.resize(nt);
@@ -180,7 +212,7 @@ Model build_model(const Mesh& mesh, const Scene& scene) {
     for (int i = 0; i < 4; ++i) X[i] = m.X[m.tet_nodes[t][i]];
     const Tet4Reference ref = tet4_reference(X);
     if (!(ref.V0 > vol_floor))
-      throw InputError(mesh.source + ": tet " + std::to_string(t + 1) + " has zero or near-zero volume (" +
+      throw InputError(mesh.source + ": tet " + std::to_string(m.tet_input[t] + 1) + " has zero or near-zero volume (" +
                        std::to_string(ref.V0) + " m^3); remove or remesh degenerate elements");
     m.tet_Xinv[t] = ref.Xinv;
     m.tet_V0[t] = ref.V0;

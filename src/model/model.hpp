@@ -27,7 +27,8 @@ struct Model {
   std::vector<int> node_vertex;    // mesh vertex each node came from
 
   // TET4
-  std::vector<std::array<int, 4>> tet_nodes;  // positively oriented (V0 > 0)
+  std::vector<std::array<int, 4>> tet_nodes;  // positively oriented (V0 > 0), in Morton order
+  std::vector<int> tet_input;                 // index of each tet in the input mesh
   std::vector<Mat3> tet_Xinv;                 // inverse reference edge matrix
   std::vector<real> tet_V0;                   // reference volume, m^3
   std::vector<real> tet_eta;                  // viscous damping coefficient, Pa s
