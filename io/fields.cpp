@@ -194,16 +194,6 @@ std::string attribute(const std::string& name, const char* type, const char* cen
          "\">\n" + item + indent + "</Attribute>\n";
 }
 
-/// Column c of a rows x ncol real dataset, as an XDMF HyperSlab (start, stride, count).
-std::string column_item(const std::string& h5, const std::string& path, std::size_t rows, int ncol, int c,
-                        const std::string& indent) {
-  std::ostringstream o;
-  o << indent << "<DataItem ItemType=\"HyperSlab\" Dimensions=\"" << rows << " 1\" Type=\"HyperSlab\">\n"
-    << indent << "  <DataItem Dimensions=\"3 2\" Format=\"XML\">0 " << c << " 1 1 " << rows << " 1</DataItem>\n"
-    << hdf_item(h5, path, rows, ncol, false, indent + "  ") << indent << "</DataItem>\n";
-  return o.str();
-}
-
 std::string frame_name(int index) {
   char b[32];
   std::snprintf(b, sizeof b, "frame_%06d", index);
@@ -322,7 +312,17 @@ void FieldWriter::write(const FieldFrame& f) {
     wr("x", f.x->data(), N, 3);
     if (f.u) wr("u", f.u->data(), N, 3);
     if (f.v) wr("v", f.v->data(), N, 3);
-    if (f.stress) wr("stress", f.stress->data(), M, 6);
+    if (f.stress) {
+      // VTK's order for symmetric tensors (xx, yy, zz, xy, yz, xz), so ParaView names the
+      // components correctly.
+      std::vector<real> vtk(6 * M);
+      for (std::size_t t = 0; t < M; ++t) {
+        const Sym3& q = (*f.stress)[t];
+        const real row[6] = {q.xx, q.yy, q.zz, q.xy, q.yz, q.xz};
+        std::copy(row, row + 6, vtk.begin() + 6 * t);
+      }
+      wr("stress", vtk.data(), M, 6);
+    }
     if (f.von_mises) wr("von_mises", f.von_mises->data(), M, 0);
     for (const TetField& e : f.extra) wr(e.name.c_str(), e.values->data(), M, 0);
     if (K > 0) {
@@ -362,13 +362,7 @@ void FieldWriter::write(const FieldFrame& f) {
   if (f.u) o << attribute("u", "Vector", "Node", hdf_item(h5, gpath + "/u", N, 3, false, i5), i4);
   if (f.v) o << attribute("v", "Vector", "Node", hdf_item(h5, gpath + "/v", N, 3, false, i5), i4);
   if (f.stress) {
-    // Stored xx, yy, zz, yz, xz, xy. The 6-component array is handy for filters; the named
-    // scalar components below remove any doubt about the order.
     o << attribute("stress", "Tensor6", "Cell", hdf_item(h5, gpath + "/stress", M, 6, false, i5), i4);
-    static const char* comp[] = {"xx", "yy", "zz", "yz", "xz", "xy"};
-    for (int c = 0; c < 6; ++c)
-      o << attribute(std::string("stress_") + comp[c], "Scalar", "Cell", column_item(h5, gpath + "/stress", M, 6, c, i5),
-                     i4);
   }
   if (f.von_mises)
     o << attribute("von_mises", "Scalar", "Cell", hdf_item(h5, gpath + "/von_mises", M, 0, false, i5), i4);
