@@ -32,11 +32,11 @@ double bytes_per_step(const Solver& s) {
                np = double(m.platen_nodes.size());
   const double v3 = sizeof(Vec3), r = sizeof(real), i = sizeof(int);
   double b = 0;
-  b += nn * v3;                                            // zero f
-  b += nt * (4 * i + sizeof(Mat3) + 2 * r + 4 * (3 * v3));  // tets: ids, Xinv, V0, eta; x, v read, f read+write
+  b += nn * v3;                                                 // zero f
+  b += nt * (4 * i + sizeof(Mat3) + 2 * r + 4 * (3 * v3));      // tets: ids, Xinv, V0, eta; x, v read, f read+write
   b += nc * (6 * i + r + 2 * sizeof(Ce6State) + 6 * (3 * v3));  // CE6: ids, h, state r+w; x, v, f r+w
-  b += np * (i + r + 2 * v3 + 3 * v3);                        // platen: id, k, anchor r+w; x, f r+w
-  b += nn * (5 * v3 + r);                                    // integrate: x, v r+w, f, 1/m
+  b += np * (i + r + 2 * v3 + 3 * v3);                          // platen: id, k, anchor r+w; x, f r+w
+  b += nn * (5 * v3 + r);                                       // integrate: x, v r+w, f, 1/m
   return b;
 }
 
@@ -45,11 +45,10 @@ double state_bytes(const Solver& s) {
   return bytes_of(m.X) + bytes_of(m.mass) + bytes_of(m.node_vertex) + bytes_of(m.tet_nodes) + bytes_of(m.tet_input) +
          bytes_of(m.tet_Xinv) + bytes_of(m.tet_V0) + bytes_of(m.tet_eta) + bytes_of(m.tet_colours.order) +
          bytes_of(m.ce6_nodes) + bytes_of(m.ce6_tets) + bytes_of(m.ce6_h) + bytes_of(m.ce6_colours.order) +
-         bytes_of(m.surface_faces) + bytes_of(m.surface_tet) + bytes_of(m.platen_nodes) +
-         bytes_of(m.platen_node_area) + bytes_of(m.platen_node_h) + bytes_of(m.top_nodes) + bytes_of(m.bottom_nodes) +
-         bytes_of(m.lateral_nodes) + bytes_of(s.x) + bytes_of(s.v) + bytes_of(s.f) + bytes_of(s.ce6) +
-         bytes_of(s.platen_anchor) + double(m.X.size() * sizeof(real)) /* 1/m */ +
-         double(m.platen_nodes.size() * sizeof(real)) /* platen k */;
+         bytes_of(m.surface_faces) + bytes_of(m.surface_tet) + bytes_of(m.platen_nodes) + bytes_of(m.platen_node_area) +
+         bytes_of(m.platen_node_h) + bytes_of(m.top_nodes) + bytes_of(m.bottom_nodes) + bytes_of(m.lateral_nodes) +
+         bytes_of(s.x) + bytes_of(s.v) + bytes_of(s.f) + bytes_of(s.ce6) + bytes_of(s.platen_anchor) +
+         double(m.X.size() * sizeof(real)) /* 1/m */ + double(m.platen_nodes.size() * sizeof(real)) /* platen k */;
 }
 
 std::vector<double> parse_list(const char* s) {
@@ -74,9 +73,12 @@ int main(int argc, char** argv) {
   std::vector<double> sizes = {0.004, 0.0025, 0.0016};
   int steps = 300, max_threads = omp_get_num_procs();
   for (int a = 1; a < argc; ++a) {
-    if (!std::strcmp(argv[a], "--sizes") && a + 1 < argc) sizes = parse_list(argv[++a]);
-    else if (!std::strcmp(argv[a], "--steps") && a + 1 < argc) steps = std::stoi(argv[++a]);
-    else if (!std::strcmp(argv[a], "--threads") && a + 1 < argc) max_threads = std::stoi(argv[++a]);
+    if (!std::strcmp(argv[a], "--sizes") && a + 1 < argc)
+      sizes = parse_list(argv[++a]);
+    else if (!std::strcmp(argv[a], "--steps") && a + 1 < argc)
+      steps = std::stoi(argv[++a]);
+    else if (!std::strcmp(argv[a], "--threads") && a + 1 < argc)
+      max_threads = std::stoi(argv[++a]);
     else {
       std::fprintf(stderr, "usage: %s [--sizes a,b,c] [--steps N] [--threads T]\n", argv[0]);
       return 2;
@@ -85,8 +87,9 @@ int main(int argc, char** argv) {
   std::printf("# fdem CPU step benchmark\n\nmachine: %s, %d cores; command:", cpu_name().c_str(), omp_get_num_procs());
   for (int a = 0; a < argc; ++a) std::printf(" %s", argv[a]);
   std::printf("\nUCS cylinder 0.02 m x 0.04 m, Table 2 limestone, CE6 everywhere, m = 5, platens at 0.1 m/s\n\n");
-  std::printf("| element size (m) | tets | CE6 | nodes | threads | us/step | M element updates/s/core | MB/step | GB/s | "
-              "bytes/tet | monitor row (ms) |\n|---|---|---|---|---|---|---|---|---|---|---|\n");
+  std::printf(
+      "| element size (m) | tets | CE6 | nodes | threads | us/step | M element updates/s/core | MB/step | GB/s | "
+      "bytes/tet | monitor row (ms) |\n|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (double h : sizes) {
     MeshSpec spec;
     spec.shape = "cylinder";

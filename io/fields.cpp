@@ -69,12 +69,16 @@ class Handle {
   Closer close_;
 };
 
-hid_t mem_real() { return std::is_same<real, double>::value ? H5T_NATIVE_DOUBLE : H5T_NATIVE_FLOAT; }
-hid_t file_real() { return std::is_same<real, double>::value ? H5T_IEEE_F64LE : H5T_IEEE_F32LE; }
+hid_t mem_real() {
+  return std::is_same<real, double>::value ? H5T_NATIVE_DOUBLE : H5T_NATIVE_FLOAT;
+}
+hid_t file_real() {
+  return std::is_same<real, double>::value ? H5T_IEEE_F64LE : H5T_IEEE_F32LE;
+}
 
 /// Writes a rank-1 (cols == 0) or rank-2 (rows x cols) dataset at loc/name.
-void write_dataset(hid_t loc, const std::string& name, hid_t file_type, hid_t mem_type, const void* data,
-                   hsize_t rows, hsize_t cols, const std::string& file, const std::string& where) {
+void write_dataset(hid_t loc, const std::string& name, hid_t file_type, hid_t mem_type, const void* data, hsize_t rows,
+                   hsize_t cols, const std::string& file, const std::string& where) {
   hsize_t dims[2] = {rows, cols};
   Handle space(H5Screate_simple(cols == 0 ? 1 : 2, dims, nullptr), H5Sclose);
   if (!space.ok()) h5_fail(file, "creating the dataspace of " + where);
@@ -133,8 +137,7 @@ void check_finite(const real* p, std::size_t count, int ncomp, const char* field
 void check_size(std::size_t got, std::size_t want, const char* field, const char* what, const std::string& file) {
   if (got != want) {
     std::ostringstream m;
-    m << "field output " << file << ": " << field << " has " << got << " entries but there are " << want << " "
-      << what;
+    m << "field output " << file << ": " << field << " has " << got << " entries but there are " << want << " " << what;
     throw RunError(m.str());
   }
 }
@@ -158,12 +161,23 @@ std::string xml_escape(const std::string& s) {
   std::string o;
   for (char c : s) {
     switch (c) {
-      case '&': o += "&amp;"; break;
-      case '<': o += "&lt;"; break;
-      case '>': o += "&gt;"; break;
-      case '"': o += "&quot;"; break;
-      case '\'': o += "&apos;"; break;
-      default: o += c;
+      case '&':
+        o += "&amp;";
+        break;
+      case '<':
+        o += "&lt;";
+        break;
+      case '>':
+        o += "&gt;";
+        break;
+      case '"':
+        o += "&quot;";
+        break;
+      case '\'':
+        o += "&apos;";
+        break;
+      default:
+        o += c;
     }
   }
   return o;
@@ -179,8 +193,8 @@ std::string dims_str(std::size_t rows, std::size_t cols) {
   return cols == 0 ? std::to_string(rows) : std::to_string(rows) + " " + std::to_string(cols);
 }
 
-std::string hdf_item(const std::string& h5, const std::string& path, std::size_t rows, std::size_t cols,
-                     bool is_int, const std::string& indent) {
+std::string hdf_item(const std::string& h5, const std::string& path, std::size_t rows, std::size_t cols, bool is_int,
+                     const std::string& indent) {
   std::ostringstream o;
   o << indent << "<DataItem Dimensions=\"" << dims_str(rows, cols) << "\" NumberType=\"" << (is_int ? "Int" : "Float")
     << "\" Precision=\"" << (is_int ? 4 : sizeof(real)) << "\" Format=\"HDF\">" << xml_escape(h5) << ":" << path
@@ -255,8 +269,8 @@ void FieldWriter::write(const FieldFrame& f) {
     check_size(f.von_mises->size(), M, "von_mises", "tets", file);
     check_finite(f.von_mises->data(), M, 1, "von_mises", file);
   }
-  static const std::set<std::string> reserved = {"x", "u", "v", "tets", "stress", "von_mises",
-                                                 "crack_faces", "crack_damage", "crack_mode"};
+  static const std::set<std::string> reserved = {
+      "x", "u", "v", "tets", "stress", "von_mises", "crack_faces", "crack_damage", "crack_mode"};
   std::set<std::string> seen;
   for (const TetField& e : f.extra) {
     if (e.name.empty() || e.name.find('/') != std::string::npos || e.name == "." || reserved.count(e.name) ||
@@ -352,8 +366,8 @@ void FieldWriter::write(const FieldFrame& f) {
     << i3 << "<Time Value=\"" << num(f.time) << "\"/>\n"
     << i3 << "<Information Name=\"step\" Value=\"" << f.step << "\"/>\n"
     << i3 << "<Information Name=\"label\" Value=\"" << xml_escape(f.label) << "\"/>\n";
-  const std::string geometry = i4 + "<Geometry GeometryType=\"XYZ\">\n" +
-                               hdf_item(h5, gpath + "/x", N, 3, false, i5) + i4 + "</Geometry>\n";
+  const std::string geometry =
+      i4 + "<Geometry GeometryType=\"XYZ\">\n" + hdf_item(h5, gpath + "/x", N, 3, false, i5) + i4 + "</Geometry>\n";
   // rock
   o << i3 << "<Grid Name=\"rock\" GridType=\"Uniform\">\n"
     << i4 << "<Topology TopologyType=\"Tetrahedron\" NumberOfElements=\"" << M << "\">\n"
@@ -377,8 +391,7 @@ void FieldWriter::write(const FieldFrame& f) {
       << geometry;
     if (f.crack_damage)
       o << attribute("D", "Scalar", "Cell", hdf_item(h5, gpath + "/crack_damage", K, 0, false, i5), i4);
-    if (f.crack_mode)
-      o << attribute("mode", "Scalar", "Cell", hdf_item(h5, gpath + "/crack_mode", K, 0, true, i5), i4);
+    if (f.crack_mode) o << attribute("mode", "Scalar", "Cell", hdf_item(h5, gpath + "/crack_mode", K, 0, true, i5), i4);
     o << i3 << "</Grid>\n";
   }
   o << "    </Grid>\n";
@@ -403,8 +416,8 @@ void FieldWriter::rewrite_index() const {
       "  <Grid Name=\"fdem\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
   for (const std::string& g : grids_) text += g;
   text += "  </Grid>\n  </Domain>\n</Xdmf>\n";
-  const bool ok = std::fwrite(text.data(), 1, text.size(), fp) == text.size() && std::fflush(fp) == 0 &&
-                  ::fsync(fileno(fp)) == 0;
+  const bool ok =
+      std::fwrite(text.data(), 1, text.size(), fp) == text.size() && std::fflush(fp) == 0 && ::fsync(fileno(fp)) == 0;
   const int err = errno;
   if (std::fclose(fp) != 0 || !ok) {
     std::remove(tmp.c_str());

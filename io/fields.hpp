@@ -33,16 +33,16 @@ struct FieldFrame {
   real time = 0;
   long step = 0;
   std::string label;  // "" or e.g. "peak", "final", "diagnostic"; stored as an attribute and in the grid name
-  const std::vector<Vec3>* x = nullptr;   // current node positions (discontinuous tets: nodes are per tet)
-  const std::vector<Vec3>* u = nullptr;   // displacement per node
-  const std::vector<Vec3>* v = nullptr;   // velocity per node
-  const std::vector<std::array<int, 4>>* tets = nullptr;  // node ids
-  const std::vector<Sym3>* stress = nullptr;              // Cauchy stress per tet (Pa)
-  const std::vector<real>* von_mises = nullptr;           // per tet (Pa)
-  std::vector<TetField> extra;                            // more per-tet scalars (e.g. rank, active)
+  const std::vector<Vec3>* x = nullptr;  // current node positions (discontinuous tets: nodes are per tet)
+  const std::vector<Vec3>* u = nullptr;  // displacement per node
+  const std::vector<Vec3>* v = nullptr;  // velocity per node
+  const std::vector<std::array<int, 4>>* tets = nullptr;         // node ids
+  const std::vector<Sym3>* stress = nullptr;                     // Cauchy stress per tet (Pa)
+  const std::vector<real>* von_mises = nullptr;                  // per tet (Pa)
+  std::vector<TetField> extra;                                   // more per-tet scalars (e.g. rank, active)
   const std::vector<std::array<int, 3>>* crack_faces = nullptr;  // node ids of damaged/broken CE6 faces
   const std::vector<real>* crack_damage = nullptr;               // D in [0,1] per crack face
-  const std::vector<int>* crack_mode = nullptr;  // 0 intact(damaged), 1 I, 2 II, 3 mixed
+  const std::vector<int>* crack_mode = nullptr;                  // 0 intact(damaged), 1 I, 2 II, 3 mixed
 };
 
 /// Appends frames to <folder>/<basename>.h5 and keeps <folder>/<basename>.xdmf up to date.
@@ -62,7 +62,7 @@ class FieldWriter {
   const std::string& xdmf_path() const { return xdmf_path_; }
 
  private:
-  std::string h5_name_;    // file name only, as referenced from the XDMF
+  std::string h5_name_;  // file name only, as referenced from the XDMF
   std::string h5_path_;
   std::string xdmf_path_;
   std::vector<std::array<int, 4>> mesh_tets_;  // copy of /mesh/tets, to detect a topology change

@@ -22,19 +22,13 @@
 #include <vector>
 
 #include "core/error.hpp"
+#include "core/format.hpp"
 
 namespace fdem {
 namespace {
 
 // ---------------------------------------------------------------------------------------------
 // Small helpers
-
-std::string fmt(double v) {
-  std::ostringstream s;
-  s.precision(6);
-  s << v;
-  return s.str();
-}
 
 /// A piece of file text safe to quote in a message: at most 40 characters, printable ASCII.
 std::string quote(std::string_view t) {
@@ -151,8 +145,8 @@ class Reader {
   std::uint64_t count(std::string_view t, const char* what) const {
     const std::uint64_t n = u64(t, what);
     if (n > text_.size())
-      fail(std::string(what) + " is " + std::to_string(n) + ", more than a file of " +
-               std::to_string(text_.size()) + " bytes can hold",
+      fail(std::string(what) + " is " + std::to_string(n) + ", more than a file of " + std::to_string(text_.size()) +
+               " bytes can hold",
            "the count is corrupt; re-export the mesh from gmsh");
     return n;
   }
@@ -207,8 +201,9 @@ int nodes_of_type(std::uint64_t type) {
 void add_node(Reader& r, MshData& d, std::uint64_t tag, Vec3 x, long line) {
   const auto ins = d.node_index.emplace(tag, static_cast<int>(d.coords.size()));
   if (!ins.second)
-    r.fail_at(line, "node tag " + std::to_string(tag) + " is defined twice (first on line " +
-                        std::to_string(d.node_lines[ins.first->second]) + ")",
+    r.fail_at(line,
+              "node tag " + std::to_string(tag) + " is defined twice (first on line " +
+                  std::to_string(d.node_lines[ins.first->second]) + ")",
               "give every node a unique tag");
   if (d.coords.size() >= static_cast<std::size_t>(2147483647))
     r.fail_at(line, "more than 2^31-1 nodes", "use a coarser mesh");
@@ -243,7 +238,9 @@ void nodes_v2(Reader& r, MshData& d) {
   std::vector<std::string_view> tok;
   Reader::split(r.need("inside $Nodes"), tok);
   const long header = r.line_no();
-  if (tok.size() != 1) r.fail("expected the number of nodes on this line, found " + std::to_string(tok.size()) + " values", "write the node count alone on the line after $Nodes");
+  if (tok.size() != 1)
+    r.fail("expected the number of nodes on this line, found " + std::to_string(tok.size()) + " values",
+           "write the node count alone on the line after $Nodes");
   const std::uint64_t n = r.count(tok[0], "the number of nodes");
   d.coords.reserve(r.reserve_for(n, 8));
   for (std::uint64_t k = 0; k < n; ++k) {
@@ -262,7 +259,9 @@ void elements_v2(Reader& r, MshData& d) {
   std::vector<std::string_view> tok;
   Reader::split(r.need("inside $Elements"), tok);
   const long header = r.line_no();
-  if (tok.size() != 1) r.fail("expected the number of elements on this line, found " + std::to_string(tok.size()) + " values", "write the element count alone on the line after $Elements");
+  if (tok.size() != 1)
+    r.fail("expected the number of elements on this line, found " + std::to_string(tok.size()) + " values",
+           "write the element count alone on the line after $Elements");
   const std::uint64_t n = r.count(tok[0], "the number of elements");
   d.tets.reserve(r.reserve_for(n, 16));
   for (std::uint64_t k = 0; k < n; ++k) {
@@ -323,11 +322,15 @@ void nodes_v4(Reader& r, MshData& d) {
     r.i64(tok[1], "the entity tag");
     const std::uint64_t param = r.u64(tok[2], "the parametric flag");
     const std::uint64_t m = r.count(tok[3], "the number of nodes in the block");
-    if (dim > 3) r.fail("entity dimension " + std::to_string(dim) + " is not 0..3", "fix this line or re-export the mesh");
-    if (param > 1) r.fail("the parametric flag must be 0 or 1, found " + std::to_string(param), "fix this line or re-export the mesh");
+    if (dim > 3)
+      r.fail("entity dimension " + std::to_string(dim) + " is not 0..3", "fix this line or re-export the mesh");
+    if (param > 1)
+      r.fail("the parametric flag must be 0 or 1, found " + std::to_string(param),
+             "fix this line or re-export the mesh");
     total += m;
     if (total > n)
-      r.fail("the node blocks hold more nodes than the " + std::to_string(n) + " announced on line " + std::to_string(header),
+      r.fail("the node blocks hold more nodes than the " + std::to_string(n) + " announced on line " +
+                 std::to_string(header),
              "the counts do not match; correct them or re-export the mesh");
     tags.clear();
     lines.clear();
@@ -335,18 +338,21 @@ void nodes_v4(Reader& r, MshData& d) {
     for (std::uint64_t k = 0; k < m; ++k) {
       Reader::split(data_line(r, "$Nodes", k, m, "node tags of the block", block_line), tok);
       if (tok.size() != 1)
-        r.fail("expected one node tag on this line, found " + std::to_string(tok.size()) + " values",
-               "the node count on line " + std::to_string(block_line) + " may be wrong; correct it or re-export the mesh");
+        r.fail(
+            "expected one node tag on this line, found " + std::to_string(tok.size()) + " values",
+            "the node count on line " + std::to_string(block_line) + " may be wrong; correct it or re-export the mesh");
       tags.push_back(r.u64(tok[0], "a node tag"));
     }
     const std::size_t want = 3 + (param ? dim : 0);
     for (std::uint64_t k = 0; k < m; ++k) {
       Reader::split(data_line(r, "$Nodes", k, m, "node coordinates of the block", block_line), tok);
       if (tok.size() != want)
-        r.fail("a node coordinate line of this block needs " + std::to_string(want) + " values, found " +
-                   std::to_string(tok.size()),
-               "the node count on line " + std::to_string(block_line) + " may be wrong; correct it or re-export the mesh");
-      const Vec3 x{r.number(tok[0], "x coordinate"), r.number(tok[1], "y coordinate"), r.number(tok[2], "z coordinate")};
+        r.fail(
+            "a node coordinate line of this block needs " + std::to_string(want) + " values, found " +
+                std::to_string(tok.size()),
+            "the node count on line " + std::to_string(block_line) + " may be wrong; correct it or re-export the mesh");
+      const Vec3 x{r.number(tok[0], "x coordinate"), r.number(tok[1], "y coordinate"),
+                   r.number(tok[2], "z coordinate")};
       for (std::size_t i = 3; i < want; ++i) r.number(tok[i], "parametric coordinate");
       add_node(r, d, tags[k], x, r.line_no());
     }
@@ -392,8 +398,8 @@ void elements_v4(Reader& r, MshData& d) {
       Reader::split(data_line(r, "$Elements", k, m, "elements of the block", block_line), tok);
       const std::size_t want = 1 + static_cast<std::size_t>(nn);
       if (nn > 0 && tok.size() != want)
-        r.fail("an element of type " + std::to_string(type) + " needs " + std::to_string(want) +
-                   " values (tag and " + std::to_string(nn) + " node tags), found " + std::to_string(tok.size()),
+        r.fail("an element of type " + std::to_string(type) + " needs " + std::to_string(want) + " values (tag and " +
+                   std::to_string(nn) + " node tags), found " + std::to_string(tok.size()),
                "the element count on line " + std::to_string(block_line) +
                    " may be wrong; correct it or re-export the mesh");
       if (type != 4) {
@@ -444,7 +450,7 @@ std::string read_file(const std::string& path) {
 
 /// Labels for messages: file meshes name element tags, node tags and lines.
 struct Labels {
-  std::string prefix;                               // "file" or "source"
+  std::string prefix;                                     // "file" or "source"
   const std::vector<std::uint64_t>* node_tags = nullptr;  // per vertex
   const std::vector<std::uint64_t>* tet_tags = nullptr;   // per tet
   const std::vector<long>* tet_lines = nullptr;           // per tet
@@ -456,7 +462,8 @@ struct Labels {
     return prefix + ": tet " + std::to_string(t + 1) + " (1-based index in the mesh)";
   }
   std::string tet_name(std::size_t t) const {
-    if (tet_tags) return "element " + std::to_string((*tet_tags)[t]) + " (line " + std::to_string((*tet_lines)[t]) + ")";
+    if (tet_tags)
+      return "element " + std::to_string((*tet_tags)[t]) + " (line " + std::to_string((*tet_lines)[t]) + ")";
     return "tet " + std::to_string(t + 1);
   }
   std::string vertex(int v) const {
@@ -495,7 +502,8 @@ void validate(const Mesh& m, const Labels& L) {
                          std::to_string(nv) + "); fix the connectivity");
       for (int j = 0; j < i; ++j)
         if (q[i] == q[j])
-          throw InputError(L.tet(t) + " uses " + L.vertex(q[i]) + " twice; a tetrahedron needs 4 distinct vertices, "
+          throw InputError(L.tet(t) + " uses " + L.vertex(q[i]) +
+                           " twice; a tetrahedron needs 4 distinct vertices, "
                            "remove or remesh it");
     }
     const Vec3 &a = m.vertices[q[0]], &b = m.vertices[q[1]], &c = m.vertices[q[2]], &d = m.vertices[q[3]];
@@ -553,8 +561,8 @@ void validate(const Mesh& m, const Labels& L) {
         const double s1 = orient(pa, pb, pc, m.vertices[opposite(i->t, ia, i->b, i->c)]);
         const double s2 = orient(pa, pb, pc, m.vertices[opposite((i + 1)->t, ia, i->b, i->c)]);
         if ((s1 > 0) == (s2 > 0))
-          throw InputError(L.prefix + ": " + L.tet_name(i->t) + " and " + L.tet_name((i + 1)->t) + " share the face with " +
-                           L.vertices(ia, i->b, i->c) +
+          throw InputError(L.prefix + ": " + L.tet_name(i->t) + " and " + L.tet_name((i + 1)->t) +
+                           " share the face with " + L.vertices(ia, i->b, i->c) +
                            " and lie on the same side of it (overlapping or duplicated tetrahedra); remesh the volume");
       }
       i = j;
@@ -629,8 +637,8 @@ Mesh mesh_with_gmsh(const MeshSpec& s, const std::string& what) {
   gmsh::option::setNumber("Mesh.MeshSizeMin", 0.5 * h);
   gmsh::option::setNumber("Mesh.MeshSizeFromPoints", 0);
   gmsh::option::setNumber("Mesh.MeshSizeExtendFromBoundary", 1);
-  gmsh::option::setNumber("Mesh.Optimize", 1);     // tetrahedron optimiser: removes slivers
-  gmsh::option::setNumber("Mesh.Smoothing", 5);    // Laplacian passes; with 1 (default) a few poor tets stay
+  gmsh::option::setNumber("Mesh.Optimize", 1);   // tetrahedron optimiser: removes slivers
+  gmsh::option::setNumber("Mesh.Smoothing", 5);  // Laplacian passes; with 1 (default) a few poor tets stay
 
   if (s.shape == "cylinder") {
     occ::addCylinder(0, 0, 0, 0, 0, s.height, s.diameter / 2);
@@ -710,8 +718,7 @@ Mesh read_msh(const std::string& path, real scale) {
     r.fail("expected 'version file-type data-size' (e.g. '4.1 0 8'), found " + quote(format_line), kResave);
   const std::string_view version = tok[0];
   if (tok[1] != "0") {
-    if (tok[1] == "1")
-      r.fail("this is a binary .msh file; fdem reads ASCII .msh files only", kResave);
+    if (tok[1] == "1") r.fail("this is a binary .msh file; fdem reads ASCII .msh files only", kResave);
     r.fail("file-type must be 0 (ASCII), found " + quote(tok[1]), kResave);
   }
   int major = 0;
@@ -733,7 +740,8 @@ Mesh read_msh(const std::string& path, real scale) {
       r.fail("unexpected text " + quote(l) + " outside any section", "remove it or re-export the mesh from gmsh");
     if (l == "$Nodes" || l == "$Elements") {
       bool& have = (l == "$Nodes") ? have_nodes : have_elements;
-      if (have) r.fail("a second " + std::string(l) + " section", "a .msh file may contain only one; re-export the mesh");
+      if (have)
+        r.fail("a second " + std::string(l) + " section", "a .msh file may contain only one; re-export the mesh");
       have = true;
       if (l == "$Nodes")
         major == 2 ? nodes_v2(r, d) : nodes_v4(r, d);
@@ -765,8 +773,9 @@ Mesh read_msh(const std::string& path, real scale) {
     for (int i = 0; i < 4; ++i) {
       const auto it = d.node_index.find(t.node[i]);
       if (it == d.node_index.end())
-        r.fail_at(t.line, "element " + std::to_string(t.tag) + " refers to node " + std::to_string(t.node[i]) +
-                              ", which is not in $Nodes",
+        r.fail_at(t.line,
+                  "element " + std::to_string(t.tag) + " refers to node " + std::to_string(t.node[i]) +
+                      ", which is not in $Nodes",
                   "add the node or fix the element's node list");
       vidx[it->second] = 0;
     }
@@ -801,8 +810,7 @@ Mesh generate_mesh(const MeshSpec& s) {
   std::string what;
   real volume = 0;
   auto positive = [](real v) { return v > 0 && std::isfinite(v); };
-  if (!positive(h))
-    throw InputError("mesh.element_size must be a positive length in metres, got " + fmt(h));
+  if (!positive(h)) throw InputError("mesh.element_size must be a positive length in metres, got " + fmt(h));
   if (s.shape == "cylinder" || s.shape == "disc") {
     if (!positive(s.diameter) || !positive(s.height))
       throw InputError("mesh: a " + s.shape + " needs diameter > 0 and height > 0 (m), got diameter " +

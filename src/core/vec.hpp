@@ -12,18 +12,42 @@ struct Vec3 {
   FDEM_HD real operator[](int i) const { return i == 0 ? x : (i == 1 ? y : z); }
 };
 
-FDEM_HD Vec3 operator+(Vec3 a, Vec3 b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
-FDEM_HD Vec3 operator-(Vec3 a, Vec3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
-FDEM_HD Vec3 operator-(Vec3 a) { return {-a.x, -a.y, -a.z}; }
-FDEM_HD Vec3 operator*(real s, Vec3 a) { return {s * a.x, s * a.y, s * a.z}; }
-FDEM_HD Vec3 operator*(Vec3 a, real s) { return {s * a.x, s * a.y, s * a.z}; }
-FDEM_HD Vec3& operator+=(Vec3& a, Vec3 b) { a.x += b.x; a.y += b.y; a.z += b.z; return a; }
-FDEM_HD Vec3& operator-=(Vec3& a, Vec3 b) { a.x -= b.x; a.y -= b.y; a.z -= b.z; return a; }
-FDEM_HD real dot(Vec3 a, Vec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+FDEM_HD Vec3 operator+(Vec3 a, Vec3 b) {
+  return {a.x + b.x, a.y + b.y, a.z + b.z};
+}
+FDEM_HD Vec3 operator-(Vec3 a, Vec3 b) {
+  return {a.x - b.x, a.y - b.y, a.z - b.z};
+}
+FDEM_HD Vec3 operator-(Vec3 a) {
+  return {-a.x, -a.y, -a.z};
+}
+FDEM_HD Vec3 operator*(real s, Vec3 a) {
+  return {s * a.x, s * a.y, s * a.z};
+}
+FDEM_HD Vec3 operator*(Vec3 a, real s) {
+  return {s * a.x, s * a.y, s * a.z};
+}
+FDEM_HD Vec3& operator+=(Vec3& a, Vec3 b) {
+  a.x += b.x;
+  a.y += b.y;
+  a.z += b.z;
+  return a;
+}
+FDEM_HD Vec3& operator-=(Vec3& a, Vec3 b) {
+  a.x -= b.x;
+  a.y -= b.y;
+  a.z -= b.z;
+  return a;
+}
+FDEM_HD real dot(Vec3 a, Vec3 b) {
+  return a.x * b.x + a.y * b.y + a.z * b.z;
+}
 FDEM_HD Vec3 cross(Vec3 a, Vec3 b) {
   return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
 }
-FDEM_HD real norm(Vec3 a) { return std::sqrt(dot(a, a)); }
+FDEM_HD real norm(Vec3 a) {
+  return std::sqrt(dot(a, a));
+}
 
 struct Mat3 {
   real a[3][3];
@@ -64,7 +88,9 @@ FDEM_HD Mat3 transpose(const Mat3& p) {
     for (int j = 0; j < 3; ++j) r.a[i][j] = p.a[j][i];
   return r;
 }
-FDEM_HD real trace(const Mat3& p) { return p.a[0][0] + p.a[1][1] + p.a[2][2]; }
+FDEM_HD real trace(const Mat3& p) {
+  return p.a[0][0] + p.a[1][1] + p.a[2][2];
+}
 FDEM_HD real det(const Mat3& p) {
   return p.a[0][0] * (p.a[1][1] * p.a[2][2] - p.a[1][2] * p.a[2][1]) -
          p.a[0][1] * (p.a[1][0] * p.a[2][2] - p.a[1][2] * p.a[2][0]) +
@@ -91,7 +117,11 @@ struct Sym3 {
   real xx, yy, zz, yz, xz, xy;
 };
 FDEM_HD Sym3 to_sym(const Mat3& p) {
-  return {p.a[0][0], p.a[1][1], p.a[2][2], real(0.5) * (p.a[1][2] + p.a[2][1]), real(0.5) * (p.a[0][2] + p.a[2][0]),
+  return {p.a[0][0],
+          p.a[1][1],
+          p.a[2][2],
+          real(0.5) * (p.a[1][2] + p.a[2][1]),
+          real(0.5) * (p.a[0][2] + p.a[2][0]),
           real(0.5) * (p.a[0][1] + p.a[1][0])};
 }
 FDEM_HD Vec3 operator*(const Sym3& s, Vec3 v) {

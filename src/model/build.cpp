@@ -51,7 +51,9 @@ Colouring colour_elements(const std::vector<std::array<int, K>>& elems, std::siz
     for (int n : elems[e]) mask |= used[n];
     int c = 0;
     while (c < 64 && (mask >> c & 1u)) ++c;
-    if (c == 64) throw InputError(std::string("model build: more than 64 ") + what + " colours needed; the mesh has a vertex shared by too many elements");
+    if (c == 64)
+      throw InputError(std::string("model build: more than 64 ") + what +
+                       " colours needed; the mesh has a vertex shared by too many elements");
     colour[e] = c;
     for (int n : elems[e]) used[n] |= std::uint64_t(1) << c;
     n_colours = std::max(n_colours, c + 1);
@@ -83,8 +85,8 @@ Model build_model(const Mesh& mesh, const Scene& scene) {
     auto& q = tv[t];
     for (int i = 0; i < 4; ++i)
       if (q[i] < 0 || q[i] >= int(mesh.vertices.size()))
-        throw InputError(mesh.source + ": tet " + std::to_string(t + 1) + " refers to vertex " + std::to_string(q[i] + 1) +
-                         " which does not exist");
+        throw InputError(mesh.source + ": tet " + std::to_string(t + 1) + " refers to vertex " +
+                         std::to_string(q[i] + 1) + " which does not exist");
     Vec3 x[4] = {mesh.vertices[q[0]], mesh.vertices[q[1]], mesh.vertices[q[2]], mesh.vertices[q[3]]};
     for (int i = 0; i < 4; ++i)
       for (int j = i + 1; j < 4; ++j) edge_sum += norm(x[j] - x[i]);
@@ -130,9 +132,8 @@ Model build_model(const Mesh& mesh, const Scene& scene) {
       std::sort(k.begin(), k.end());
       faces.push_back({k, t, i});
     }
-  std::sort(faces.begin(), faces.end(), [](const FaceRef& a, const FaceRef& b) {
-    return a.key != b.key ? a.key < b.key : a.tet < b.tet;
-  });
+  std::sort(faces.begin(), faces.end(),
+            [](const FaceRef& a, const FaceRef& b) { return a.key != b.key ? a.key < b.key : a.tet < b.tet; });
 
   std::vector<Vec3> centroid(nt);
   std::vector<char> region(nt);
@@ -228,8 +229,8 @@ Model build_model(const Mesh& mesh, const Scene& scene) {
     std::array<int, 3> v = p.key;
     const Vec3 a = mesh.vertices[v[0]], b = mesh.vertices[v[1]], c = mesh.vertices[v[2]];
     if (dot(cross(b - a, c - a), centroid[p.a] - a) > 0) std::swap(v[1], v[2]);
-    m.ce6_nodes.push_back({node(p.a, v[0]), node(p.a, v[1]), node(p.a, v[2]), node(p.b, v[0]), node(p.b, v[1]),
-                           node(p.b, v[2])});
+    m.ce6_nodes.push_back(
+        {node(p.a, v[0]), node(p.a, v[1]), node(p.a, v[2]), node(p.b, v[0]), node(p.b, v[1]), node(p.b, v[2])});
     m.ce6_tets.push_back({p.a, p.b});
     m.ce6_h.push_back((norm(b - a) + norm(c - b) + norm(a - c)) / 3);
   }

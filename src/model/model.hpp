@@ -22,9 +22,9 @@ struct Colouring {
 
 struct Model {
   // Nodes. Inside fracture regions every tet owns its four nodes (discontinuous).
-  std::vector<Vec3> X;             // reference positions, m
-  std::vector<real> mass;          // lumped mass (includes mass scaling), kg
-  std::vector<int> node_vertex;    // mesh vertex each node came from
+  std::vector<Vec3> X;           // reference positions, m
+  std::vector<real> mass;        // lumped mass (includes mass scaling), kg
+  std::vector<int> node_vertex;  // mesh vertex each node came from
 
   // TET4
   std::vector<std::array<int, 4>> tet_nodes;  // positively oriented (V0 > 0), in Morton order
@@ -38,15 +38,15 @@ struct Model {
   // order); the face normal (0->1->2, right hand) points from A into B.
   std::vector<std::array<int, 6>> ce6_nodes;
   std::vector<std::array<int, 2>> ce6_tets;
-  std::vector<real> ce6_h;                    // characteristic size (reference mean edge length), m
+  std::vector<real> ce6_h;  // characteristic size (reference mean edge length), m
   Colouring ce6_colours;
 
   // Boundary: faces on the outer surface (node ids, normal outward) and node groups.
   std::vector<std::array<int, 3>> surface_faces;
   std::vector<int> surface_tet;
-  std::vector<int> platen_nodes;        // surface nodes that can touch a platen
-  std::vector<real> platen_node_area;   // tributary reference area of each, m^2
-  std::vector<real> platen_node_h;      // size of the element under each, m
+  std::vector<int> platen_nodes;       // surface nodes that can touch a platen
+  std::vector<real> platen_node_area;  // tributary reference area of each, m^2
+  std::vector<real> platen_node_h;     // size of the element under each, m
   std::vector<int> top_nodes, bottom_nodes, lateral_nodes;
 
   // Geometry of the specimen in the reference configuration.
@@ -56,8 +56,8 @@ struct Model {
   real area0 = 0;            // m^2, loaded cross-section (mean of top and bottom surface areas)
 
   // Statistics for the build report.
-  real min_altitude = 0;     // m
-  real mean_edge = 0;        // m
+  real min_altitude = 0;  // m
+  real mean_edge = 0;     // m
   std::string source;
 };
 

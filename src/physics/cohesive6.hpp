@@ -94,7 +94,9 @@ inline Ce6Params make_ce6_params(const Material& m) {
   return p;
 }
 
-FDEM_HD bool ce6_broken(const Ce6State& s) { return s.mode != 0; }
+FDEM_HD bool ce6_broken(const Ce6State& s) {
+  return s.mode != 0;
+}
 
 FDEM_HD real ce6_max_damage(const Ce6State& s) {
   real d = s.D[0];
@@ -135,8 +137,8 @@ FDEM_HD real past_peak(real a, real p, real w) {
 
 /// Forces on the six nodes (overwritten), damage/slip/mode update of `s`, power and stored energy.
 /// h is the element's characteristic size.
-FDEM_HD Ce6Eval cohesive6_forces(const Ce6Params& p, const Vec3 (&x)[6], const Vec3 (&v)[6], real h,
-                                 Ce6State& s, Vec3 (&f)[6]) {
+FDEM_HD Ce6Eval cohesive6_forces(const Ce6Params& p, const Vec3 (&x)[6], const Vec3 (&v)[6], real h, Ce6State& s,
+                                 Vec3 (&f)[6]) {
   using namespace ce6_detail;
   for (int i = 0; i < 6; ++i) f[i] = Vec3{0, 0, 0};
   Ce6Eval out{0, 0};

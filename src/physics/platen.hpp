@@ -10,9 +10,9 @@
 namespace fdem {
 
 struct PlatenEval {
-  Vec3 force;        // on the node, N
-  real stored;       // penalty + friction-spring energy, J
-  real dissipated;   // friction work in this call (slip distance x friction force), J
+  Vec3 force;       // on the node, N
+  real stored;      // penalty + friction-spring energy, J
+  real dissipated;  // friction work in this call (slip distance x friction force), J
 };
 
 /// `xr` is the node position relative to the platen's reference point (moves with it).

@@ -18,10 +18,14 @@ struct Tet4Reference {
   real V0;    // reference volume, m^3 (negative if the node order is inverted)
 };
 
-FDEM_HD Mat3 tet4_edges(const Vec3 (&x)[4]) { return Mat3::from_columns(x[1] - x[0], x[2] - x[0], x[3] - x[0]); }
+FDEM_HD Mat3 tet4_edges(const Vec3 (&x)[4]) {
+  return Mat3::from_columns(x[1] - x[0], x[2] - x[0], x[3] - x[0]);
+}
 
 /// Signed volume of a tet (positive for a right-handed node order).
-FDEM_HD real tet4_volume(const Vec3 (&x)[4]) { return det(tet4_edges(x)) / 6; }
+FDEM_HD real tet4_volume(const Vec3 (&x)[4]) {
+  return det(tet4_edges(x)) / 6;
+}
 
 FDEM_HD Tet4Reference tet4_reference(const Vec3 (&X)[4]) {
   const Mat3 E = tet4_edges(X);
@@ -42,10 +46,10 @@ FDEM_HD real tet4_min_altitude(const Vec3 (&x)[4]) {
 }
 
 struct Tet4Eval {
-  real J;               // volume ratio; J <= 0 means the tet inverted (forces are then zero)
-  real strain_energy;   // J (joules), V0 W
-  real viscous_power;   // W, v eta D:D (rate of viscous dissipation)
-  Sym3 stress;          // Cauchy stress including the viscous part, Pa
+  real J;              // volume ratio; J <= 0 means the tet inverted (forces are then zero)
+  real strain_energy;  // J (joules), V0 W
+  real viscous_power;  // W, v eta D:D (rate of viscous dissipation)
+  Sym3 stress;         // Cauchy stress including the viscous part, Pa
 };
 
 FDEM_HD Tet4Eval tet4_forces(const Vec3 (&x)[4], const Vec3 (&v)[4], const Mat3& Xinv, real V0, real lambda, real mu,

@@ -42,7 +42,7 @@ FDEM_HD real tet4_max_eigenvalue(const Mat3& Xinv, real lambda, real mu, real de
       uw += dot(u[i], w[i]);
       ww += dot(w[i], w[i]);
     }
-    lam_max = uw / uu;  // Rayleigh quotient
+    lam_max = uw / uu;        // Rayleigh quotient
     if (!(ww > 0)) return 0;  // no stiffness (e.g. an undamped element's C)
     const real s = 1 / std::sqrt(ww);
     for (int i = 0; i < 4; ++i) u[i] = s * w[i];
@@ -58,7 +58,9 @@ FDEM_HD real tet4_stable_step(const Mat3& Xinv, real lambda, real mu, real eta, 
   return 2 / w * (std::sqrt(1 + xi * xi) - xi);
 }
 
-FDEM_HD real pair_stable_step(real m1, real m2, real k) { return 2 * std::sqrt(m1 * m2 / ((m1 + m2) * k)); }
+FDEM_HD real pair_stable_step(real m1, real m2, real k) {
+  return 2 * std::sqrt(m1 * m2 / ((m1 + m2) * k));
+}
 
 /// Critical viscous damping coefficient (reference paper Eq. 2), Pa s.
 FDEM_HD real critical_damping(real h, real mass_scaling, real density, real youngs) {

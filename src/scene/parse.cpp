@@ -3,9 +3,9 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <filesystem>
-#include <cctype>
 #include <fstream>
 #include <iomanip>
 #include <limits>
@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "core/error.hpp"
+#include "core/format.hpp"
 #include "scene/scene.hpp"
 
 namespace fdem {
@@ -21,12 +22,6 @@ namespace {
 
 namespace fs = std::filesystem;
 constexpr double kInf = std::numeric_limits<double>::infinity();
-
-std::string fmt(double v) {
-  std::ostringstream s;
-  s << std::setprecision(6) << v;
-  return s.str();
-}
 
 std::string join_path(const std::string& path, const std::string& key) {
   return path.empty() ? key : path + "." + key;
@@ -39,11 +34,16 @@ std::string last_key(const std::string& path) {
 
 std::string describe(const YAML::Node& n) {
   switch (n.Type()) {
-    case YAML::NodeType::Null: return "nothing";
-    case YAML::NodeType::Sequence: return "a list";
-    case YAML::NodeType::Map: return "a map";
-    case YAML::NodeType::Scalar: return "'" + n.Scalar() + "'";
-    default: return "an undefined value";
+    case YAML::NodeType::Null:
+      return "nothing";
+    case YAML::NodeType::Sequence:
+      return "a list";
+    case YAML::NodeType::Map:
+      return "a map";
+    case YAML::NodeType::Scalar:
+      return "'" + n.Scalar() + "'";
+    default:
+      return "an undefined value";
   }
 }
 
@@ -89,10 +89,18 @@ struct Range {
     return "allowed " + s + (integer ? " (a whole number)" : "");
   }
 };
-Range positive() { return {0, kInf, true, false}; }
-Range at_least(double lo) { return {lo, kInf, false, false}; }
-Range closed(double lo, double hi) { return {lo, hi, false, false}; }
-Range count_at_least(double lo, double hi = kInf) { return {lo, hi, false, false, true}; }
+Range positive() {
+  return {0, kInf, true, false};
+}
+Range at_least(double lo) {
+  return {lo, kInf, false, false};
+}
+Range closed(double lo, double hi) {
+  return {lo, hi, false, false};
+}
+Range count_at_least(double lo, double hi = kInf) {
+  return {lo, hi, false, false, true};
+}
 
 /// Walks the YAML tree, fills the Scene and collects every error.
 class Reader {
@@ -140,8 +148,8 @@ class Reader {
             hint = "did you mean '" + a + "'? ";
             break;
           }
-      error(join_path(path, key), "unknown key", hint + "allowed keys in " + (path.empty() ? "the top level" : path) +
-                                                     ": " + list);
+      error(join_path(path, key), "unknown key",
+            hint + "allowed keys in " + (path.empty() ? "the top level" : path) + ": " + list);
     }
     return true;
   }
@@ -236,8 +244,9 @@ class Reader {
   /// A list of three numbers [x, y, z].
   bool vec3(const YAML::Node& v, const std::string& p, const Range& r, Vec3& out) {
     if (!v.IsSequence() || v.size() != 3) {
-      error(p, "expected a list of three numbers [x, y, z], got " + describe(v) +
-                   (v.IsSequence() ? " of " + std::to_string(v.size()) : ""),
+      error(p,
+            "expected a list of three numbers [x, y, z], got " + describe(v) +
+                (v.IsSequence() ? " of " + std::to_string(v.size()) : ""),
             "write e.g. " + p.substr(p.find_last_of('.') + 1) + ": [0.01, 0.01, 0.02]");
       return false;
     }
@@ -258,10 +267,11 @@ class Reader {
 
   void material(const YAML::Node& n, Material& m) {
     const std::string p = "material";
-    if (!check_map(n, p, {"density", "youngs_modulus", "poisson_ratio", "tensile_strength", "cohesion",
-                          "friction_angle", "fracture_energy_I", "fracture_energy_II", "contact_penalty",
-                          "cohesive_penalty_open", "cohesive_penalty_tangential", "cohesive_penalty_overlap",
-                          "friction_platen", "friction_rock", "softening"}))
+    if (!check_map(n, p,
+                   {"density", "youngs_modulus", "poisson_ratio", "tensile_strength", "cohesion", "friction_angle",
+                    "fracture_energy_I", "fracture_energy_II", "contact_penalty", "cohesive_penalty_open",
+                    "cohesive_penalty_tangential", "cohesive_penalty_overlap", "friction_platen", "friction_rock",
+                    "softening"}))
       return;
     number(n, p, "density", positive(), m.density);
     number(n, p, "youngs_modulus", positive(), m.youngs_modulus);
@@ -330,8 +340,9 @@ class Reader {
     }
     const size_t errors_before = errors_.size();
     const bool round = shape != "box";
-    check_map(n, p, round ? std::vector<std::string>{"shape", "diameter", "height", "element_size"}
-                          : std::vector<std::string>{"shape", "size", "element_size"});
+    check_map(n, p,
+              round ? std::vector<std::string>{"shape", "diameter", "height", "element_size"}
+                    : std::vector<std::string>{"shape", "size", "element_size"});
     m.shape = shape;
     m.file.clear();
     auto require = [&](const std::string& key, const std::string& what) {
@@ -351,8 +362,8 @@ class Reader {
     if (errors_.size() != errors_before) return;
     const double smallest = round ? std::min(m.diameter, m.height) : std::min({m.size.x, m.size.y, m.size.z});
     if (!(m.element_size < smallest))
-      error(p + ".element_size", fmt(m.element_size) + " m is not smaller than the specimen (smallest dimension " +
-                                     fmt(smallest) + " m)",
+      error(p + ".element_size",
+            fmt(m.element_size) + " m is not smaller than the specimen (smallest dimension " + fmt(smallest) + " m)",
             "use element_size < " + fmt(smallest) + " m (several elements across the specimen)");
   }
 
@@ -397,8 +408,9 @@ class Reader {
       if (!ok) continue;
       for (int c = 0; c < 3; ++c) {
         if (!(box.min[c] < box.max[c])) {
-          error(pb, "min " + std::string(1, "xyz"[c]) + " = " + fmt(box.min[c]) + " is not below max " +
-                        std::string(1, "xyz"[c]) + " = " + fmt(box.max[c]),
+          error(pb,
+                "min " + std::string(1, "xyz"[c]) + " = " + fmt(box.min[c]) + " is not below max " +
+                    std::string(1, "xyz"[c]) + " = " + fmt(box.max[c]),
                 "each component of min must be smaller than the same component of max");
           ok = false;
           break;
@@ -473,8 +485,9 @@ class Reader {
     const double gi_min = 2.0 / 3.0 * m.tensile_strength * o_p;
     if (!(m.fracture_energy_I > gi_min))
       error("material.fracture_energy_I",
-            fmt(m.fracture_energy_I) + " J/m^2 is too small for the cohesive law: need > (2/3)*tensile_strength*o_p = " +
-                fmt(gi_min) + " J/m^2, o_p = 2*element_size*tensile_strength/cohesive_penalty_open",
+            fmt(m.fracture_energy_I) +
+                " J/m^2 is too small for the cohesive law: need > (2/3)*tensile_strength*o_p = " + fmt(gi_min) +
+                " J/m^2, o_p = 2*element_size*tensile_strength/cohesive_penalty_open",
             "raise fracture_energy_I or cohesive_penalty_open, or lower mesh.generate.element_size or "
             "tensile_strength");
     const double s_p = 2 * h * m.cohesion / m.cohesive_penalty_tangential;
@@ -492,8 +505,7 @@ class Reader {
     s.file = file;
     const std::string stem = fs::path(file).stem().string();
     s.name = stem.empty() ? "scene" : stem;
-    if (!check_map(root, "", {"name", "material", "mesh", "fracture_regions", "platens", "solver", "output"}))
-      return s;
+    if (!check_map(root, "", {"name", "material", "mesh", "fracture_regions", "platens", "solver", "output"})) return s;
     const std::string scene_dir = fs::path(file).parent_path().string();
     text(root, "", "name", s.name, "give a short name for the run");
     const size_t before = errors_.size();
@@ -503,8 +515,9 @@ class Reader {
     if (root["mesh"])
       mesh(root["mesh"], scene_dir, s.mesh);
     else
-      error("mesh", "missing", "give mesh.generate (e.g. {shape: cylinder, diameter: 0.02, height: 0.04, "
-                               "element_size: 0.004}) or mesh.file");
+      error("mesh", "missing",
+            "give mesh.generate (e.g. {shape: cylinder, diameter: 0.02, height: 0.04, "
+            "element_size: 0.004}) or mesh.file");
     if (errors_.size() == before) cohesive_law(s);
     if (root["fracture_regions"]) fracture_regions(root["fracture_regions"], s.fracture);
     if (given("platens")) platens(root["platens"], s.platens);
@@ -538,8 +551,9 @@ Scene parse_scene(const std::string& yaml_text, const std::string& file) {
                      "; check indentation, colons and brackets near that place");
   }
   if (!root || root.IsNull())
-    throw InputError(label + ": the file is empty; a scene needs at least mesh and solver.end "
-                             "(see docs/scene-format.md)");
+    throw InputError(label +
+                     ": the file is empty; a scene needs at least mesh and solver.end "
+                     "(see docs/scene-format.md)");
   Reader reader(label);
   Scene s = reader.scene(root, file);
   const auto& errors = reader.errors();

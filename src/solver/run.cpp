@@ -31,9 +31,12 @@ void write_row(std::ostream& o, const Monitors& m) {
 std::string duration(real s) {
   if (!std::isfinite(s) || s < 0) return "?";
   char b[32];
-  if (s < 60) std::snprintf(b, sizeof b, "%.0fs", s);
-  else if (s < 3600) std::snprintf(b, sizeof b, "%dm%02ds", int(s / 60), int(s) % 60);
-  else std::snprintf(b, sizeof b, "%dh%02dm", int(s / 3600), int(s / 60) % 60);
+  if (s < 60)
+    std::snprintf(b, sizeof b, "%.0fs", s);
+  else if (s < 3600)
+    std::snprintf(b, sizeof b, "%dm%02ds", int(s / 60), int(s) % 60);
+  else
+    std::snprintf(b, sizeof b, "%dh%02dm", int(s / 3600), int(s / 60) % 60);
   return b;
 }
 
@@ -73,10 +76,10 @@ void report_model(const Solver& solver, std::ostream& out) {
       << ", surface faces " << m.surface_faces.size() << "\n"
       << "  height " << m.height0 << " m, loaded area " << m.area0 << " m^2, mean edge " << m.mean_edge
       << " m, minimum altitude " << m.min_altitude << " m\n"
-      << "  stable step " << st.dt / solver.scene().solver.time_step_safety << " s limited by " << st.limit
-      << " (TET4 " << st.dt_tet << " s, CE6 " << st.dt_ce6 << " s, platens " << st.dt_platen << " s)\n"
-      << "  time step " << solver.dt() << " s (safety " << solver.scene().solver.time_step_safety
-      << ", mass scaling " << solver.scene().solver.mass_scaling << ")\n";
+      << "  stable step " << st.dt / solver.scene().solver.time_step_safety << " s limited by " << st.limit << " (TET4 "
+      << st.dt_tet << " s, CE6 " << st.dt_ce6 << " s, platens " << st.dt_platen << " s)\n"
+      << "  time step " << solver.dt() << " s (safety " << solver.scene().solver.time_step_safety << ", mass scaling "
+      << solver.scene().solver.mass_scaling << ")\n";
 }
 
 RunSummary run_scene(Solver& solver, std::ostream& log) {
@@ -145,9 +148,11 @@ RunSummary run_scene(Solver& solver, std::ostream& log) {
         real frac = expected > 0 ? n / expected : 0;
         char line[256];
         std::snprintf(line, sizeof line,
-                      "step %ld  t %.4g s  axial strain %.3e  stress %.3f MPa  broken CE6 %ld  %.0f steps/s  ETA %s",
-                      n, solver.time(), strain, mon.axial_stress / 1e6, mon.broken, n / std::max(wall, 1e-9),
-                      !reason.empty() ? "done" : frac > 0 ? duration(wall / frac - wall).c_str() : "?");
+                      "step %ld  t %.4g s  axial strain %.3e  stress %.3f MPa  broken CE6 %ld  %.0f steps/s  ETA %s", n,
+                      solver.time(), strain, mon.axial_stress / 1e6, mon.broken, n / std::max(wall, 1e-9),
+                      !reason.empty() ? "done"
+                      : frac > 0      ? duration(wall / frac - wall).c_str()
+                                      : "?");
         log << line << std::endl;
         next_progress = wall + out.progress_interval;
       }

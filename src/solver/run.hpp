@@ -10,9 +10,9 @@ namespace fdem {
 
 struct RunSummary {
   long steps = 0;
-  real time = 0;            // simulated, s
+  real time = 0;  // simulated, s
   real wall_seconds = 0;
-  real peak_stress = 0;     // Pa
+  real peak_stress = 0;  // Pa
   real strain_at_peak = 0;
   Monitors last;
   std::string end_reason;

@@ -8,6 +8,7 @@
 
 #include "core/error.hpp"
 #include "core/for_each.hpp"
+#include "core/format.hpp"
 #include "physics/integrate.hpp"
 #include "physics/platen.hpp"
 #include "physics/tet4.hpp"
@@ -15,13 +16,6 @@
 
 namespace fdem {
 namespace {
-
-std::string fmt(real v) {
-  std::ostringstream s;
-  s.precision(3);
-  s << v;
-  return s.str();
-}
 
 template <std::size_t K>
 void gather(const std::vector<Vec3>& a, const std::array<int, K>& ids, Vec3 (&out)[K]) {
@@ -63,7 +57,8 @@ Solver::Solver(const Scene& scene, Model model) : scene_(scene), model_(std::mov
     const real dt = tet4_stable_step(model_.tet_Xinv[t], lambda_, mu_, model_.tet_eta[t], rho);
     if (dt < stable_.dt_tet) stable_.dt_tet = dt, lim_tet = int(t);
   }
-  const real P_ce6 = std::max({mat.cohesive_penalty_open, mat.cohesive_penalty_tangential, mat.cohesive_penalty_overlap});
+  const real P_ce6 =
+      std::max({mat.cohesive_penalty_open, mat.cohesive_penalty_tangential, mat.cohesive_penalty_overlap});
   for (std::size_t c = 0; c < model_.ce6_nodes.size(); ++c) {
     const auto& q = model_.ce6_nodes[c];
     const real area = 0.5 * norm(cross(model_.X[q[1]] - model_.X[q[0]], model_.X[q[2]] - model_.X[q[0]]));
@@ -82,12 +77,12 @@ Solver::Solver(const Scene& scene, Model model) : scene_(scene), model_(std::mov
   }
   const real dmin = std::min({stable_.dt_tet, stable_.dt_ce6, stable_.dt_platen});
   if (dmin == stable_.dt_tet)
-    stable_.limit = "TET4 #" + std::to_string(lim_tet + 1) + " (wave speed and damping)";
+    stable_.limit = "TET4 #" + std::to_string(model_.tet_input[lim_tet] + 1) + " (wave speed and damping)";
   else if (dmin == stable_.dt_ce6)
-    stable_.limit = "CE6 #" + std::to_string(lim_ce6 + 1) + " (cohesive penalty " + fmt(P_ce6) + " Pa)";
+    stable_.limit = "CE6 #" + std::to_string(lim_ce6 + 1) + " (cohesive penalty " + fmt(P_ce6, 3) + " Pa)";
   else
     stable_.limit = "platen contact at node " + std::to_string(model_.platen_nodes[lim_platen] + 1) +
-                    " (contact penalty " + fmt(mat.contact_penalty) + " Pa)";
+                    " (contact penalty " + fmt(mat.contact_penalty, 3) + " Pa)";
   stable_.dt = sol.time_step_safety * dmin;
   dt_ = sol.time_step > 0 ? sol.time_step : stable_.dt;
 
@@ -136,11 +131,14 @@ void Solver::compute_forces() {
   }
   if (jmin_tet >= 0) {
     const SolverSettings& s = scene_.solver;
-    throw RunError("step " + std::to_string(step_) + " (t = " + fmt(time_) + " s): TET4 #" + std::to_string(jmin_tet + 1) +
-                   " inverted (J = " + fmt(jmin) + "). The run is unstable: the time step " + fmt(dt_) +
+    throw RunError("step " + std::to_string(step_) + " (t = " + fmt(time_, 3) + " s): TET4 #" +
+                   std::to_string(model_.tet_input[jmin_tet] + 1) + " inverted (J = " + fmt(jmin, 3) +
+                   "). The run is unstable: the time step " + fmt(dt_, 3) +
                    " s is too large for the stiffness. Fix: lower solver.time_step_safety (now " +
-                   fmt(s.time_step_safety) + ", stable is <= 1), lower the cohesive or contact penalties, or raise "
-                   "solver.mass_scaling (now " + fmt(s.mass_scaling) + ")");
+                   fmt(s.time_step_safety, 3) +
+                   ", stable is <= 1), lower the cohesive or contact penalties, or raise "
+                   "solver.mass_scaling (now " +
+                   fmt(s.mass_scaling, 3) + ")");
   }
 
   real p_coh = 0, p_fric = 0;
@@ -172,7 +170,8 @@ void Solver::compute_forces() {
       // A node can touch at most one platen at a time: the nearer one.
       const bool near_top = x[n].z > 0.5 * (ztop + zbot);
       const Vec3 xr = x[n] - Vec3{0, 0, near_top ? ztop : zbot};
-      const PlatenEval r = platen_node_force(xr, near_top ? down : up, platen_k_[i], mat.friction_platen, platen_anchor[i]);
+      const PlatenEval r =
+          platen_node_force(xr, near_top ? down : up, platen_k_[i], mat.friction_platen, platen_anchor[i]);
       f[n] += r.force;
       (near_top ? ftop : fbot) += r.force.z;
       dfric += r.dissipated;
@@ -188,9 +187,9 @@ void Solver::compute_forces() {
 
 void Solver::check_finite(real vmax2) const {
   if (std::isfinite(vmax2)) return;
-  throw RunError("step " + std::to_string(step_) + " (t = " + fmt(time_) +
+  throw RunError("step " + std::to_string(step_) + " (t = " + fmt(time_, 3) +
                  " s): a node velocity is no longer finite. The run is unstable; lower solver.time_step_safety (now " +
-                 fmt(scene_.solver.time_step_safety) + ") or the penalties, or raise solver.mass_scaling");
+                 fmt(scene_.solver.time_step_safety, 3) + ") or the penalties, or raise solver.mass_scaling");
 }
 
 void Solver::step() {
@@ -315,10 +314,10 @@ Monitors Solver::measure() {
   r.energy_error = std::fabs(w_external_ - internal) / std::max(std::fabs(w_external_), energy_floor_);
   if (!std::isfinite(internal) || ke > 2 * std::fabs(w_external_) + energy_floor_) {
     if (fixed_node_.empty())
-      throw RunError("step " + std::to_string(step_) + " (t = " + fmt(time_) + " s): kinetic energy " + fmt(ke) +
-                     " J exceeds twice the external work " + fmt(w_external_) +
+      throw RunError("step " + std::to_string(step_) + " (t = " + fmt(time_, 3) + " s): kinetic energy " + fmt(ke, 3) +
+                     " J exceeds twice the external work " + fmt(w_external_, 3) +
                      " J: the run is unstable. Fix: lower solver.time_step_safety (now " +
-                     fmt(scene_.solver.time_step_safety) + ") or the penalties, or raise solver.mass_scaling");
+                     fmt(scene_.solver.time_step_safety, 3) + ") or the penalties, or raise solver.mass_scaling");
   }
   return r;
 }
@@ -338,7 +337,8 @@ void Solver::tet_stress(std::vector<Sym3>& stress, std::vector<real>& von_mises)
   }
 }
 
-void Solver::crack_faces(std::vector<std::array<int, 3>>& faces, std::vector<real>& damage, std::vector<int>& mode) const {
+void Solver::crack_faces(std::vector<std::array<int, 3>>& faces, std::vector<real>& damage,
+                         std::vector<int>& mode) const {
   faces.clear();
   damage.clear();
   mode.clear();

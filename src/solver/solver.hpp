@@ -23,9 +23,9 @@ struct Monitors {
 };
 
 struct StableStep {
-  real dt = 0;            // s, including the safety factor
+  real dt = 0;                                 // s, including the safety factor
   real dt_tet = 0, dt_ce6 = 0, dt_platen = 0;  // s, without it
-  std::string limit;      // which part limits, e.g. "CE6 #12 (P_overlap)"
+  std::string limit;                           // which part limits, e.g. "CE6 #12 (P_overlap)"
 };
 
 class Solver {

@@ -133,8 +133,8 @@ TEST(ModelBuild, SurfacesAreOutwardAndGroupsArePlaced) {
   for (int n : m.top_nodes) EXPECT_EQ(m.X[n].z, size.z);
   for (int n : m.bottom_nodes) EXPECT_EQ(m.X[n].z, 0);
   for (int n : m.lateral_nodes) {
-    const bool side = m.X[n].x == 0 || m.X[n].y == 0 || std::fabs(m.X[n].x - size.x) < 1e-15 ||
-                      std::fabs(m.X[n].y - size.y) < 1e-15;
+    const bool side =
+        m.X[n].x == 0 || m.X[n].y == 0 || std::fabs(m.X[n].x - size.x) < 1e-15 || std::fabs(m.X[n].y - size.y) < 1e-15;
     EXPECT_TRUE(side);
   }
   // Every node of a face lying in z = max is a top node, and only those.

@@ -92,9 +92,15 @@ struct Driver {
   }
 };
 
-real o_peak(const Ce6Params& p) { return 2 * kH * p.ft / p.P_open; }
-real o_final(const Ce6Params& p) { return o_peak(p) + (p.GI - 2.0 / 3 * p.ft * o_peak(p)) / (p.ft * p.Z); }
-real s_peak(const Ce6Params& p, real fs) { return 2 * kH * fs / p.P_tan; }
+real o_peak(const Ce6Params& p) {
+  return 2 * kH * p.ft / p.P_open;
+}
+real o_final(const Ce6Params& p) {
+  return o_peak(p) + (p.GI - 2.0 / 3 * p.ft * o_peak(p)) / (p.ft * p.Z);
+}
+real s_peak(const Ce6Params& p, real fs) {
+  return 2 * kH * fs / p.P_tan;
+}
 real s_final(const Ce6Params& p, real fs) {
   return s_peak(p, fs) + (p.GII - 2.0 / 3 * fs * s_peak(p, fs)) / (fs * p.Z);
 }
@@ -294,7 +300,8 @@ TEST(Cohesive6, RotationInvariance) {
   // the relative displacements are resolved from mm coordinates to ~1e-13. (The broken case's
   // 1e-6 m overlap is far beyond a physical one; objectivity does not care.)
   Vec3 du[3];
-  for (int i = 0; i < 3; ++i) du[i] = (1.5e-6 + 0.3e-6 * i) * tri.n + (0.8e-6 - 0.5e-6 * i) * tri.t1 + 0.4e-6 * i * tri.t2;
+  for (int i = 0; i < 3; ++i)
+    du[i] = (1.5e-6 + 0.3e-6 * i) * tri.n + (0.8e-6 - 0.5e-6 * i) * tri.t1 + 0.4e-6 * i * tri.t2;
   for (int broken = 0; broken < 2; ++broken) {
     SCOPED_TRACE(broken);
     Vec3 x[6], v[6], xr[6], vr[6], f[6], fr[6];
@@ -359,8 +366,7 @@ TEST(Cohesive6, DamageMonotoneAndUnloading) {
   EXPECT_EQ(ce6_max_damage(dr.s), 0.0);
   EXPECT_NEAR(dr.work, dr.ev.stored, 1e-5 * dr.ev.stored);
   const real xs = 0.99;
-  EXPECT_NEAR(dr.ev.stored, m.tensile_strength * op * (xs * xs - xs * xs * xs / 3) * dr.tri.area,
-              1e-8 * dr.ev.stored);
+  EXPECT_NEAR(dr.ev.stored, m.tensile_strength * op * (xs * xs - xs * xs * xs / 3) * dr.tri.area, 1e-8 * dr.ev.stored);
   // Past peak to D ~ 0.3.
   const real o1 = op + 0.3 * (orr - op);
   dr.move_to(o1 * dr.tri.n, 10000, check);
@@ -411,9 +417,8 @@ TEST(Cohesive6, BrokenFrictionLimit) {
   EXPECT_GT(dot(dr.tau(), dr.tri.t1), 0.0);  // t along the slide: B is pulled back
   // Slip: tau = mu |sigma|.
   bool limited = true;
-  dr.move_to(o * dr.tri.n + 20 * s_stick * dr.tri.t1, 2000, [&] {
-    limited = limited && norm(dr.tau()) <= mu * std::abs(dr.sigma()) * (1 + 1e-9);
-  });
+  dr.move_to(o * dr.tri.n + 20 * s_stick * dr.tri.t1, 2000,
+             [&] { limited = limited && norm(dr.tau()) <= mu * std::abs(dr.sigma()) * (1 + 1e-9); });
   EXPECT_TRUE(limited);
   EXPECT_NEAR(norm(dr.tau()) / std::abs(dr.sigma()), mu, 1e-9 * mu);
   // Reverse: back to stick, then slip the other way at the same limit.

@@ -36,8 +36,7 @@ struct TempDir {
   fs::path path;
   TempDir() {
     const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    path = fs::temp_directory_path() /
-           ("fdem_fields_" + std::string(info->name()) + "_" + std::to_string(::getpid()));
+    path = fs::temp_directory_path() / ("fdem_fields_" + std::string(info->name()) + "_" + std::to_string(::getpid()));
     fs::remove_all(path);
     fs::create_directories(path);
   }
@@ -220,8 +219,8 @@ void expect_frame(hid_t file, const std::string& g, const Model& m, real t, long
     if (tag[0] == '/') {
       std::string name = tag.substr(1);
       if (stack.empty() || stack.back() != name)
-        return ::testing::AssertionFailure() << "</" << name << "> does not close "
-                                             << (stack.empty() ? "anything" : "<" + stack.back() + ">");
+        return ::testing::AssertionFailure()
+               << "</" << name << "> does not close " << (stack.empty() ? "anything" : "<" + stack.back() + ">");
       stack.pop_back();
       continue;
     }
@@ -298,8 +297,7 @@ TEST(FieldWriter, TwoFramesRoundTripExactly) {
   EXPECT_NE(x.find("TopologyType=\"Tetrahedron\" NumberOfElements=\"2\""), std::string::npos);
   EXPECT_NE(x.find("TopologyType=\"Triangle\" NumberOfElements=\"2\""), std::string::npos);
   EXPECT_NE(x.find("<Time Value=\"1.2500000000000001e-05\"/>"), std::string::npos);
-  for (const char* a : {"\"u\"", "\"v\"", "\"stress\"", "\"von_mises\"", "\"rank\"", "\"active\"",
-                        "\"D\"", "\"mode\""})
+  for (const char* a : {"\"u\"", "\"v\"", "\"stress\"", "\"von_mises\"", "\"rank\"", "\"active\"", "\"D\"", "\"mode\""})
     EXPECT_NE(x.find(std::string("Attribute Name=") + a), std::string::npos) << a;
   int items = 0;
   expect_index_matches_h5(x, h5.string(), "fields.h5", &items);
@@ -432,7 +430,8 @@ TEST(PlotCurves, WritesPng) {
     c << "time,step,axial_strain,axial_stress_Pa,lateral_strain,volumetric_strain,broken_ce6\n";
     for (int i = 0; i <= 40; ++i) {
       const double ea = 1e-4 * i;
-      const double s = i <= 25 ? 4e10 * ea * (1 - ea / 0.006) : 4e10 * 0.0025 * (1 - 0.0025 / 0.006) * (1 - 0.04 * (i - 25));
+      const double s =
+          i <= 25 ? 4e10 * ea * (1 - ea / 0.006) : 4e10 * 0.0025 * (1 - 0.0025 / 0.006) * (1 - 0.04 * (i - 25));
       const double el = -0.25 * ea - (i > 20 ? 2e-4 * (i - 20) * 1e-1 : 0);
       c << 1e-6 * i << "," << 10 * i << "," << ea << "," << s << "," << el << "," << ea + 2 * el << ","
         << (i > 20 ? (i - 20) * (i - 20) : 0) << "\n";

@@ -344,8 +344,7 @@ TEST(ValidateMesh, RejectsBadMeshes) {
   m = two_tets();
   m.vertices.push_back({0.1, 0.1, 2});
   m.tets.push_back({0, 1, 2, 5});  // third tet on face 1 2 3 (1-based)
-  EXPECT_NE(message_of([&] { validate_mesh(m); }).find("vertices 1, 2, 3 (1-based) is shared by 3"),
-            std::string::npos);
+  EXPECT_NE(message_of([&] { validate_mesh(m); }).find("vertices 1, 2, 3 (1-based) is shared by 3"), std::string::npos);
   m = two_tets();
   m.tets.clear();
   EXPECT_NE(message_of([&] { validate_mesh(m); }).find("no tetrahedra"), std::string::npos);

@@ -133,14 +133,16 @@ TEST(Scene, BoxAndNoFractureRegions) {
 }
 
 TEST(Scene, ParseFromTextLabelsMessages) {
-  const Scene s = parse_scene("mesh: {generate: {shape: disc, diameter: 0.05, height: 0.025, element_size: 0.002}}\n"
-                              "solver: {end: {time: 0.01}}\n",
-                              "brazilian.yaml");
+  const Scene s = parse_scene(
+      "mesh: {generate: {shape: disc, diameter: 0.05, height: 0.025, element_size: 0.002}}\n"
+      "solver: {end: {time: 0.01}}\n",
+      "brazilian.yaml");
   EXPECT_EQ(s.name, "brazilian");
   EXPECT_EQ(s.file, "brazilian.yaml");
   EXPECT_EQ(s.mesh.shape, "disc");
-  const std::string msg = parse_error("mesh: {generate: {shape: disc, diameter: 0.05, height: 0.025, "
-                                      "element_size: 0.002}}\nsolver: {end: {time: -1}}\n");
+  const std::string msg = parse_error(
+      "mesh: {generate: {shape: disc, diameter: 0.05, height: 0.025, "
+      "element_size: 0.002}}\nsolver: {end: {time: -1}}\n");
   EXPECT_NE(msg.find("mem.yaml: solver.end.time: -1 is out of range; allowed time >= 0"), std::string::npos) << msg;
 }
 
@@ -193,43 +195,40 @@ TEST_P(BadScenes, ThrowsInputErrorNamingFileAndKey) {
 
 INSTANTIATE_TEST_SUITE_P(
     Files, BadScenes,
-    ::testing::Values(BadScene{"missing_mesh.yaml", ": mesh: missing"},
-                      BadScene{"missing_end.yaml", "solver.end: missing"},
-                      BadScene{"end_all_zero.yaml", "solver.end: no end condition"},
-                      BadScene{"negative_modulus.yaml", "material.youngs_modulus: -12.2e9 is out of range"},
-                      BadScene{"poisson_half.yaml", "material.poisson_ratio"},
-                      BadScene{"unknown_top_key.yaml", ": boundary_conditions: unknown key"},
-                      BadScene{"typo_key.yaml", "material.densty: unknown key"},
-                      BadScene{"string_for_number.yaml", "material.density: 'heavy' is not a number"},
-                      BadScene{"map_for_number.yaml", "material.density: expected a number, got a map"},
-                      BadScene{"list_for_map.yaml", "material: expected a map of keys, got a list"},
-                      BadScene{"element_too_large.yaml", "mesh.generate.element_size"},
-                      BadScene{"missing_mesh_file.yaml", "mesh.file: '"},
-                      BadScene{"generate_and_file.yaml", "mesh: both generate and file"},
-                      BadScene{"bad_shape.yaml", "mesh.generate.shape: 'sphere'"},
-                      BadScene{"missing_diameter.yaml", "mesh.generate.diameter: missing"},
-                      BadScene{"box_size_two.yaml", "mesh.generate.size"},
-                      BadScene{"scale_with_generate.yaml", "mesh.scale"},
-                      BadScene{"invalid_yaml.yaml", "invalid YAML"},
-                      BadScene{"empty.yaml", "empty"},
-                      BadScene{"comments_only.yaml", "empty"},
-                      BadScene{"scalar_document.yaml", "expected a map of keys"},
-                      BadScene{"gi_too_small.yaml", "material.fracture_energy_I"},
-                      BadScene{"gii_too_small.yaml", "material.fracture_energy_II"},
-                      BadScene{"box_min_above_max.yaml", "fracture_regions[1].box"},
-                      BadScene{"bad_fracture_regions.yaml", "fracture_regions: 'some'"},
-                      BadScene{"friction_angle_90.yaml", "material.friction_angle"},
-                      BadScene{"bad_softening.yaml", "material.softening"},
-                      BadScene{"platen_too_fast.yaml", "platens.velocity: 20 is out of range; allowed 0 < velocity <= 10"},
-                      BadScene{"no_platens_strain_end.yaml", "solver.end"},
-                      BadScene{"safety_too_big.yaml", "solver.time_step_safety"},
-                      BadScene{"negative_mass_scaling.yaml", "solver.mass_scaling"},
-                      BadScene{"fractional_steps.yaml", "solver.end.steps: 10.5 is not a whole number"},
-                      BadScene{"unknown_end_key.yaml", "solver.end.strain: unknown key"},
-                      BadScene{"monitor_interval_zero.yaml", "output.monitor_interval"},
-                      BadScene{"plot_not_bool.yaml", "output.plot"},
-                      BadScene{"duplicate_key.yaml", "material.density: key given twice"},
-                      BadScene{"many_errors.yaml", "material.density"}),
+    ::testing::Values(
+        BadScene{"missing_mesh.yaml", ": mesh: missing"}, BadScene{"missing_end.yaml", "solver.end: missing"},
+        BadScene{"end_all_zero.yaml", "solver.end: no end condition"},
+        BadScene{"negative_modulus.yaml", "material.youngs_modulus: -12.2e9 is out of range"},
+        BadScene{"poisson_half.yaml", "material.poisson_ratio"},
+        BadScene{"unknown_top_key.yaml", ": boundary_conditions: unknown key"},
+        BadScene{"typo_key.yaml", "material.densty: unknown key"},
+        BadScene{"string_for_number.yaml", "material.density: 'heavy' is not a number"},
+        BadScene{"map_for_number.yaml", "material.density: expected a number, got a map"},
+        BadScene{"list_for_map.yaml", "material: expected a map of keys, got a list"},
+        BadScene{"element_too_large.yaml", "mesh.generate.element_size"},
+        BadScene{"missing_mesh_file.yaml", "mesh.file: '"},
+        BadScene{"generate_and_file.yaml", "mesh: both generate and file"},
+        BadScene{"bad_shape.yaml", "mesh.generate.shape: 'sphere'"},
+        BadScene{"missing_diameter.yaml", "mesh.generate.diameter: missing"},
+        BadScene{"box_size_two.yaml", "mesh.generate.size"}, BadScene{"scale_with_generate.yaml", "mesh.scale"},
+        BadScene{"invalid_yaml.yaml", "invalid YAML"}, BadScene{"empty.yaml", "empty"},
+        BadScene{"comments_only.yaml", "empty"}, BadScene{"scalar_document.yaml", "expected a map of keys"},
+        BadScene{"gi_too_small.yaml", "material.fracture_energy_I"},
+        BadScene{"gii_too_small.yaml", "material.fracture_energy_II"},
+        BadScene{"box_min_above_max.yaml", "fracture_regions[1].box"},
+        BadScene{"bad_fracture_regions.yaml", "fracture_regions: 'some'"},
+        BadScene{"friction_angle_90.yaml", "material.friction_angle"},
+        BadScene{"bad_softening.yaml", "material.softening"},
+        BadScene{"platen_too_fast.yaml", "platens.velocity: 20 is out of range; allowed 0 < velocity <= 10"},
+        BadScene{"no_platens_strain_end.yaml", "solver.end"},
+        BadScene{"safety_too_big.yaml", "solver.time_step_safety"},
+        BadScene{"negative_mass_scaling.yaml", "solver.mass_scaling"},
+        BadScene{"fractional_steps.yaml", "solver.end.steps: 10.5 is not a whole number"},
+        BadScene{"unknown_end_key.yaml", "solver.end.strain: unknown key"},
+        BadScene{"monitor_interval_zero.yaml", "output.monitor_interval"},
+        BadScene{"plot_not_bool.yaml", "output.plot"},
+        BadScene{"duplicate_key.yaml", "material.density: key given twice"},
+        BadScene{"many_errors.yaml", "material.density"}),
     [](const ::testing::TestParamInfo<BadScene>& info) {
       std::string n = info.param.file;
       n = n.substr(0, n.find('.'));
@@ -245,8 +244,8 @@ TEST(Scene, InvalidYamlReportsLineAndColumn) {
 TEST(Scene, CohesiveCheckSkippedForMeshFiles) {
   // A G_I far too small for generated 4 mm elements is not checked when the mesh comes from a file.
   const std::string dir = kData + "/scenes/";
-  const Scene s = parse_scene("material: {fracture_energy_I: 1e-6}\nmesh: {file: tiny.msh}\nsolver: {end: {steps: 1}}\n",
-                              dir + "inline.yaml");
+  const Scene s = parse_scene(
+      "material: {fracture_energy_I: 1e-6}\nmesh: {file: tiny.msh}\nsolver: {end: {steps: 1}}\n", dir + "inline.yaml");
   EXPECT_DOUBLE_EQ(s.material.fracture_energy_I, 1e-6);
   const std::string msg = parse_error(
       "material: {fracture_energy_I: 1e-6}\n"
@@ -257,10 +256,11 @@ TEST(Scene, CohesiveCheckSkippedForMeshFiles) {
 }
 
 TEST(Scene, EmptySectionsKeepDefaults) {
-  const Scene s = parse_scene("name: empty_sections\nmaterial:\nplatens:\noutput:\n"
-                              "mesh: {generate: {shape: box, size: [0.01, 0.01, 0.02], element_size: 0.002}}\n"
-                              "solver: {end: {axial_strain: 0.01}}\n",
-                              "x.yaml");
+  const Scene s = parse_scene(
+      "name: empty_sections\nmaterial:\nplatens:\noutput:\n"
+      "mesh: {generate: {shape: box, size: [0.01, 0.01, 0.02], element_size: 0.002}}\n"
+      "solver: {end: {axial_strain: 0.01}}\n",
+      "x.yaml");
   EXPECT_DOUBLE_EQ(s.material.density, 1800);
   EXPECT_TRUE(s.platens.enabled);
   EXPECT_EQ(s.output.folder, "out/empty_sections");
