@@ -61,7 +61,7 @@ TEST(Scene, DefaultSceneParses) {
   EXPECT_DOUBLE_EQ(s.solver.mass_scaling, 5);
   EXPECT_DOUBLE_EQ(s.solver.time_step_safety, 0.5);
   EXPECT_DOUBLE_EQ(s.solver.end.axial_strain, 0.006);
-  EXPECT_DOUBLE_EQ(s.solver.end.post_peak_fraction, 0.5);
+  EXPECT_DOUBLE_EQ(s.solver.end.post_peak_fraction, 0.3);
   EXPECT_DOUBLE_EQ(s.solver.end.time, 0);
   EXPECT_EQ(s.solver.end.steps, 0);
   EXPECT_EQ(s.output.folder, "out/ucs_small");
