@@ -35,11 +35,7 @@ Solver::Solver(const Scene& scene, Model model) : scene_(scene), model_(std::mov
   x = model_.X;
   v.assign(nn, {0, 0, 0});
   f.assign(nn, {0, 0, 0});
-  ce6.assign(model_.ce6_nodes.size(), Ce6State{});
-  for (std::size_t c = 0; c < ce6.size(); ++c) {
-    // Friction anchors start where the faces are (zero relative sliding).
-    for (auto& s : ce6[c].slip) s = {0, 0, 0};
-  }
+  ce6.assign(model_.ce6_nodes.size(), Ce6State{});  // intact, zero relative sliding
   platen_anchor.resize(model_.platen_nodes.size());
   for (std::size_t i = 0; i < model_.platen_nodes.size(); ++i) {
     const Vec3 p = model_.X[model_.platen_nodes[i]];
