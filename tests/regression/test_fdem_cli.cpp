@@ -104,6 +104,7 @@ TEST(Cli, BadInputExitsTwoNamingFileAndKeyAndWritesNothing) {
       {data + "/no_such_scene.yaml", "no_such_scene.yaml"},
       {data + "/cli/degenerate_mesh.yaml", "zero or near-zero volume"},
       {data + "/cli/garbage_mesh.yaml", "bad_garbage.msh"},
+      {data + "/cli/folded_mesh.yaml", "overlapping"},  // a tet folded over its neighbour
   };
   for (const Case& c : cases) {
     const fs::path out = temp_dir("bad");
