@@ -31,7 +31,7 @@ Mat3 rotation(Vec3 u, real angle) {
 
 }  // namespace
 
-TEST(Platen, NoForceWithoutPenetrationAndAnchorFollowsNode) {
+TEST(PlatenNodeForce, NoForceWithoutPenetrationAndAnchorFollowsNode) {
   // The node is 0.1 mm outside the platen (on the rock side): no contact.
   Vec3 anchor{5, 5, 5};
   const Vec3 xr{0.3e-3, -0.2e-3, 0.1e-3};
@@ -60,7 +60,7 @@ TEST(Platen, NoForceWithoutPenetrationAndAnchorFollowsNode) {
   EXPECT_NEAR(e.force.z, k * 1e-6, 1e-9);
 }
 
-TEST(Platen, NormalForceIsPenaltyTimesGap) {
+TEST(PlatenNodeForce, NormalForceIsPenaltyTimesGap) {
   for (real g : {1e-9, 3e-6, 2e-4}) {
     Vec3 anchor{0.7e-3, 0.1e-3, 0};
     const PlatenEval e = platen_node_force({0.7e-3, 0.1e-3, -g}, ez, k, mu, anchor);
@@ -77,7 +77,7 @@ TEST(Platen, NormalForceIsPenaltyTimesGap) {
   EXPECT_NEAR(e.stored, 0.5 * k * 16e-12, 1e-20);
 }
 
-TEST(Platen, StickingIsAnElasticSpringToTheAnchor) {
+TEST(PlatenNodeForce, StickingIsAnElasticSpringToTheAnchor) {
   const real g = 1e-5;  // friction limit mu k g = 7.5 N, spring length limit mu g = 3e-6 m
   const Vec3 a0{1e-3, 2e-3, 0};
   // Tangential offsets below the limit, in several directions.
@@ -103,7 +103,7 @@ TEST(Platen, StickingIsAnElasticSpringToTheAnchor) {
   EXPECT_NEAR(e.force.y, 0, 1e-12);
 }
 
-TEST(Platen, SlidingForceIsCoulombLimitOpposingTheSlip) {
+TEST(PlatenNodeForce, SlidingForceIsCoulombLimitOpposingTheSlip) {
   const real g = 2e-5;
   const real limit = mu * k * g;  // 15 N
   const Vec3 a0{0, 0, 0};
@@ -123,7 +123,7 @@ TEST(Platen, SlidingForceIsCoulombLimitOpposingTheSlip) {
   EXPECT_NEAR(e.stored, 0.5 * k * (g * g + (mu * g) * (mu * g)), 1e-9 * k * g * g);
 }
 
-TEST(Platen, SteadySlidingDissipatesLimitTimesAnchorTravel) {
+TEST(PlatenNodeForce, SteadySlidingDissipatesLimitTimesAnchorTravel) {
   // A node pressed in by g and dragged along -x in equal steps: after the stick phase the
   // anchor trails the node by mu g, the friction force is +x at the Coulomb limit, and the
   // dissipated work equals limit x anchor travel.
@@ -135,7 +135,9 @@ TEST(Platen, SteadySlidingDissipatesLimitTimesAnchorTravel) {
   for (int i = 1; i <= n; ++i) {
     e = platen_node_force({-step * i, 0, -g}, ez, k, mu, anchor);
     dissipated += e.dissipated;
-    if (step * i <= mu * g * (1 - 1e-9)) EXPECT_EQ(e.dissipated, 0) << "still sticking at step " << i;
+    if (step * i <= mu * g * (1 - 1e-9)) {
+      EXPECT_EQ(e.dissipated, 0) << "still sticking at step " << i;
+    }
   }
   EXPECT_NEAR(e.force.x, limit, 1e-12 * limit);
   EXPECT_NEAR(anchor.x, -step * n + mu * g, 1e-15);
@@ -144,7 +146,7 @@ TEST(Platen, SteadySlidingDissipatesLimitTimesAnchorTravel) {
   EXPECT_NEAR(e.stored, 0.5 * k * (g * g + mu * g * mu * g), 1e-9 * k * g * g);
 }
 
-TEST(Platen, FrictionlessPlatenHasNoTangentialForce) {
+TEST(PlatenNodeForce, FrictionlessPlatenHasNoTangentialForce) {
   Vec3 anchor{0, 0, 0};
   const PlatenEval e = platen_node_force({1e-4, -2e-4, -3e-6}, ez, k, 0, anchor);
   EXPECT_NEAR(e.force.x, 0, 1e-15);
@@ -154,7 +156,7 @@ TEST(Platen, FrictionlessPlatenHasNoTangentialForce) {
   EXPECT_NEAR(e.stored, 0.5 * k * 9e-12, 1e-18);
 }
 
-TEST(Platen, RotatedPlaneGivesRotatedForces) {
+TEST(PlatenNodeForce, RotatedPlaneGivesRotatedForces) {
   const real g = 1e-5;
   // Reference evaluations with n = z: one sticking, one sliding.
   const Vec3 x_stick{1e-6, -1e-6, -g}, x_slide{4e-5, 1e-5, -g};

@@ -1,0 +1,337 @@
+// The real `fdem` executable (FDEM_EXE) end to end: help and version, `check`, `run` and
+// its output files, bad input (exit 2, message naming the file and the key or element, no
+// output folder left behind), an unstable run (exit 3) and launching under mpiexec.
+// Scenes live in tests/data/cli/ (and tests/data/bad_scenes/); outputs go to a temp folder.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+const std::string kExe = FDEM_EXE;
+const fs::path kData = FDEM_TEST_DATA;
+// One quiet OpenMP thread per run, whatever the caller's environment.
+const std::string kEnv = "OMP_NUM_THREADS=1 OMP_WAIT_POLICY=PASSIVE ";
+
+struct Outcome {
+  int code = -1;     // exit status, -1 if not exited normally
+  std::string text;  // stdout and stderr together
+};
+
+std::string quote(const std::string& s) {
+  std::string q = "'";
+  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return q + "'";
+}
+
+Outcome run_cmd(const std::string& cmd) {
+  Outcome o;
+  FILE* pipe = popen((cmd + " 2>&1").c_str(), "r");
+  if (!pipe) return o;
+  char buf[1024];
+  std::size_t n;
+  while ((n = std::fread(buf, 1, sizeof buf, pipe)) > 0) o.text.append(buf, n);
+  const int status = pclose(pipe);
+  if (status != -1 && WIFEXITED(status)) o.code = WEXITSTATUS(status);
+  return o;
+}
+
+Outcome fdem(const std::string& args) {
+  return run_cmd(kEnv + quote(kExe) + " " + args);
+}
+
+bool has(const std::string& text, const std::string& what) {
+  return text.find(what) != std::string::npos;
+}
+
+/// A fresh, empty temporary folder for this test (removed when the object goes).
+struct TempDir {
+  fs::path path;
+  explicit TempDir(const std::string& name) {
+    path = fs::temp_directory_path() / ("fdem_test_cli_" + name + "_" + std::to_string(::getpid()));
+    fs::remove_all(path);
+    fs::create_directories(path);
+  }
+  ~TempDir() {
+    std::error_code ec;
+    fs::remove_all(path, ec);
+  }
+};
+
+struct Csv {
+  std::vector<std::string> header;
+  std::vector<std::vector<double>> rows;
+  std::vector<std::string> bad;  // cells that are not finite numbers
+};
+
+std::vector<std::string> split(const std::string& line) {
+  std::vector<std::string> out;
+  std::stringstream ss(line);
+  std::string cell;
+  while (std::getline(ss, cell, ',')) out.push_back(cell);
+  if (!line.empty() && line.back() == ',') out.push_back("");
+  return out;
+}
+
+Csv read_csv(const fs::path& p) {
+  Csv c;
+  std::ifstream in(p);
+  std::string line;
+  if (!std::getline(in, line)) return c;
+  c.header = split(line);
+  while (std::getline(in, line)) {
+    std::vector<double> row;
+    for (const std::string& cell : split(line)) {
+      char* end = nullptr;
+      const double v = std::strtod(cell.c_str(), &end);
+      if (cell.empty() || *end != '\0' || !std::isfinite(v)) c.bad.push_back(cell);
+      row.push_back(v);
+    }
+    c.rows.push_back(row);
+  }
+  return c;
+}
+
+int column(const Csv& c, const std::string& name) {
+  for (std::size_t i = 0; i < c.header.size(); ++i)
+    if (c.header[i] == name) return int(i);
+  return -1;
+}
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+/// The path of mpiexec, or "" if there is none.
+std::string find_mpiexec() {
+  const Outcome o = run_cmd("command -v mpiexec");
+  if (o.code != 0) return "";
+  std::string p = o.text;
+  while (!p.empty() && (p.back() == '\n' || p.back() == '\r')) p.pop_back();
+  return p;
+}
+
+// Open MPI refuses root without these; -n 2 may exceed the slots of a small machine.
+const std::string kMpiEnv =
+    "OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_base_oversubscribe=1 ";
+
+}  // namespace
+
+TEST(CliExe, HelpListsTheSubcommands) {
+  const Outcome o = fdem("--help");
+  EXPECT_EQ(o.code, 0) << o.text;
+  EXPECT_TRUE(has(o.text, "run")) << o.text;
+  EXPECT_TRUE(has(o.text, "check")) << o.text;
+  EXPECT_TRUE(has(o.text, "Subcommands")) << o.text;
+  // Each subcommand has its own help naming its scene argument.
+  const Outcome r = fdem("run --help");
+  EXPECT_EQ(r.code, 0) << r.text;
+  EXPECT_TRUE(has(r.text, "scene")) << r.text;
+  EXPECT_TRUE(has(r.text, "--output")) << r.text;
+}
+
+TEST(CliExe, VersionPrintsTheProjectVersion) {
+  const Outcome o = fdem("--version");
+  EXPECT_EQ(o.code, 0) << o.text;
+  EXPECT_TRUE(has(o.text, std::string("fdem ") + FDEM_VERSION)) << o.text;
+}
+
+TEST(CliExe, UnknownSubcommandsAndOptionsFail) {
+  const std::string scene = quote((kData / "cli" / "check_box.yaml").string());
+  // (Each launch costs about 0.6 s of MPI start-up, so the list is short.)
+  for (const std::string& args :
+       {std::string("frobnicate"), "check " + scene + " --frobnicate", "run " + scene + " -t minus"}) {
+    const Outcome o = fdem(args);
+    EXPECT_NE(o.code, 0) << "fdem " << args << "\n" << o.text;
+    EXPECT_EQ(o.code, 2) << "fdem " << args << "\n" << o.text;  // a command-line error is bad input
+    EXPECT_FALSE(has(o.text, "tets ")) << "fdem " << args << " built a model:\n" << o.text;
+  }
+}
+
+TEST(CliExe, CheckReportsCountsAndStableStep) {
+  TempDir tmp("check");
+  const std::string check = "cd " + quote(tmp.path.string()) + " && " + kEnv + quote(kExe) + " check " +
+                            quote((kData / "cli" / "check_box.yaml").string());
+  const Outcome o = run_cmd(check);
+  ASSERT_EQ(o.code, 0) << o.text;
+  EXPECT_TRUE(has(o.text, "tets ")) << o.text;
+  EXPECT_TRUE(has(o.text, "CE6 ")) << o.text;
+  EXPECT_TRUE(has(o.text, "stable step ")) << o.text;
+  // Default fracture regions: CE6 everywhere, so 4 nodes per tet.
+  long tets = -1, ce6 = -1, nodes = -1;
+  const std::size_t at = o.text.find("tets ");
+  ASSERT_NE(at, std::string::npos);
+  ASSERT_EQ(std::sscanf(o.text.c_str() + at, "tets %ld, CE6 %ld, nodes %ld", &tets, &ce6, &nodes), 3) << o.text;
+  EXPECT_GT(tets, 0);
+  EXPECT_GT(ce6, 0);
+  EXPECT_EQ(nodes, 4 * tets);
+  EXPECT_LT(ce6, 2 * tets);  // each tet has 4 faces, some on the surface
+  // The stable step is a positive number of seconds, and the time step is half of it.
+  double stable = 0, dt = 0;
+  const std::size_t s = o.text.find("stable step ");
+  ASSERT_EQ(std::sscanf(o.text.c_str() + s, "stable step %lf s", &stable), 1) << o.text;
+  const std::size_t d = o.text.find("time step ", s + 12);
+  ASSERT_NE(d, std::string::npos) << o.text;
+  ASSERT_EQ(std::sscanf(o.text.c_str() + d, "time step %lf s", &dt), 1) << o.text;
+  EXPECT_GT(stable, 1e-10);
+  EXPECT_LT(stable, 1e-5);
+  EXPECT_NEAR(dt, 0.5 * stable, 1e-5 * stable);  // default time_step_safety 0.5
+  // `check` writes nothing (run in an empty folder, the default output folder would be there).
+  EXPECT_TRUE(fs::is_empty(tmp.path));
+}
+
+TEST(CliExe, InvertedTetsInAMeshFileAreFine) {
+  const Outcome o = fdem("check " + quote((kData / "cli" / "inverted_tets.yaml").string()));
+  EXPECT_EQ(o.code, 0) << o.text;
+  // cube6_v22.msh: 6 tets of the unit cube (scaled to 1 cm) around one diagonal.
+  EXPECT_TRUE(has(o.text, "tets 6, CE6 6, nodes 24, surface faces 12")) << o.text;
+}
+
+namespace {
+
+struct BadCase {
+  std::string scene;                   // path under tests/data
+  std::vector<std::string> must_name;  // substrings of the message
+  bool also_check;                     // try `fdem check` too
+};
+
+}  // namespace
+
+TEST(CliExe, BadInputExitsTwoNamingTheProblemAndWritesNothing) {
+  TempDir tmp("bad");
+  const std::vector<BadCase> cases = {
+      {"bad_scenes/negative_modulus.yaml", {"negative_modulus.yaml", "material.youngs_modulus"}, true},
+      {"bad_scenes/missing_mesh.yaml", {"missing_mesh.yaml", "mesh"}, false},
+      {"cli/does_not_exist.yaml", {"does_not_exist.yaml", "does not exist"}, false},
+      {"cli/zero_volume_tet.yaml", {"bad_zero_volume.msh", "element tag 7", "volume"}, true},
+      {"cli/garbage_msh.yaml", {"bad_garbage.msh", "$MeshFormat"}, false},
+      {"bad_scenes/missing_mesh_file.yaml", {"missing_mesh_file.yaml", "mesh.file"}, false},
+      {"cli/folded_mesh.yaml", {"bad_overlap.msh", "overlapping"}, true},  // a tet folded over its neighbour
+  };
+  int i = 0;
+  for (const BadCase& c : cases) {
+    const std::string scene = quote((kData / c.scene).string());
+    const fs::path out = tmp.path / ("out" + std::to_string(i++));
+    // `run` with an explicit output folder; `check` takes no options.
+    std::vector<std::string> calls{"run " + scene + " -q -o " + quote(out.string())};
+    if (c.also_check) calls.push_back("check " + scene);
+    for (const std::string& args : calls) {
+      const Outcome r = fdem(args);
+      SCOPED_TRACE("fdem " + args + "\n" + r.text);
+      EXPECT_EQ(r.code, 2);
+      EXPECT_TRUE(has(r.text, "error")) << r.text;
+      for (const std::string& w : c.must_name) EXPECT_TRUE(has(r.text, w)) << "message should name '" << w << "'";
+      EXPECT_FALSE(has(r.text, "tets ")) << "a model was reported for bad input";
+    }
+    EXPECT_FALSE(fs::exists(out)) << c.scene << " left " << out;
+  }
+  // The scene's own output folder is not created either (run from inside the temp folder).
+  const Outcome o = run_cmd("cd " + quote(tmp.path.string()) + " && " + kEnv + quote(kExe) + " run " +
+                            quote((kData / "bad_scenes/negative_modulus.yaml").string()));
+  EXPECT_EQ(o.code, 2) << o.text;
+  EXPECT_FALSE(fs::exists(tmp.path / "out")) << o.text;
+}
+
+TEST(CliExe, RunWritesMonitorsAndFields) {
+  TempDir tmp("run");
+  const fs::path out = tmp.path / "nested" / "run_box";
+  const Outcome o = fdem("run " + quote((kData / "cli" / "run_box.yaml").string()) + " -t 1 -o " + quote(out.string()));
+  ASSERT_EQ(o.code, 0) << o.text;
+  EXPECT_TRUE(has(o.text, "finished")) << o.text;
+  EXPECT_TRUE(has(o.text, "step count 400 reached")) << o.text;
+  ASSERT_TRUE(fs::exists(out / "monitors.csv")) << o.text;
+  ASSERT_TRUE(fs::exists(out / "fields.xdmf")) << o.text;
+  ASSERT_TRUE(fs::exists(out / "fields.h5")) << o.text;
+  EXPECT_FALSE(fs::exists(out / "stress_strain.png"));  // output.plot: false
+  EXPECT_GT(fs::file_size(out / "fields.h5"), 1000u);
+
+  const Csv csv = read_csv(out / "monitors.csv");
+  EXPECT_TRUE(csv.bad.empty()) << "non-numeric or non-finite cells, first: " << csv.bad.front();
+  const int step = column(csv, "step"), stress = column(csv, "axial_stress_Pa"), strain = column(csv, "axial_strain"),
+            err = column(csv, "energy_error");
+  ASSERT_GE(step, 0);
+  ASSERT_GE(stress, 0);
+  ASSERT_GE(strain, 0);
+  ASSERT_GE(err, 0);
+  // monitor_interval 25, 400 steps: rows at 0, 25, ..., 400.
+  ASSERT_EQ(csv.rows.size(), 17u);
+  for (std::size_t r = 0; r < csv.rows.size(); ++r) {
+    ASSERT_EQ(csv.rows[r].size(), csv.header.size()) << "row " << r;
+    EXPECT_EQ(csv.rows[r][step], 25.0 * r);
+  }
+  EXPECT_EQ(csv.rows[0][stress], 0);
+  EXPECT_EQ(csv.rows[0][strain], 0);
+  // The platens ramp up smoothly over about three wave transits: the stress rises at every row.
+  for (std::size_t r = 1; r < csv.rows.size(); ++r) {
+    EXPECT_GT(csv.rows[r][strain], csv.rows[r - 1][strain]) << "row " << r;
+    EXPECT_GT(csv.rows[r][stress], csv.rows[r - 1][stress]) << "row " << r;
+  }
+  // Once at full speed the specimen is loaded quasi-statically: the tangent modulus of the
+  // last rows is Young's modulus (12.2 GPa) to within the platen-friction stiffening.
+  const auto& a = csv.rows[csv.rows.size() - 5];
+  const auto& b = csv.rows.back();
+  const double modulus = (b[stress] - a[stress]) / (b[strain] - a[strain]);
+  EXPECT_GT(modulus, 0.85 * 12.2e9);
+  EXPECT_LT(modulus, 1.2 * 12.2e9);
+  EXPECT_LT(b[err], 0.01);  // energy balance
+
+  const std::string xdmf = slurp(out / "fields.xdmf");
+  EXPECT_TRUE(has(xdmf, "Xdmf")) << xdmf.substr(0, 200);
+  EXPECT_TRUE(has(xdmf, "fields.h5")) << xdmf.substr(0, 400);
+}
+
+TEST(CliExe, UnstableRunStopsWithExitThreeAndAValidCsv) {
+  TempDir tmp("unstable");
+  const fs::path out = tmp.path / "unstable";
+  const Outcome o = fdem("run " + quote((kData / "cli" / "unstable_box.yaml").string()) + " -o " + quote(out.string()));
+  EXPECT_EQ(o.code, 3) << o.text;
+  EXPECT_TRUE(has(o.text, "time_step_safety")) << o.text;
+  EXPECT_TRUE(has(o.text, "unstable")) << o.text;
+  ASSERT_TRUE(fs::exists(out / "monitors.csv")) << o.text;
+  const Csv csv = read_csv(out / "monitors.csv");
+  EXPECT_EQ(column(csv, "axial_stress_Pa"), 3);
+  EXPECT_GE(csv.rows.size(), 2u);
+  EXPECT_TRUE(csv.bad.empty()) << "non-finite cell before the stop: " << csv.bad.front();
+  for (const auto& r : csv.rows) EXPECT_EQ(r.size(), csv.header.size());
+  const std::string raw = slurp(out / "monitors.csv");
+  EXPECT_FALSE(has(raw, "nan"));
+  EXPECT_FALSE(has(raw, "inf"));
+  // It stopped long before the 200000 steps asked for.
+  EXPECT_LT(csv.rows.back()[0], 1000);
+}
+
+TEST(CliExe, RunsUnderMpiexecWithOneRankOnly) {
+  const std::string mpiexec = find_mpiexec();
+  if (mpiexec.empty()) GTEST_SKIP() << "mpiexec not found";
+  TempDir tmp("mpi");
+  const fs::path out = tmp.path / "mpi1";
+  const std::string scene = quote((kData / "cli" / "run_box.yaml").string());
+  const Outcome one = run_cmd(kMpiEnv + kEnv + quote(mpiexec) + " -n 1 " + quote(kExe) + " run " + scene + " -o " +
+                              quote(out.string()));
+  ASSERT_EQ(one.code, 0) << one.text;
+  EXPECT_TRUE(fs::exists(out / "monitors.csv"));
+  EXPECT_TRUE(fs::exists(out / "fields.h5"));
+  EXPECT_EQ(read_csv(out / "monitors.csv").rows.size(), 17u);
+
+  const fs::path out2 = tmp.path / "mpi2";
+  const Outcome two = run_cmd(kMpiEnv + kEnv + quote(mpiexec) + " -n 2 " + quote(kExe) + " run " + scene + " -o " +
+                              quote(out2.string()));
+  EXPECT_NE(two.code, 0) << two.text;
+  EXPECT_TRUE(has(two.text, "one MPI rank")) << two.text;
+  EXPECT_TRUE(has(two.text, "-n 1")) << two.text;
+  EXPECT_FALSE(fs::exists(out2));
+}
