@@ -42,8 +42,16 @@ int run_main(int argc, char** argv) {
   if (!output.empty()) scene.output.folder = output;
   if (threads > 0) scene.solver.threads = threads;
   if (quiet) scene.output.progress_interval = 0;
-  fdem::Mesh mesh = fdem::load_mesh(scene.mesh);
-  fdem::Solver solver(scene, fdem::build_model(mesh, scene));
+  fdem::Mesh mesh;
+  fdem::Model model;
+  try {
+    mesh = fdem::load_mesh(scene.mesh);
+    model = fdem::build_model(mesh, scene);
+  } catch (const fdem::InputError& e) {
+    // Name the scene too: the mesh message names the mesh file and the element.
+    throw fdem::InputError(scene.file + ": mesh: " + e.what());
+  }
+  fdem::Solver solver(scene, std::move(model));
   fdem::report_model(solver, std::cout);
   if (check->parsed()) return 0;
 

@@ -35,7 +35,9 @@ struct Model {
   Colouring tet_colours;
 
   // CE6: nodes 0-2 on tet A's face, 3-5 the paired nodes of tet B (same vertices, same
-  // order); the face normal (0->1->2, right hand) points from A into B.
+  // order); the face normal (0->1->2, right hand) points from A into B. On the border of a
+  // fracture region a pair can be one node (both tets joined to the continuous part there):
+  // that pair cannot open, which pins the crack's edge to the region.
   std::vector<std::array<int, 6>> ce6_nodes;
   std::vector<std::array<int, 2>> ce6_tets;
   std::vector<real> ce6_h;  // characteristic size (reference mean edge length), m
