@@ -43,7 +43,7 @@ std::string h5_detail() {
 
 [[noreturn]] void h5_fail(const std::string& file, const std::string& what) {
   std::string d = h5_detail();
-  throw RunError("HDF5 output " + file + ": " + what + " failed" + (d.empty() ? "" : " (" + d + ")"));
+  throw OutputError("HDF5 output " + file + ": " + what + " failed" + (d.empty() ? "" : " (" + d + ")"));
 }
 
 /// Owns one HDF5 handle and closes it with the matching H5?close.
@@ -230,10 +230,10 @@ FieldWriter::FieldWriter(const std::string& folder, const std::string& basename)
   std::error_code ec;
   fs::create_directories(dir, ec);
   if (ec || !fs::is_directory(dir))
-    throw RunError("field output: cannot create folder " + dir.string() + ": " +
-                   (ec ? ec.message() : std::string("a file of that name is in the way")));
+    throw OutputError("field output: cannot create folder " + dir.string() + ": " +
+                      (ec ? ec.message() : std::string("a file of that name is in the way")));
 
-  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);  // errors are reported through RunError instead
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);  // errors are reported through OutputError instead
   Handle file(H5Fcreate(h5_path_.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose);
   if (!file.ok()) h5_fail(h5_path_, "creating the file");
   write_attr_string(file.get(), "writer", "fdem FieldWriter", h5_path_);
@@ -241,7 +241,7 @@ FieldWriter::FieldWriter(const std::string& folder, const std::string& basename)
 
   // An index from an earlier run would point at frames the fresh .h5 no longer has.
   fs::remove(xdmf_path_, ec);
-  if (ec) throw RunError("field output: cannot remove stale index " + xdmf_path_ + ": " + ec.message());
+  if (ec) throw OutputError("field output: cannot remove stale index " + xdmf_path_ + ": " + ec.message());
 }
 
 void FieldWriter::write(const FieldFrame& f) {
@@ -408,7 +408,7 @@ void FieldWriter::write(const FieldFrame& f) {
 void FieldWriter::rewrite_index() const {
   const std::string tmp = xdmf_path_ + ".tmp";
   std::FILE* fp = std::fopen(tmp.c_str(), "w");
-  if (!fp) throw RunError("field output: cannot write index " + tmp + ": " + std::strerror(errno));
+  if (!fp) throw OutputError("field output: cannot write index " + tmp + ": " + std::strerror(errno));
   std::string text =
       "<?xml version=\"1.0\" encoding=\"utf-8\"?>\n"
       "<Xdmf xmlns:xi=\"http://www.w3.org/2001/XInclude\" Version=\"3.0\">\n"
@@ -421,12 +421,12 @@ void FieldWriter::rewrite_index() const {
   const int err = errno;
   if (std::fclose(fp) != 0 || !ok) {
     std::remove(tmp.c_str());
-    throw RunError("field output: cannot write index " + tmp + ": " + std::strerror(ok ? errno : err));
+    throw OutputError("field output: cannot write index " + tmp + ": " + std::strerror(ok ? errno : err));
   }
   if (std::rename(tmp.c_str(), xdmf_path_.c_str()) != 0) {
     const int e = errno;
     std::remove(tmp.c_str());
-    throw RunError("field output: cannot rename " + tmp + " to " + xdmf_path_ + ": " + std::strerror(e));
+    throw OutputError("field output: cannot rename " + tmp + " to " + xdmf_path_ + ": " + std::strerror(e));
   }
 }
 

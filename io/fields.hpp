@@ -46,7 +46,8 @@ struct FieldFrame {
 };
 
 /// Appends frames to <folder>/<basename>.h5 and keeps <folder>/<basename>.xdmf up to date.
-/// Every failure (HDF5, file system, non-finite value, inconsistent sizes) throws RunError
+/// A file-system or HDF5 failure throws OutputError; a non-finite value or inconsistent sizes
+/// throw RunError
 /// naming the file or the field and index; a failed write() leaves the index of the earlier
 /// frames intact.
 class FieldWriter {

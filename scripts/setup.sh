@@ -12,7 +12,14 @@ done
 if ((${#missing[@]})); then
   echo "fdem setup: installing ${missing[*]}"
   sudo=""
-  if [ "$(id -u)" -ne 0 ]; then sudo="sudo"; fi
+  if [ "$(id -u)" -ne 0 ]; then
+    if ! command -v sudo >/dev/null; then
+      echo "fdem setup: missing packages: ${missing[*]}" >&2
+      echo "fdem setup: run as root (or install sudo), or install them yourself with apt-get" >&2
+      exit 1
+    fi
+    sudo="sudo"
+  fi
   $sudo apt-get update -qq
   DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 fi

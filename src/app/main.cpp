@@ -1,4 +1,5 @@
-// The fdem command line. Exit codes: 0 success, 2 bad input, 3 run failed (unstable), 1 other.
+// The fdem command line. Exit codes: 0 success, 2 bad input, 3 run stopped (unstable),
+// 4 writing output failed, 1 other.
 #include <mpi.h>
 
 #include <CLI/CLI.hpp>
@@ -79,6 +80,9 @@ int main(int argc, char** argv) {
   } catch (const fdem::InputError& e) {
     std::cerr << "error: " << e.what() << std::endl;
     code = 2;
+  } catch (const fdem::OutputError& e) {
+    std::cerr << "output failed: " << e.what() << std::endl;
+    code = 4;
   } catch (const fdem::RunError& e) {
     std::cerr << "run stopped: " << e.what() << std::endl;
     code = 3;

@@ -15,4 +15,9 @@ struct RunError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// Writing results failed (disk full, permissions, a broken file). Exit code 4.
+struct OutputError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
 }  // namespace fdem

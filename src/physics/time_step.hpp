@@ -1,13 +1,14 @@
 #pragma once
 // Stable time step of the explicit central-difference scheme.
 //   TET4: dt = 2/w (sqrt(1 + xi^2) - xi) with w the element's highest natural frequency
-//         (lumped mass) and xi its damping ratio. The element bound is an upper bound of
-//         the mesh's highest frequency, so the step is safe for the assembled model.
+//         (lumped mass) and xi its damping ratio (the element bound is an upper bound
+//         for a mesh of tets alone).
 //         w^2 and 2 xi w are the largest eigenvalues of M^-1 K and M^-1 C (12x12), found
 //         by power iteration: K u at node i is V sigma(eps(u)) g_i with g_i = grad N_i,
 //         C the same with the viscous stress eta eps.
-//   CE6 (a node pair joined by a penalty spring k = P A / (3 h)):
-//         dt = 2 sqrt(m1 m2 / ((m1 + m2) k)).
+//   The solver bounds the assembled model node by node (Solver::stable_step_bound): the
+//   TET4 eigenvalue plus the row sums of the CE6 penalty springs (k = P A / (3 h) per node
+//   pair) and platen springs at the node, over its mass.
 #include <cmath>
 
 #include "core/vec.hpp"
@@ -50,16 +51,18 @@ FDEM_HD real tet4_max_eigenvalue(const Mat3& Xinv, real lambda, real mu, real de
   return lam_max;
 }
 
-/// Stable step of one damped TET4 (s); eta the viscous coefficient (sigma_v = eta D).
-FDEM_HD real tet4_stable_step(const Mat3& Xinv, real lambda, real mu, real eta, real density_scaled) {
-  const real w = std::sqrt(tet4_max_eigenvalue(Xinv, lambda, mu, density_scaled));
-  const real c = tet4_max_eigenvalue(Xinv, 0, real(0.5) * eta, density_scaled);  // = 2 xi w
+/// Stable step of a mode with squared frequency w2 (1/s^2) and damping rate c = 2 xi w (1/s):
+/// 2/w (sqrt(1 + xi^2) - xi).
+FDEM_HD real damped_stable_step(real w2, real c) {
+  const real w = std::sqrt(w2);
   const real xi = c / (2 * w);
   return 2 / w * (std::sqrt(1 + xi * xi) - xi);
 }
 
-FDEM_HD real pair_stable_step(real m1, real m2, real k) {
-  return 2 * std::sqrt(m1 * m2 / ((m1 + m2) * k));
+/// Stable step of one damped TET4 (s); eta the viscous coefficient (sigma_v = eta D).
+FDEM_HD real tet4_stable_step(const Mat3& Xinv, real lambda, real mu, real eta, real density_scaled) {
+  return damped_stable_step(tet4_max_eigenvalue(Xinv, lambda, mu, density_scaled),
+                            tet4_max_eigenvalue(Xinv, 0, real(0.5) * eta, density_scaled));
 }
 
 /// Critical viscous damping coefficient (reference paper Eq. 2), Pa s.

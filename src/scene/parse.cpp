@@ -439,7 +439,7 @@ class Reader {
   void solver(const YAML::Node& n, SolverSettings& s, bool platens_on) {
     const std::string p = "solver";
     if (!check_map(n, p, {"time_step_safety", "time_step", "mass_scaling", "damping_scale", "threads", "end"})) return;
-    number(n, p, "time_step_safety", Range{0, 2, true, false}, s.time_step_safety);
+    number(n, p, "time_step_safety", Range{0, 10, true, false}, s.time_step_safety);
     number(n, p, "time_step", at_least(0), s.time_step);
     number(n, p, "mass_scaling", closed(1, 1e6), s.mass_scaling);
     number(n, p, "damping_scale", closed(0, 100), s.damping_scale);

@@ -65,7 +65,7 @@ struct EndCondition {
 };
 
 struct SolverSettings {
-  real time_step_safety = 0.5;  // fraction of the stable time step (0 < s <= 2; > 1 is unstable)
+  real time_step_safety = 0.9;  // fraction of the stable-step bound (0 < s <= 10; <= 1 is stable)
   real time_step = 0;           // s; if > 0 overrides the stable-step estimate (must be <= it, unless testing)
   real mass_scaling = 1;        // density factor m >= 1
   real damping_scale = 1;       // factor on the critical damping eta = 2 h sqrt(m rho E); 0 = undamped

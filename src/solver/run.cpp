@@ -1,5 +1,9 @@
 #include "solver/run.hpp"
 
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/wait.h>
+
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -66,6 +70,25 @@ void write_frame(FieldWriter& w, const Solver& s, const std::string& label) {
   w.write(fr);
 }
 
+/// Run scripts/plot_curves.py without a shell (names with quotes stay harmless).
+bool plot_curves(const std::string& csv, const std::string& png, const std::string& title) {
+  const std::string py = std::filesystem::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
+  const std::string script = std::string(FDEM_SCRIPTS_DIR) + "/plot_curves.py";
+  std::vector<std::string> args = {py, script, csv, png, "--title", title};
+  std::vector<char*> argv;
+  for (std::string& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  posix_spawn_file_actions_t quiet;
+  posix_spawn_file_actions_init(&quiet);
+  posix_spawn_file_actions_addopen(&quiet, 1, "/dev/null", O_WRONLY, 0);
+  posix_spawn_file_actions_addopen(&quiet, 2, "/dev/null", O_WRONLY, 0);
+  pid_t pid = 0;
+  const int rc = posix_spawnp(&pid, argv[0], &quiet, nullptr, argv.data(), environ);
+  posix_spawn_file_actions_destroy(&quiet);
+  int status = 0;
+  return rc == 0 && waitpid(pid, &status, 0) == pid && WIFEXITED(status) && WEXITSTATUS(status) == 0;
+}
+
 }  // namespace
 
 void report_model(const Solver& solver, std::ostream& out) {
@@ -125,6 +148,7 @@ RunSummary run_scene(Solver& solver, std::ostream& log) {
         mon = solver.measure();
         write_row(csv, mon);
         csv.flush();
+        if (!csv) throw OutputError("cannot write " + csv_path + " (disk full or file removed?)");
         if (mon.axial_stress > sum.peak_stress) {
           sum.peak_stress = mon.axial_stress;
           sum.strain_at_peak = mon.axial_strain;
@@ -172,6 +196,7 @@ RunSummary run_scene(Solver& solver, std::ostream& log) {
   mon = solver.measure();
   if (solver.step_count() % out.monitor_interval != 0) write_row(csv, mon);
   csv.close();
+  if (!csv) throw OutputError("cannot write " + csv_path + " (disk full or file removed?)");
   write_frame(fields, solver, "final");
   sum.steps = solver.step_count();
   sum.time = solver.time();
@@ -179,10 +204,7 @@ RunSummary run_scene(Solver& solver, std::ostream& log) {
   sum.last = mon;
   if (out.plot) {
     const std::string png = (fs::path(out.folder) / "stress_strain.png").string();
-    const std::string py = fs::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
-    const std::string cmd = py + " '" + std::string(FDEM_SCRIPTS_DIR) + "/plot_curves.py' '" + csv_path + "' '" + png +
-                            "' --title '" + scene.name + "' > /dev/null 2>&1";
-    if (std::system(cmd.c_str()) != 0)
+    if (!plot_curves(csv_path, png, scene.name))
       log << "warning: could not plot " << png << " (needs python3-matplotlib); the curves are in " << csv_path
           << std::endl;
   }

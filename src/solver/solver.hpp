@@ -61,7 +61,8 @@ class Solver {
 
  private:
   void compute_forces();
-  void check_finite(real vmax2) const;
+  StableStep stable_step_bound() const;
+  void check_finite(long bad_nodes) const;
 
   Scene scene_;
   Model model_;
@@ -78,7 +79,7 @@ class Solver {
   real force_top_ = 0, force_bottom_ = 0;
   // Energies integrated over time, J.
   real w_external_ = 0, w_cohesive_ = 0, w_friction_ = 0, w_viscous_ = 0, w_platen_friction_ = 0;
-  real p_cohesive_ = 0, p_friction_ = 0, p_viscous_ = 0, d_platen_friction_ = 0;  // from the last evaluation
+  real p_cohesive_ = 0, p_friction_ = 0, p_viscous_ = 0;  // from the last evaluation
   real platen_stored_ = 0;
   real energy_floor_ = 0;
 };

@@ -380,7 +380,7 @@ TEST(FieldWriter, UnwritableFolderThrowsWithPath) {
     Model m(0);
     w.write(m.frame(0, 0, ""));
     FAIL() << "writing under a regular file succeeded";
-  } catch (const RunError& e) {
+  } catch (const OutputError& e) {
     EXPECT_NE(std::string(e.what()).find(folder), std::string::npos) << e.what();
   }
 }
@@ -397,7 +397,7 @@ TEST(FieldWriter, Hdf5FailureNamesTheFileAndKeepsIndex) {
   try {
     w.write(m0.frame(1, 1, ""));
     FAIL() << "writing into a corrupt .h5 succeeded";
-  } catch (const RunError& e) {
+  } catch (const OutputError& e) {
     EXPECT_NE(std::string(e.what()).find(h5.string()), std::string::npos) << e.what();
   }
   EXPECT_EQ(w.frames(), 1);

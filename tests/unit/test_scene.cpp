@@ -59,7 +59,7 @@ TEST(Scene, DefaultSceneParses) {
   EXPECT_DOUBLE_EQ(s.platens.velocity, 0.1);
   EXPECT_DOUBLE_EQ(s.platens.ramp_time, 0);
   EXPECT_DOUBLE_EQ(s.solver.mass_scaling, 5);
-  EXPECT_DOUBLE_EQ(s.solver.time_step_safety, 0.5);
+  EXPECT_DOUBLE_EQ(s.solver.time_step_safety, 0.9);
   EXPECT_DOUBLE_EQ(s.solver.end.axial_strain, 0.006);
   EXPECT_DOUBLE_EQ(s.solver.end.post_peak_fraction, 0.3);
   EXPECT_DOUBLE_EQ(s.solver.end.time, 0);
