@@ -1,6 +1,7 @@
 // Device instantiations of every src/physics law: the CUDA backend's kernels will be
 // launches of exactly these functions. Built wherever nvcc is found.
 #include "physics/cohesive6.hpp"
+#include "physics/contact.hpp"
 #include "physics/integrate.hpp"
 #include "physics/platen.hpp"
 #include "physics/tet4.hpp"
@@ -38,6 +39,19 @@ __global__ void platen_kernel(int n, const int* nodes, const Vec3* x, const real
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= n) return;
   f[nodes[i]] += platen_node_force(x[nodes[i]] - Vec3{0, 0, z}, n_in, k[i], mu, anchor[i]).force;
+}
+
+__global__ void contact_kernel(int n, const int2* pairs, const int4* tets, const Vec3* x, const Vec3* v, real P,
+                               real mu, real dt, Vec3* spring, Vec3* f_pair) {
+  const int p = blockIdx.x * blockDim.x + threadIdx.x;
+  if (p >= n) return;
+  const int4 a = tets[pairs[p].x], b = tets[pairs[p].y];
+  const Vec3 xa[4] = {x[a.x], x[a.y], x[a.z], x[a.w]}, xb[4] = {x[b.x], x[b.y], x[b.z], x[b.w]};
+  const Vec3 va[4] = {v[a.x], v[a.y], v[a.z], v[a.w]}, vb[4] = {v[b.x], v[b.y], v[b.z], v[b.w]};
+  Vec3 fa[4], fb[4];
+  const ContactEval e = contact_tet_pair(xa, xb, P, fa, fb);
+  contact_friction(xa, xb, va, vb, e, mu, P * real(1e-3), dt, spring[p], fa, fb);
+  for (int i = 0; i < 4; ++i) f_pair[8 * p + i] = fa[i], f_pair[8 * p + 4 + i] = fb[i];
 }
 
 __global__ void integrate_kernel(int n, Vec3* x, Vec3* v, const Vec3* f, const real* inv_mass, real dt) {

@@ -28,6 +28,9 @@ int run_main(int argc, char** argv) {
   run->add_option("-o,--output", output, "Output folder (overrides output.folder)");
   run->add_option("-t,--threads", threads, "OpenMP threads (overrides solver.threads)")->check(CLI::NonNegativeNumber);
   run->add_flag("-q,--quiet", quiet, "No progress lines");
+  std::string activation;
+  run->add_option("--contact", activation, "Contact activation (overrides contact.activation)")
+      ->check(CLI::IsMember({"adaptive", "full", "none"}));
 
   auto* check = app.add_subcommand("check", "Validate a scene, build its model and report counts and the time step");
   check->add_option("scene", scene_path, "Scene file (YAML)")->required();
@@ -43,6 +46,7 @@ int run_main(int argc, char** argv) {
   if (!output.empty()) scene.output.folder = output;
   if (threads > 0) scene.solver.threads = threads;
   if (quiet) scene.output.progress_interval = 0;
+  if (!activation.empty()) scene.contact.activation = activation;
   fdem::Mesh mesh;
   fdem::Model model;
   try {
@@ -62,7 +66,14 @@ int run_main(int argc, char** argv) {
             << "  peak axial stress " << s.peak_stress / 1e6 << " MPa at axial strain " << s.strain_at_peak
             << "; broken CE6 " << s.last.broken << " (mode I " << s.last.broken_I << ", II " << s.last.broken_II
             << ", mixed " << s.last.broken_mixed << "); energy error " << s.last.energy_error << "\n"
-            << "  outputs in " << s.folder << ": monitors.csv, stress_strain.png, fields.xdmf (open in ParaView)\n";
+            << "  contact " << scene.contact.activation;
+  if (solver.contacts.enabled()) {
+    const fdem::ContactTimes& ct = solver.contacts.times;
+    std::cout << ": " << s.last.active_tets << " of " << solver.model().tet_nodes.size() << " tets active, "
+              << s.last.contact_pairs << " candidate pairs, " << ct.rebuilds << " broad-phase builds; wall time broad "
+              << ct.broad << " s, narrow " << ct.narrow << " s, friction " << ct.friction << " s";
+  }
+  std::cout << "\n  outputs in " << s.folder << ": monitors.csv, stress_strain.png, fields.xdmf (open in ParaView)\n";
   return 0;
 }
 

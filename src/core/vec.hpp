@@ -112,6 +112,15 @@ FDEM_HD Mat3 inverse(const Mat3& p) {
   r.a[2][2] = s * (p.a[0][0] * p.a[1][1] - p.a[0][1] * p.a[1][0]);
   return r;
 }
+/// Rotation by `angle` (rad) about the axis `axis` (any length > 0; Rodrigues' formula).
+FDEM_HD Mat3 rotation(Vec3 axis, real angle) {
+  const Vec3 u = (real(1) / norm(axis)) * axis;
+  const real c = std::cos(angle), s = std::sin(angle), t = 1 - c;
+  return {{{t * u.x * u.x + c, t * u.x * u.y - s * u.z, t * u.x * u.z + s * u.y},
+           {t * u.x * u.y + s * u.z, t * u.y * u.y + c, t * u.y * u.z - s * u.x},
+           {t * u.x * u.z - s * u.y, t * u.y * u.z + s * u.x, t * u.z * u.z + c}}};
+}
+
 /// Symmetric 3x3 stored as xx, yy, zz, yz, xz, xy (Voigt order).
 struct Sym3 {
   real xx, yy, zz, yz, xz, xy;

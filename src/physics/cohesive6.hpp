@@ -17,7 +17,8 @@
 //   z(D):           Munjiza: [1 - (a+b-1)/(a+b) exp(D (a+c b)/((a+b)(1-a-b)))] [a(1-D) + b(1-D)^c],
 //                   a = 0.63, b = 1.8, c = 6;  linear: 1 - D
 //   broken (>= 2 of 3 points at D = 1; mode from Dn^2/(Dn^2+Ds^2) of those points: >= 0.9 I,
-//   <= 0.1 II, else mixed): no cohesion; overlap penalty + Coulomb friction with an elastic
+//   <= 0.1 II, else mixed): no cohesion. With tet-tet contact on (broken_inert) no force at
+//   all: the faces meet through contact. Otherwise: overlap penalty + Coulomb friction with an elastic
 //   predictor tau_trial = (P_tan/h)(s_vec - slip_t), |tau| <= mu_rock |sigma|; open: traction 0.
 //   traction t_k = sigma n + tau s_vec/s; force (A/3) t_k shared half/half by the two node pairs
 //   of point k: +(A/6) t_k on the A node, -(A/6) t_k on the B node (opening pulls B back).
@@ -36,8 +37,9 @@ namespace fdem {
 /// CE6 parameters, derived once on the host from Material (make_ce6_params).
 struct Ce6Params {
   real ft, cohesion, tan_phi, GI, GII, P_open, P_tan, P_overlap, mu_rock;
-  int softening;  // 0 = Munjiza (a=0.63, b=1.8, c=6), 1 = linear z = 1 - D
-  real Z;         // integral of z(D) over D in [0,1] for the chosen curve
+  int softening;     // 0 = Munjiza (a=0.63, b=1.8, c=6), 1 = linear z = 1 - D
+  int broken_inert;  // 1: a broken CE6 carries no force (tet-tet contact takes over its faces)
+  real Z;            // integral of z(D) over D in [0,1] for the chosen curve
 };
 
 /// Per-CE6 persistent state; zero-initialised = intact.
@@ -91,6 +93,7 @@ inline Ce6Params make_ce6_params(const Material& m) {
   p.mu_rock = m.friction_rock;
   p.softening = m.softening == "linear" ? 1 : 0;
   p.Z = softening_integral(p.softening);
+  p.broken_inert = 0;  // set by the solver when tet-tet contact is on
   return p;
 }
 
@@ -142,6 +145,7 @@ FDEM_HD Ce6Eval cohesive6_forces(const Ce6Params& p, const Vec3 (&x)[6], const V
   using namespace ce6_detail;
   for (int i = 0; i < 6; ++i) f[i] = Vec3{0, 0, 0};
   Ce6Eval out{0, 0};
+  if (s.mode != 0 && p.broken_inert) return out;
 
   const Vec3 m0 = real(0.5) * (x[0] + x[3]);
   const Vec3 m1 = real(0.5) * (x[1] + x[4]);

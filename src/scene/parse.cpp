@@ -436,6 +436,13 @@ class Reader {
     number(n, p, "ramp_time", at_least(0), pl.ramp_time);
   }
 
+  void contact(const YAML::Node& n, ContactSettings& c) {
+    const std::string p = "contact";
+    if (!check_map(n, p, {"activation", "buffer"})) return;
+    choice(n, p, "activation", {"adaptive", "full", "none"}, c.activation);
+    number(n, p, "buffer", closed(0, 1e3), c.buffer);
+  }
+
   void solver(const YAML::Node& n, SolverSettings& s, bool platens_on) {
     const std::string p = "solver";
     if (!check_map(n, p, {"time_step_safety", "time_step", "mass_scaling", "damping_scale", "threads", "end"})) return;
@@ -505,7 +512,10 @@ class Reader {
     s.file = file;
     const std::string stem = fs::path(file).stem().string();
     s.name = stem.empty() ? "scene" : stem;
-    if (!check_map(root, "", {"name", "material", "mesh", "fracture_regions", "platens", "solver", "output"})) return s;
+    if (!check_map(
+            root, "",
+            {"name", "material", "mesh", "fracture_regions", "platens", "contact", "gravity", "solver", "output"}))
+      return s;
     const std::string scene_dir = fs::path(file).parent_path().string();
     text(root, "", "name", s.name, "give a short name for the run");
     const size_t before = errors_.size();
@@ -521,6 +531,8 @@ class Reader {
     if (errors_.size() == before) cohesive_law(s);
     if (root["fracture_regions"]) fracture_regions(root["fracture_regions"], s.fracture);
     if (given("platens")) platens(root["platens"], s.platens);
+    if (given("contact")) contact(root["contact"], s.contact);
+    if (root["gravity"]) vec3(root["gravity"], "gravity", closed(-1e4, 1e4), s.gravity);
     if (given("solver"))
       solver(root["solver"], s.solver, s.platens.enabled);
     else

@@ -57,6 +57,16 @@ struct Platens {
   real ramp_time = 0;    // s, smooth velocity ramp; 0 = automatic (10 axial wave transit times)
 };
 
+/// Tet-tet contact between fragments (potential contact, Coulomb friction).
+struct ContactSettings {
+  /// "adaptive": tets at the platens from the start, and the vicinity of every broken CE6
+  /// (all tets sharing a vertex of its face) as it breaks; "full": every tet from step 0;
+  /// "none": no tet-tet contact (broken CE6 faces then keep their own overlap penalty and friction).
+  std::string activation = "adaptive";
+  real buffer = 0;  // m, box inflation of the broad phase; 0 = automatic (0.1 x mean edge length)
+  bool enabled() const { return activation != "none"; }
+};
+
 struct EndCondition {
   real time = 0;                // s; 0 = not used
   long steps = 0;               // 0 = not used
@@ -88,6 +98,8 @@ struct Scene {
   MeshSpec mesh;
   FractureRegions fracture;
   Platens platens;
+  ContactSettings contact;
+  Vec3 gravity{0, 0, 0};  // m/s^2, body force per unit mass
   SolverSettings solver;
   OutputSettings output;
 };

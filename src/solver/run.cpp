@@ -22,14 +22,17 @@ namespace {
 const char* kCsvHeader =
     "step,time_s,axial_strain,axial_stress_Pa,lateral_strain,volumetric_strain,force_top_N,force_bottom_N,"
     "damaged_ce6,broken_ce6,broken_mode_I,broken_mode_II,broken_mixed,kinetic_J,strain_J,cohesive_stored_J,"
-    "cohesive_dissipated_J,friction_J,viscous_J,platen_stored_J,platen_friction_J,external_work_J,energy_error";
+    "cohesive_dissipated_J,friction_J,viscous_J,platen_stored_J,platen_friction_J,external_work_J,energy_error,"
+    "contact_J,contact_friction_J,active_tets,contact_pairs,contacts";
 
 void write_row(std::ostream& o, const Monitors& m) {
   o << m.step << ',' << m.time << ',' << m.axial_strain << ',' << m.axial_stress << ',' << m.lateral_strain << ','
     << m.volumetric_strain << ',' << m.force_top << ',' << m.force_bottom << ',' << m.damaged << ',' << m.broken << ','
     << m.broken_I << ',' << m.broken_II << ',' << m.broken_mixed << ',' << m.kinetic << ',' << m.strain << ','
     << m.cohesive_stored << ',' << m.cohesive_dissipated << ',' << m.friction << ',' << m.viscous << ','
-    << m.platen_stored << ',' << m.platen_friction << ',' << m.external_work << ',' << m.energy_error << '\n';
+    << m.platen_stored << ',' << m.platen_friction << ',' << m.external_work << ',' << m.energy_error << ','
+    << m.contact << ',' << m.contact_friction << ',' << m.active_tets << ',' << m.contact_pairs << ',' << m.contacts
+    << '\n';
 }
 
 std::string duration(real s) {
@@ -67,6 +70,11 @@ void write_frame(FieldWriter& w, const Solver& s, const std::string& label) {
   fr.crack_faces = &faces;
   fr.crack_damage = &damage;
   fr.crack_mode = &mode;
+  std::vector<real> active;
+  if (s.contacts.enabled()) {
+    active.assign(s.contacts.active().begin(), s.contacts.active().end());
+    fr.extra.push_back({"active", &active});
+  }
   w.write(fr);
 }
 
@@ -100,7 +108,8 @@ void report_model(const Solver& solver, std::ostream& out) {
       << "  height " << m.height0 << " m, loaded area " << m.area0 << " m^2, mean edge " << m.mean_edge
       << " m, minimum altitude " << m.min_altitude << " m\n"
       << "  stable step " << st.dt / solver.scene().solver.time_step_safety << " s limited by " << st.limit << " (TET4 "
-      << st.dt_tet << " s, CE6 " << st.dt_ce6 << " s, platens " << st.dt_platen << " s)\n"
+      << st.dt_tet << " s, CE6 " << st.dt_ce6 << " s, platens " << st.dt_platen << " s, contact " << st.dt_contact
+      << " s)\n"
       << "  time step " << solver.dt() << " s (safety " << solver.scene().solver.time_step_safety << ", mass scaling "
       << solver.scene().solver.mass_scaling << ")\n";
 }

@@ -31,6 +31,7 @@ Solver::Solver(const Scene& scene, Model model) : scene_(scene), model_(std::mov
   lambda_ = mat.lame_lambda();
   mu_ = mat.lame_mu();
   ce6p_ = make_ce6_params(mat);
+  ce6p_.broken_inert = scene_.contact.enabled() ? 1 : 0;
   const std::size_t nn = model_.X.size();
   x = model_.X;
   v.assign(nn, {0, 0, 0});
@@ -41,6 +42,8 @@ Solver::Solver(const Scene& scene, Model model) : scene_(scene), model_(std::mov
     const Vec3 p = model_.X[model_.platen_nodes[i]];
     platen_anchor[i] = {p.x, p.y, 0};
   }
+  contacts = ContactSet(model_, scene_);
+  ce6_broke_.assign(model_.ce6_nodes.size(), 0);
   inv_mass_.resize(nn);
   for (std::size_t n = 0; n < nn; ++n) inv_mass_[n] = 1 / model_.mass[n];
 
@@ -93,24 +96,40 @@ StableStep Solver::stable_step_bound() const {
         g_ce6[q[i + 3]] += 2 * k / m.mass[q[i + 3]];
       }
   }
+  // Tet-tet contact: two faces of area A pressed together stiffen by about 4 P_n A (1/h_a + 1/h_b)
+  // (the potential gradient is 4/h at a face of altitude h); shared by the face's three nodes,
+  // doubled for the Gershgorin row of the coupled pair, for up to three faces of a tet at a node.
+  std::vector<real> g_con(nn, 0);
+  if (scene_.contact.enabled())
+    for (std::size_t t = 0; t < m.tet_nodes.size(); ++t) {
+      Vec3 xe[4];
+      for (int i = 0; i < 4; ++i) xe[i] = m.X[m.tet_nodes[t][i]];
+      real amax = 0;
+      for (int k = 0; k < 4; ++k)
+        amax = std::max(amax, 0.5 * norm(cross(xe[(k + 2) % 4] - xe[(k + 1) % 4], xe[(k + 3) % 4] - xe[(k + 1) % 4])));
+      const real k_face = 8 * mat.contact_penalty * amax / tet4_min_altitude(xe);
+      for (int n : m.tet_nodes[t]) g_con[n] = std::max(g_con[n], 2 * k_face / m.mass[n]);
+    }
   if (scene_.platens.enabled)
     for (std::size_t i = 0; i < m.platen_nodes.size(); ++i)
       g_platen[m.platen_nodes[i]] += platen_k_[i] / m.mass[m.platen_nodes[i]];
 
   StableStep st;
-  st.dt = st.dt_tet = st.dt_ce6 = st.dt_platen = 1e300;
+  st.dt = st.dt_tet = st.dt_ce6 = st.dt_platen = st.dt_contact = 1e300;
   std::size_t lim = 0;
   for (std::size_t n = 0; n < nn; ++n) {
-    const real dt = damped_stable_step(w2_tet[n] + g_ce6[n] + g_platen[n], c_tet[n]);
+    const real dt = damped_stable_step(w2_tet[n] + g_ce6[n] + g_platen[n] + g_con[n], c_tet[n]);
     if (dt < st.dt) st.dt = dt, lim = n;
     st.dt_tet = std::min(st.dt_tet, damped_stable_step(w2_tet[n], c_tet[n]));
     if (g_ce6[n] > 0) st.dt_ce6 = std::min(st.dt_ce6, 2 / std::sqrt(g_ce6[n]));
     if (g_platen[n] > 0) st.dt_platen = std::min(st.dt_platen, 2 / std::sqrt(g_platen[n]));
+    if (g_con[n] > 0) st.dt_contact = std::min(st.dt_contact, 2 / std::sqrt(g_con[n]));
   }
-  const real w2 = w2_tet[lim] + g_ce6[lim] + g_platen[lim];
+  const real w2 = w2_tet[lim] + g_ce6[lim] + g_platen[lim] + g_con[lim];
   auto pct = [&](real part) { return std::to_string(int(std::lround(100 * part / w2))) + " %"; };
   st.limit = "node " + std::to_string(lim + 1) + " (its squared frequency: TET4 " + pct(w2_tet[lim]) +
-             ", CE6 penalty " + fmt(P, 3) + " Pa " + pct(g_ce6[lim]) + ", platen " + pct(g_platen[lim]) + ")";
+             ", CE6 penalty " + fmt(P, 3) + " Pa " + pct(g_ce6[lim]) + ", platen " + pct(g_platen[lim]) + ", contact " +
+             pct(g_con[lim]) + ")";
   return st;
 }
 
@@ -125,7 +144,19 @@ void Solver::prescribe(int node, int mask, Vec3 velocity) {
 void Solver::compute_forces() {
   const Model& m = model_;
   const std::size_t nn = x.size();
-  for_each(nn, [&](std::size_t n) { f[n] = {0, 0, 0}; });
+  const Vec3 g = scene_.gravity;
+  real p_grav = 0;
+  if (g.x == 0 && g.y == 0 && g.z == 0) {
+    for_each(nn, [&](std::size_t n) { f[n] = {0, 0, 0}; });
+  } else {
+    const int n_nodes = int(nn);
+#pragma omp parallel for schedule(static) reduction(+ : p_grav)
+    for (int n = 0; n < n_nodes; ++n) {
+      f[n] = m.mass[n] * g;
+      p_grav += dot(f[n], v[n]);
+    }
+  }
+  p_gravity_ = p_grav;
 
   real p_visc = 0, jmin = 1;
   int jmin_tet = -1;
@@ -160,9 +191,10 @@ void Solver::compute_forces() {
   }
 
   real p_coh = 0, p_fric = 0;
+  long breaks = 0;
   for (int c = 0; c < m.ce6_colours.colours(); ++c) {
     const int b = m.ce6_colours.offsets[c], e = m.ce6_colours.offsets[c + 1];
-#pragma omp parallel for schedule(static) reduction(+ : p_coh, p_fric)
+#pragma omp parallel for schedule(static) reduction(+ : p_coh, p_fric, breaks)
     for (int k = b; k < e; ++k) {
       const int i = m.ce6_colours.order[k];
       const auto& q = m.ce6_nodes[i];
@@ -173,8 +205,24 @@ void Solver::compute_forces() {
       const Ce6Eval r = cohesive6_forces(ce6p_, xe, ve, m.ce6_h[i], ce6[i], fe);
       for (int j = 0; j < 6; ++j) f[q[j]] += fe[j];
       (was_broken ? p_fric : p_coh) += r.power;
+      if (!was_broken && ce6_broken(ce6[i])) ce6_broke_[i] = 1, ++breaks;
     }
   }
+  // Adaptive activation: the vicinity of each CE6 that broke on this step joins the contact
+  // candidates (at once, so the faces it freed are in contact on the same step).
+  if (breaks > 0) {
+    const int nc = int(ce6_broke_.size());
+    for (int i = 0; i < nc; ++i)
+      if (ce6_broke_[i]) {
+        ce6_broke_[i] = 0;
+        contacts.activate_ce6(m, i);
+      }
+  }
+  const ContactPower cp = contacts.add_forces(m, x, v, ce6, dt_, f);
+  p_contact_ = cp.power;
+  w_contact_slip_ += cp.dissipated;
+  contact_spring_ = cp.spring_energy;
+  touching_ = cp.touching;
 
   real ftop = 0, fbot = 0, dfric = 0;
   if (scene_.platens.enabled) {
@@ -213,12 +261,20 @@ void Solver::check_finite(long bad_nodes) const {
 
 void Solver::step() {
   const real dt = dt_;
+  if (step_ == 0) {  // velocities given as initial conditions bring their own energy
+    real ke = 0;
+    const int n_nodes = int(x.size());
+#pragma omp parallel for reduction(+ : ke)
+    for (int n = 0; n < n_nodes; ++n) ke += 0.5 * model_.mass[n] * dot(v[n], v[n]);
+    initial_kinetic_ = ke;
+  }
   // Energies of the interval [t, t+dt] from the forces at t.
   const real speed = scene_.platens.enabled ? ramped_speed(time_ + 0.5 * dt, scene_.platens.velocity, ramp_) : 0;
   w_external_ += force_top_ * (-speed * dt);
   w_viscous_ += p_viscous_ * dt;
   w_cohesive_ += p_cohesive_ * dt;
   w_friction_ += p_friction_ * dt;
+  w_external_ += p_gravity_ * dt;
 
   long bad = 0;  // NaN passes through max(), so count non-finite nodes instead
   const int nn = int(x.size());
@@ -236,6 +292,9 @@ void Solver::step() {
       }
   }
   check_finite(bad);
+  // Contact forces are stiff and act over few steps: their work over the step is taken with
+  // the mean of the velocities before and after it, which is exact for central differences.
+  if (contacts.enabled()) w_contact_ += 0.5 * dt * (p_contact_ + contacts.power(model_, v));
   top_offset += speed * dt;
   time_ += dt;
   ++step_;
@@ -268,6 +327,7 @@ Monitors Solver::measure() {
   const int nn = int(x.size());
 #pragma omp parallel for reduction(+ : ke)
   for (int n = 0; n < nn; ++n) ke += 0.5 * m.mass[n] * dot(v[n], v[n]);
+  if (step_ == 0) initial_kinetic_ = ke;
   real se = 0;
   const int nt = int(m.tet_nodes.size());
 #pragma omp parallel for reduction(+ : se)
@@ -327,14 +387,20 @@ Monitors Solver::measure() {
   r.platen_stored = pl_stored;
   r.platen_friction = w_platen_friction_;
   r.external_work = w_external_;
+  r.contact_friction = w_contact_slip_ + contact_spring_;
+  r.contact = w_contact_ - r.contact_friction;
+  r.active_tets = contacts.active_count();
+  r.contact_pairs = contacts.pair_count();
+  r.contacts = touching_;
   (void)fric_stored;
-  const real internal = ke + se + w_cohesive_ + w_friction_ + w_viscous_ + pl_stored + w_platen_friction_;
-  r.energy_error = std::fabs(w_external_ - internal) / std::max(std::fabs(w_external_), energy_floor_);
+  const real internal = ke + se + w_cohesive_ + w_friction_ + w_viscous_ + pl_stored + w_platen_friction_ + w_contact_;
+  const real input = w_external_ + initial_kinetic_;
+  r.energy_error = std::fabs(input - internal) / std::max(std::fabs(input), energy_floor_);
   // Energy enters only through the platens; prescribed velocities (tests) bring their own.
-  const bool runaway = fixed_node_.empty() && ke > 2 * std::fabs(w_external_) + energy_floor_;
+  const bool runaway = fixed_node_.empty() && ke > 2 * std::fabs(input) + energy_floor_;
   if (!std::isfinite(internal) || runaway)
     throw RunError("step " + std::to_string(step_) + " (t = " + fmt(time_, 3) + " s): kinetic energy " + fmt(ke, 3) +
-                   " J against external work " + fmt(w_external_, 3) +
+                   " J against external work " + fmt(input, 3) +
                    " J: the run is unstable. Fix: lower solver.time_step_safety (now " +
                    fmt(scene_.solver.time_step_safety, 3) + ") or the penalties, or raise solver.mass_scaling");
   return r;

@@ -7,6 +7,7 @@
 #include "model/model.hpp"
 #include "physics/cohesive6.hpp"
 #include "scene/scene.hpp"
+#include "solver/contact_set.hpp"
 
 namespace fdem {
 
@@ -19,13 +20,15 @@ struct Monitors {
   long damaged = 0, broken = 0, broken_I = 0, broken_II = 0, broken_mixed = 0;
   real kinetic = 0, strain = 0, cohesive_stored = 0, cohesive_dissipated = 0, friction = 0, viscous = 0;
   real platen_stored = 0, platen_friction = 0, external_work = 0;
-  real energy_error = 0;  // |external - (everything else)| / max(external, floor)
+  real contact = 0, contact_friction = 0;                 // J, work into tet-tet contact (normal) and its friction
+  long active_tets = 0, contact_pairs = 0, contacts = 0;  // activated tets, candidate pairs, touching pairs
+  real energy_error = 0;                                  // |external - (everything else)| / max(external, floor)
 };
 
 struct StableStep {
-  real dt = 0;                                 // s, including the safety factor
-  real dt_tet = 0, dt_ce6 = 0, dt_platen = 0;  // s, without it
-  std::string limit;                           // which part limits, e.g. "CE6 #12 (P_overlap)"
+  real dt = 0;                                                 // s, including the safety factor
+  real dt_tet = 0, dt_ce6 = 0, dt_platen = 0, dt_contact = 0;  // s, without it
+  std::string limit;                                           // which part limits, e.g. "CE6 #12 (P_overlap)"
 };
 
 class Solver {
@@ -56,6 +59,7 @@ class Solver {
   // State (node arrays indexed by node id; CE6 state by CE6 id).
   std::vector<Vec3> x, v, f;
   std::vector<Ce6State> ce6;
+  ContactSet contacts;              // tet-tet contact (activation, pairs, friction history)
   std::vector<Vec3> platen_anchor;  // friction anchors per platen node (top/bottom share: one at a time)
   real top_offset = 0;              // m, downward travel of the top platen from its start
 
@@ -80,6 +84,13 @@ class Solver {
   // Energies integrated over time, J.
   real w_external_ = 0, w_cohesive_ = 0, w_friction_ = 0, w_viscous_ = 0, w_platen_friction_ = 0;
   real p_cohesive_ = 0, p_friction_ = 0, p_viscous_ = 0;  // from the last evaluation
+  real initial_kinetic_ = 0;                              // J, from velocities set before the first step
+  // Tet-tet contact: total work of its forces (normal and friction), the friction work
+  // dissipated by sliding, and the friction springs' energy now.
+  real w_contact_ = 0, w_contact_slip_ = 0, contact_spring_ = 0;
+  real p_contact_ = 0, p_gravity_ = 0;
+  long touching_ = 0;
+  std::vector<std::uint8_t> ce6_broke_;  // set by the CE6 loop on the step a CE6 breaks
   real platen_stored_ = 0;
   real energy_floor_ = 0;
 };

@@ -14,16 +14,6 @@ namespace {
 
 constexpr real kH = 1.5e-3;  // element size, m
 
-/// Rotation about a unit axis by an angle (Rodrigues).
-Mat3 rotation(Vec3 axis, real angle) {
-  axis = (1 / norm(axis)) * axis;
-  const real c = std::cos(angle), s = std::sin(angle), t = 1 - c;
-  const real x = axis.x, y = axis.y, z = axis.z;
-  return {{{t * x * x + c, t * x * y - s * z, t * x * z + s * y},
-           {t * x * y + s * z, t * y * y + c, t * y * z - s * x},
-           {t * x * z - s * y, t * y * z + s * x, t * z * z + c}}};
-}
-
 /// A tilted mm-sized triangle with its local frame (t1, t2, n), n by right-hand rule 0->1->2.
 struct Triangle {
   Vec3 X[3];

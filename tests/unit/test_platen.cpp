@@ -21,14 +21,6 @@ void expect_vec(Vec3 a, Vec3 b, real tol) {
   EXPECT_NEAR(a.z, b.z, tol);
 }
 
-/// Rotation by `angle` about the unit axis `u` (Rodrigues).
-Mat3 rotation(Vec3 u, real angle) {
-  const real c = std::cos(angle), s = std::sin(angle), t = 1 - c;
-  return {{{t * u.x * u.x + c, t * u.x * u.y - s * u.z, t * u.x * u.z + s * u.y},
-           {t * u.x * u.y + s * u.z, t * u.y * u.y + c, t * u.y * u.z - s * u.x},
-           {t * u.x * u.z - s * u.y, t * u.y * u.z + s * u.x, t * u.z * u.z + c}}};
-}
-
 }  // namespace
 
 TEST(PlatenNodeForce, NoForceWithoutPenetrationAndAnchorFollowsNode) {

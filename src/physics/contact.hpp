@@ -1,0 +1,257 @@
+#pragma once
+// Tet-tet contact: Munjiza's distributed potential force with Coulomb friction.
+//
+// Potential. Each tet is split into four sub-tets (face k + centroid C). In sub-tet k the
+// potential is linear, 0 on face k and 1 at C: phi(p) = s_k(p) / s_k(C) with s_k the signed
+// distance from face k's plane (positive inside). phi is continuous over the tet.
+//
+// Force. On tet a from tet b:  F_a = P int_{a cap b} (grad phi_a - grad phi_b) dV.
+// By the divergence theorem, summed over all sub-tet pairs the internal sub-tet faces cancel
+// (phi is continuous across them) and only the outer faces remain:
+//   F_a = P [ - int_{dA inside b} phi_b n_a dS  +  int_{dB inside a} phi_a n_b dS ]
+// with n_a, n_b outward unit normals. The two terms are the same operation with the roles
+// swapped ("faces of one tet inside the other"), so the pair is symmetric by construction.
+// Each term is a field of point forces: at a point p on a face of `a` inside `b` the force
+// dF = -P phi_b(p) n_a dS acts on `a` (shared by a's face nodes with p's barycentric weights
+// in the face) and -dF on `b` (shared by b's four nodes with p's barycentric weights in b).
+// Both parts act at the same point, so the pair exerts no net force and no net torque.
+// The faces are clipped against b (its four face planes) and then against each sub-tet's
+// three inner planes; on each clipped polygon phi_b is linear, the fan triangles are
+// integrated with the three edge-midpoint rule, exact for the product of two linear fields.
+//
+// Friction. A tangential elastic predictor per pair: the spring u (global vector, kept in
+// the tangent plane of the current normal) grows with the relative tangential velocity at
+// the contact point (the force-weighted centre of the normal pressure); the trial force
+// -k_t u is returned to mu N when it exceeds it (sliding), and u is kept per pair across
+// candidate-list rebuilds. k_t = P (V_min)^(1/3): the normal stiffness scale of the pair.
+#include <cmath>
+
+#include "core/vec.hpp"
+
+namespace fdem {
+
+struct ContactEval {
+  Vec3 normal;  // net normal contact force on tet a, N (b receives -normal)
+  Vec3 point;   // centre of the normal pressure (weighted by |dF|), m; valid if weight > 0
+  real weight;  // integral of |dF|, N (0 when the tets do not overlap)
+};
+
+namespace contact_detail {
+
+constexpr int kMaxPoly = 12;  // a triangle clipped by 7 planes has at most 10 vertices
+
+struct Poly {
+  Vec3 p[kMaxPoly];
+  int n;
+};
+
+/// Keep the part of `in` where dot(nrm, p - o) >= 0 (Sutherland-Hodgman, one plane).
+FDEM_HD void clip(const Poly& in, Vec3 nrm, Vec3 o, Poly& out) {
+  out.n = 0;
+  if (in.n == 0) return;
+  real sp = dot(nrm, in.p[in.n - 1] - o);
+  Vec3 prev = in.p[in.n - 1];
+  for (int i = 0; i < in.n; ++i) {
+    const Vec3 cur = in.p[i];
+    const real sc = dot(nrm, cur - o);
+    if ((sc >= 0) != (sp >= 0)) {
+      const real t = sp / (sp - sc);
+      if (out.n < kMaxPoly) out.p[out.n++] = prev + t * (cur - prev);
+    }
+    if (sc >= 0 && out.n < kMaxPoly) out.p[out.n++] = cur;
+    prev = cur;
+    sp = sc;
+  }
+}
+
+FDEM_HD Vec3 centroid4(const Vec3 (&x)[4]) {
+  return real(0.25) * (x[0] + x[1] + x[2] + x[3]);
+}
+
+/// Barycentric weights of p in tet x (may fall slightly outside [0,1] by round-off).
+FDEM_HD void tet_weights(const Vec3 (&x)[4], const Mat3& Einv, Vec3 p, real (&L)[4]) {
+  const Vec3 l = Einv * (p - x[0]);
+  L[1] = l.x;
+  L[2] = l.y;
+  L[3] = l.z;
+  L[0] = 1 - l.x - l.y - l.z;
+}
+
+/// A tet's four face planes, inside positive: face k is opposite node k, its (unnormalised)
+/// normal points toward node k; h[k] = s_k(C), the plane function at the centroid.
+struct Planes {
+  Vec3 n[4], o[4];
+  real h[4];
+  Vec3 C;
+};
+
+FDEM_HD Planes tet_planes(const Vec3 (&b)[4]) {
+  Planes P;
+  P.C = centroid4(b);
+  for (int k = 0; k < 4; ++k) {
+    const Vec3 p0 = b[(k + 1) % 4], p1 = b[(k + 2) % 4], p2 = b[(k + 3) % 4];
+    Vec3 nrm = cross(p1 - p0, p2 - p0);
+    if (dot(nrm, b[k] - p0) < 0) nrm = -nrm;
+    P.n[k] = nrm;
+    P.o[k] = p0;
+    P.h[k] = dot(nrm, P.C - p0);
+  }
+  return P;
+}
+
+/// True if some face plane of b has all of a's vertices on or beyond it: no overlap volume.
+FDEM_HD bool separated_by(const Planes& pb, const Vec3 (&a)[4]) {
+  for (int k = 0; k < 4; ++k) {
+    bool out = true;
+    for (int i = 0; i < 4 && out; ++i) out = dot(pb.n[k], a[i] - pb.o[k]) <= 0;
+    if (out) return true;
+  }
+  return false;
+}
+
+/// Faces of tet `a` inside tet `b`: adds the point forces to fa (a's nodes) and fb (b's
+/// nodes) and their sums to `e`. `sign` is +1 when `a` is the pair's first tet, -1 when the
+/// roles are swapped (e.normal is always the force on the pair's first tet).
+FDEM_HD void faces_inside(const Vec3 (&a)[4], const Vec3 (&b)[4], const Planes& pb, const Mat3& Binv, real P,
+                          Vec3 (&fa)[4], Vec3 (&fb)[4], real sign, ContactEval& e) {
+  const Vec3 Cb = pb.C;
+  const Vec3* bn = pb.n;
+  const Vec3* bo = pb.o;
+  const real* bh = pb.h;
+  for (int f = 0; f < 4; ++f) {  // face of a opposite node f
+    const int i0 = (f + 1) % 4, i1 = (f + 2) % 4, i2 = (f + 3) % 4;
+    const Vec3 q0 = a[i0], q1 = a[i1], q2 = a[i2];
+    const Vec3 na = cross(q1 - q0, q2 - q0);  // for barycentric weights: keep its sign
+    const real na2 = dot(na, na);
+    if (!(na2 > 0)) continue;
+    const Vec3 nhat = (dot(na, a[f] - q0) > 0 ? real(-1) : real(1)) / std::sqrt(na2) * na;  // outward
+    // Clip the face against b.
+    Poly P0, P1;
+    P0.n = 3;
+    P0.p[0] = q0;
+    P0.p[1] = q1;
+    P0.p[2] = q2;
+    for (int k = 0; k < 4; ++k) {
+      clip(P0, bn[k], bo[k], P1);
+      P0 = P1;
+      if (P0.n < 3) break;
+    }
+    if (P0.n < 3) continue;
+    // Split among b's sub-tets by the three planes through C and each edge of face k.
+    for (int k = 0; k < 4; ++k) {
+      if (!(bh[k] > 0)) continue;
+      Poly Q = P0, R;
+      for (int j = 0; j < 3; ++j) {
+        const Vec3 e0 = b[(k + 1 + j) % 4], e1 = b[(k + 1 + (j + 1) % 3) % 4];
+        const Vec3 third = b[(k + 1 + (j + 2) % 3) % 4];
+        Vec3 nrm = cross(e1 - e0, Cb - e0);
+        if (dot(nrm, third - e0) < 0) nrm = -nrm;
+        clip(Q, nrm, e0, R);
+        Q = R;
+        if (Q.n < 3) break;
+      }
+      if (Q.n < 3) continue;
+      for (int t = 1; t + 1 < Q.n; ++t) {
+        const Vec3 r0 = Q.p[0], r1 = Q.p[t], r2 = Q.p[t + 1];
+        const real area = real(0.5) * norm(cross(r1 - r0, r2 - r0));
+        if (!(area > 0)) continue;
+        const Vec3 mids[3] = {real(0.5) * (r0 + r1), real(0.5) * (r1 + r2), real(0.5) * (r2 + r0)};
+        for (const Vec3& m : mids) {
+          const real phi = dot(bn[k], m - bo[k]) / bh[k];
+          const real g = P * (area / 3) * phi;  // |dF|
+          if (!(g > 0)) continue;
+          const Vec3 F = -g * nhat;  // on a
+          // Barycentric weights of m in a's face and in b.
+          const real l0 = dot(cross(q1 - m, q2 - m), na) / na2;
+          const real l1 = dot(cross(q2 - m, q0 - m), na) / na2;
+          const real l2 = 1 - l0 - l1;
+          fa[i0] += l0 * F;
+          fa[i1] += l1 * F;
+          fa[i2] += l2 * F;
+          real L[4];
+          tet_weights(b, Binv, m, L);
+          for (int j = 0; j < 4; ++j) fb[j] -= L[j] * F;
+          e.normal += sign * F;
+          e.point += g * m;
+          e.weight += g;
+        }
+      }
+    }
+  }
+}
+
+}  // namespace contact_detail
+
+/// Normal contact forces between tets a and b (current positions), penalty P (Pa).
+/// fa and fb are overwritten. Symmetric: swapping a and b swaps fa and fb.
+FDEM_HD ContactEval contact_tet_pair(const Vec3 (&a)[4], const Vec3 (&b)[4], real P, Vec3 (&fa)[4], Vec3 (&fb)[4]) {
+  using namespace contact_detail;
+  ContactEval e{{0, 0, 0}, {0, 0, 0}, 0};
+  for (int i = 0; i < 4; ++i) fa[i] = fb[i] = Vec3{0, 0, 0};
+  const Mat3 Ea = Mat3::from_columns(a[1] - a[0], a[2] - a[0], a[3] - a[0]);
+  const Mat3 Eb = Mat3::from_columns(b[1] - b[0], b[2] - b[0], b[3] - b[0]);
+  const real da = det(Ea), db = det(Eb);
+  if (!(da != 0) || !(db != 0)) return e;  // degenerate: no potential defined
+  // Cheap rejection first: the AABBs, then the eight face planes (most candidate pairs in a
+  // fractured body touch at most along a face, edge or vertex).
+  for (int d = 0; d < 3; ++d) {
+    real alo = a[0][d], ahi = a[0][d], blo = b[0][d], bhi = b[0][d];
+    for (int i = 1; i < 4; ++i) {
+      alo = std::fmin(alo, a[i][d]);
+      ahi = std::fmax(ahi, a[i][d]);
+      blo = std::fmin(blo, b[i][d]);
+      bhi = std::fmax(bhi, b[i][d]);
+    }
+    if (alo >= bhi || blo >= ahi) return e;
+  }
+  const Planes pa = tet_planes(a), pb = tet_planes(b);
+  if (separated_by(pb, a) || separated_by(pa, b)) return e;
+  faces_inside(a, b, pb, inverse(Eb), P, fa, fb, 1, e);
+  faces_inside(b, a, pa, inverse(Ea), P, fb, fa, -1, e);
+  if (e.weight > 0) e.point = (real(1) / e.weight) * e.point;
+  return e;
+}
+
+/// Coulomb friction of one contact pair after contact_tet_pair. u is the pair's tangential
+/// spring (its history), k_t its stiffness (N/m), mu the friction coefficient, dt the step.
+/// Adds the friction forces to fa and fb; returns the work dissipated by sliding (J).
+FDEM_HD real contact_friction(const Vec3 (&a)[4], const Vec3 (&b)[4], const Vec3 (&va)[4], const Vec3 (&vb)[4],
+                              const ContactEval& e, real mu, real k_t, real dt, Vec3& u, Vec3 (&fa)[4], Vec3 (&fb)[4]) {
+  using namespace contact_detail;
+  const real N = norm(e.normal);
+  if (!(e.weight > 0) || !(N > 0) || !(k_t > 0)) {
+    u = Vec3{0, 0, 0};
+    return 0;
+  }
+  const Vec3 n = (real(1) / N) * e.normal;
+  const Mat3 Ea = Mat3::from_columns(a[1] - a[0], a[2] - a[0], a[3] - a[0]);
+  const Mat3 Eb = Mat3::from_columns(b[1] - b[0], b[2] - b[0], b[3] - b[0]);
+  real La[4], Lb[4];
+  tet_weights(a, inverse(Ea), e.point, La);
+  tet_weights(b, inverse(Eb), e.point, Lb);
+  Vec3 vrel{0, 0, 0};
+  for (int i = 0; i < 4; ++i) vrel += La[i] * va[i] - Lb[i] * vb[i];
+  const Vec3 vt = vrel - dot(vrel, n) * n;
+  // Rotate the old spring into the current tangent plane, keeping its length.
+  const real u0 = norm(u);
+  Vec3 ut = u - dot(u, n) * n;
+  const real ut_len = norm(ut);
+  ut = ut_len > 0 ? (u0 / ut_len) * ut : Vec3{0, 0, 0};
+  ut += dt * vt;
+  Vec3 T = -k_t * ut;  // on a
+  const real tn = norm(T), limit = mu * N;
+  real dissipated = 0;
+  if (tn > limit) {
+    dissipated = limit * (tn - limit) / k_t;  // slip distance times the sliding force
+    T = (limit / tn) * T;
+    ut = (limit / tn) * ut;
+  }
+  u = ut;
+  for (int i = 0; i < 4; ++i) {
+    fa[i] += La[i] * T;
+    fb[i] -= Lb[i] * T;
+  }
+  return dissipated;
+}
+
+}  // namespace fdem

@@ -1,0 +1,267 @@
+#include "solver/contact_set.hpp"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "physics/tet4.hpp"
+
+namespace fdem {
+namespace {
+
+template <std::size_t K>
+void gather(const std::vector<Vec3>& a, const std::array<int, K>& ids, Vec3 (&out)[K]) {
+  for (std::size_t i = 0; i < K; ++i) out[i] = a[ids[i]];
+}
+
+bool share_node(const std::array<int, 4>& p, const std::array<int, 4>& q) {
+  for (int i : p)
+    for (int j : q)
+      if (i == j) return true;
+  return false;
+}
+
+}  // namespace
+
+ContactSet::ContactSet(const Model& m, const Scene& s) {
+  enabled_ = s.contact.enabled();
+  if (!enabled_) return;
+  penalty_ = s.material.contact_penalty;
+  mu_ = s.material.friction_rock;
+  buffer_ = s.contact.buffer > 0 ? s.contact.buffer : 0.1 * m.mean_edge;
+  const int nt = int(m.tet_nodes.size());
+
+  // Mesh vertex -> tets (CSR), for the vicinity of a broken CE6.
+  int nv = 0;
+  for (int vtx : m.node_vertex) nv = std::max(nv, vtx + 1);
+  vertex_tet_ptr_.assign(nv + 1, 0);
+  for (const auto& q : m.tet_nodes)
+    for (int n : q) ++vertex_tet_ptr_[m.node_vertex[n] + 1];
+  for (int i = 0; i < nv; ++i) vertex_tet_ptr_[i + 1] += vertex_tet_ptr_[i];
+  vertex_tets_.resize(vertex_tet_ptr_[nv]);
+  std::vector<int> fill(vertex_tet_ptr_.begin(), vertex_tet_ptr_.end() - 1);
+  for (int t = 0; t < nt; ++t)
+    for (int n : m.tet_nodes[t]) vertex_tets_[fill[m.node_vertex[n]]++] = t;
+
+  tet_ce6_.assign(nt, {-1, -1, -1, -1});
+  for (int c = 0; c < int(m.ce6_tets.size()); ++c)
+    for (int t : m.ce6_tets[c]) {
+      auto& slots = tet_ce6_[t];
+      for (int& sl : slots)
+        if (sl < 0) {
+          sl = c;
+          break;
+        }
+    }
+
+  active_.assign(nt, 0);
+  if (s.contact.activation == "full") {
+    std::fill(active_.begin(), active_.end(), 1);
+  } else if (s.platens.enabled) {
+    // Adaptive: the tets at the loaded ends are candidates from the start.
+    std::vector<std::uint8_t> loaded(m.X.size(), 0);
+    for (int n : m.top_nodes) loaded[n] = 1;
+    for (int n : m.bottom_nodes) loaded[n] = 1;
+    for (int t = 0; t < nt; ++t)
+      for (int n : m.tet_nodes[t])
+        if (loaded[n]) active_[t] = 1;
+  }
+  active_count_ = std::count(active_.begin(), active_.end(), 1);
+}
+
+long ContactSet::activate_ce6(const Model& m, int c) {
+  if (!enabled_) return 0;
+  long added = 0;
+  for (int i = 0; i < 3; ++i) {
+    const int vtx = m.node_vertex[m.ce6_nodes[c][i]];
+    for (int k = vertex_tet_ptr_[vtx]; k < vertex_tet_ptr_[vtx + 1]; ++k) {
+      std::uint8_t& a = active_[vertex_tets_[k]];
+      if (!a) a = 1, ++added;
+    }
+  }
+  if (added) {
+    active_count_ += added;
+    dirty_ = true;
+  }
+  return added;
+}
+
+bool ContactSet::moved_too_far(const std::vector<Vec3>& x) const {
+  const real lim2 = 0.25 * buffer_ * buffer_;
+  const int n = int(watch_nodes_.size());
+  int far = 0;
+#pragma omp parallel for schedule(static) reduction(| : far)
+  for (int i = 0; i < n; ++i) {
+    const Vec3 d = x[watch_nodes_[i]] - watch_x_[i];
+    far |= dot(d, d) > lim2;
+  }
+  return far != 0;
+}
+
+void ContactSet::rebuild(const Model& m, const std::vector<Vec3>& x) {
+  const int nt = int(m.tet_nodes.size());
+  std::vector<int> ids;
+  ids.reserve(active_count_);
+  for (int t = 0; t < nt; ++t)
+    if (active_[t]) ids.push_back(t);
+  std::vector<Aabb> boxes(nt);
+  const real half = 0.5 * buffer_;
+  const int na = int(ids.size());
+#pragma omp parallel for schedule(static)
+  for (int k = 0; k < na; ++k) {
+    const auto& q = m.tet_nodes[ids[k]];
+    Aabb b{x[q[0]], x[q[0]]};
+    for (int i = 1; i < 4; ++i)
+      for (int d = 0; d < 3; ++d) {
+        b.lo[d] = std::min(b.lo[d], x[q[i]][d]);
+        b.hi[d] = std::max(b.hi[d], x[q[i]][d]);
+      }
+    for (int d = 0; d < 3; ++d) b.lo[d] -= half, b.hi[d] += half;
+    boxes[ids[k]] = b;
+  }
+  std::vector<std::array<int, 2>> found;
+  find_box_pairs(boxes, ids, 0, found, &stats_);
+
+  // Drop pairs that share a node (continuous rock outside the fracture regions); note the
+  // CE6 joining a pair, if any.
+  std::vector<ContactPair> next;
+  next.reserve(found.size());
+  for (const auto& p : found) {
+    if (share_node(m.tet_nodes[p[0]], m.tet_nodes[p[1]])) continue;
+    int joint = -1;
+    for (int c : tet_ce6_[p[0]])
+      if (c >= 0 && (m.ce6_tets[c][0] == p[1] || m.ce6_tets[c][1] == p[1])) joint = c;
+    next.push_back({p[0], p[1], joint});
+  }
+  // Carry each surviving pair's friction spring over (both lists are sorted by (a, b)).
+  std::vector<Vec3> next_spring(next.size(), Vec3{0, 0, 0});
+  const int nn = int(next.size());
+#pragma omp parallel for schedule(static)
+  for (int i = 0; i < nn; ++i) {
+    auto it = std::lower_bound(pairs_.begin(), pairs_.end(), next[i], [](const ContactPair& p, const ContactPair& q) {
+      return p.a != q.a ? p.a < q.a : p.b < q.b;
+    });
+    if (it != pairs_.end() && it->a == next[i].a && it->b == next[i].b) next_spring[i] = spring[it - pairs_.begin()];
+  }
+  pairs_.swap(next);
+  spring.swap(next_spring);
+  eval_.assign(pairs_.size(), ContactEval{});
+  pair_force_.assign(8 * pairs_.size(), Vec3{0, 0, 0});
+
+  // Gather index: (node, slot) sorted by node, then slot.
+  std::vector<std::array<int, 2>> ns;
+  ns.reserve(8 * pairs_.size());
+  for (int p = 0; p < int(pairs_.size()); ++p) {
+    for (int i = 0; i < 4; ++i) ns.push_back({m.tet_nodes[pairs_[p].a][i], 8 * p + i});
+    for (int i = 0; i < 4; ++i) ns.push_back({m.tet_nodes[pairs_[p].b][i], 8 * p + 4 + i});
+  }
+  std::sort(ns.begin(), ns.end());
+  gather_node_.clear();
+  gather_ptr_.assign(1, 0);
+  gather_slot_.resize(ns.size());
+  for (std::size_t k = 0; k < ns.size(); ++k) {
+    if (k == 0 || ns[k][0] != ns[k - 1][0]) {
+      if (k > 0) gather_ptr_.push_back(int(k));
+      gather_node_.push_back(ns[k][0]);
+    }
+    gather_slot_[k] = ns[k][1];
+  }
+  if (!ns.empty()) gather_ptr_.push_back(int(ns.size()));
+
+  // Watch the nodes of the active tets for the next rebuild.
+  std::vector<std::uint8_t> seen(x.size(), 0);
+  watch_nodes_.clear();
+  for (int t : ids)
+    for (int n : m.tet_nodes[t])
+      if (!seen[n]) seen[n] = 1, watch_nodes_.push_back(n);
+  watch_x_.resize(watch_nodes_.size());
+  for (std::size_t i = 0; i < watch_nodes_.size(); ++i) watch_x_[i] = x[watch_nodes_[i]];
+  dirty_ = false;
+  ++times.rebuilds;
+}
+
+real ContactSet::power(const Model& m, const std::vector<Vec3>& v) const {
+  const int np = int(pairs_.size());
+  real p = 0;
+#pragma omp parallel for schedule(static) reduction(+ : p)
+  for (int k = 0; k < np; ++k) {
+    const Vec3* fp = &pair_force_[8 * k];
+    for (int i = 0; i < 4; ++i)
+      p -= dot(fp[i], v[m.tet_nodes[pairs_[k].a][i]]) + dot(fp[4 + i], v[m.tet_nodes[pairs_[k].b][i]]);
+  }
+  return p;
+}
+
+ContactPower ContactSet::add_forces(const Model& m, const std::vector<Vec3>& x, const std::vector<Vec3>& v,
+                                    const std::vector<Ce6State>& ce6, real dt, std::vector<Vec3>& f) {
+  ContactPower out;
+  if (!enabled_) return out;
+  double t0 = omp_get_wtime();
+  if (dirty_ || moved_too_far(x)) rebuild(m, x);
+  double t1 = omp_get_wtime();
+  times.broad += t1 - t0;
+
+  const int np = int(pairs_.size());
+  long touching = 0;
+#pragma omp parallel for schedule(dynamic, 64) reduction(+ : touching)
+  for (int p = 0; p < np; ++p) {
+    const ContactPair& cp = pairs_[p];
+    Vec3* fp = &pair_force_[8 * p];
+    if (cp.joint >= 0 && !ce6_broken(ce6[cp.joint])) {
+      for (int i = 0; i < 8; ++i) fp[i] = Vec3{0, 0, 0};
+      eval_[p] = ContactEval{{0, 0, 0}, {0, 0, 0}, 0};
+      continue;
+    }
+    Vec3 xa[4], xb[4], fa[4], fb[4];
+    gather(x, m.tet_nodes[cp.a], xa);
+    gather(x, m.tet_nodes[cp.b], xb);
+    eval_[p] = contact_tet_pair(xa, xb, penalty_, fa, fb);
+    touching += eval_[p].weight > 0;
+    for (int i = 0; i < 4; ++i) fp[i] = fa[i], fp[4 + i] = fb[i];
+  }
+  double t2 = omp_get_wtime();
+  times.narrow += t2 - t1;
+
+  real dissipated = 0, stored = 0;
+#pragma omp parallel for schedule(dynamic, 64) reduction(+ : dissipated, stored)
+  for (int p = 0; p < np; ++p) {
+    const ContactPair& cp = pairs_[p];
+    if (!(eval_[p].weight > 0)) {
+      spring[p] = Vec3{0, 0, 0};
+      continue;
+    }
+    Vec3 xa[4], xb[4], va[4], vb[4], fa[4], fb[4];
+    gather(x, m.tet_nodes[cp.a], xa);
+    gather(x, m.tet_nodes[cp.b], xb);
+    gather(v, m.tet_nodes[cp.a], va);
+    gather(v, m.tet_nodes[cp.b], vb);
+    for (int i = 0; i < 4; ++i) fa[i] = fb[i] = Vec3{0, 0, 0};
+    const real vmin = std::min(std::fabs(tet4_volume(xa)), std::fabs(tet4_volume(xb)));
+    const real k_t = penalty_ * std::cbrt(vmin);
+    dissipated += contact_friction(xa, xb, va, vb, eval_[p], mu_, k_t, dt, spring[p], fa, fb);
+    stored += 0.5 * k_t * dot(spring[p], spring[p]);
+    Vec3* fp = &pair_force_[8 * p];
+    for (int i = 0; i < 4; ++i) {
+      fp[i] += fa[i];
+      fp[4 + i] += fb[i];
+    }
+  }
+  double t3 = omp_get_wtime();
+  times.friction += t3 - t2;
+  const int ng = int(gather_node_.size());
+#pragma omp parallel for schedule(static)
+  for (int k = 0; k < ng; ++k) {
+    Vec3 s{0, 0, 0};
+    for (int j = gather_ptr_[k]; j < gather_ptr_[k + 1]; ++j) s += pair_force_[gather_slot_[j]];
+    f[gather_node_[k]] += s;
+  }
+  times.narrow += omp_get_wtime() - t3;  // the force sum belongs to the narrow phase
+  out.power = power(m, v);
+  out.dissipated = dissipated;
+  out.spring_energy = stored;
+  out.touching = touching;
+  return out;
+}
+
+}  // namespace fdem

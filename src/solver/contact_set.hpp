@@ -1,0 +1,90 @@
+#pragma once
+// The CPU backend's tet-tet contact: activation flags, the candidate-pair list from the broad
+// phase, the narrow phase and friction of each pair, and the deterministic sum of the pair
+// forces into the node forces (a gather through a node -> pair-slot index, no atomics, so
+// the result does not depend on the thread count).
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "contact/broad_phase.hpp"
+#include "model/model.hpp"
+#include "physics/cohesive6.hpp"
+#include "physics/contact.hpp"
+#include "scene/scene.hpp"
+
+namespace fdem {
+
+/// A candidate pair: tets a < b and the CE6 that joins them (-1 if none). While that CE6
+/// is intact the pair is skipped; once it breaks the two faces meet through contact.
+struct ContactPair {
+  int a, b, joint;
+};
+
+/// Wall time spent in each phase, s, and how often the broad phase ran.
+struct ContactTimes {
+  double broad = 0, narrow = 0, friction = 0;
+  long rebuilds = 0;
+};
+
+/// Results of one evaluation.
+struct ContactPower {
+  real power = 0;          // W, -sum f.v of all contact forces with the velocities they were given
+  real dissipated = 0;     // J, friction work dissipated by sliding in this evaluation
+  real spring_energy = 0;  // J, energy held by the friction springs after it
+  long touching = 0;       // pairs with a non-zero force
+};
+
+class ContactSet {
+ public:
+  ContactSet() = default;
+  ContactSet(const Model& m, const Scene& s);
+
+  bool enabled() const { return enabled_; }
+  /// Flags the vicinity of CE6 `c` (every tet sharing a vertex of its face). Returns the
+  /// number of tets newly activated.
+  long activate_ce6(const Model& m, int c);
+  /// Adds the contact forces to f and returns their work rates.
+  ContactPower add_forces(const Model& m, const std::vector<Vec3>& x, const std::vector<Vec3>& v,
+                          const std::vector<Ce6State>& ce6, real dt, std::vector<Vec3>& f);
+
+  /// -sum f.v of the forces of the last evaluation with velocities v (W). With the velocities
+  /// before and after a step, the mean of the two rates times dt is the work done exactly by
+  /// those forces over the central-difference step (the forces are stiff and short-lived).
+  real power(const Model& m, const std::vector<Vec3>& v) const;
+
+  const std::vector<std::uint8_t>& active() const { return active_; }
+  long active_count() const { return active_count_; }
+  long pair_count() const { return long(pairs_.size()); }
+  real buffer() const { return buffer_; }
+  const std::vector<ContactPair>& pairs() const { return pairs_; }
+  const BroadPhaseStats& last_build() const { return stats_; }
+  ContactTimes times;
+
+  /// Friction springs per pair (same order as pairs()), for checkpoints and tests.
+  std::vector<Vec3> spring;
+
+ private:
+  void rebuild(const Model& m, const std::vector<Vec3>& x);
+  bool moved_too_far(const std::vector<Vec3>& x) const;
+
+  bool enabled_ = false;
+  real penalty_ = 0, mu_ = 0, buffer_ = 0;
+  std::vector<std::uint8_t> active_;
+  long active_count_ = 0;
+  bool dirty_ = true;                              // activation changed since the last build
+  std::vector<int> vertex_tet_ptr_, vertex_tets_;  // mesh vertex -> tets touching it (CSR)
+  std::vector<std::array<int, 4>> tet_ce6_;        // CE6 on each face of a tet (-1 none)
+  std::vector<ContactPair> pairs_;
+  BroadPhaseStats stats_;
+  std::vector<int> watch_nodes_;  // nodes of active tets, with their positions at the last build
+  std::vector<Vec3> watch_x_;
+  // Per pair: normal evaluation and the 8 nodal forces (a's 4 nodes, then b's).
+  std::vector<ContactEval> eval_;
+  std::vector<Vec3> pair_force_;
+  // Gather index: node gather_node_[k] receives pair_force_[slot] for slots
+  // gather_slot_[gather_ptr_[k] .. gather_ptr_[k+1]).
+  std::vector<int> gather_node_, gather_ptr_, gather_slot_;
+};
+
+}  // namespace fdem

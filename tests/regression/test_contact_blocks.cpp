@@ -1,0 +1,242 @@
+// Tet-tet contact in whole runs: a block bouncing off a block (energy conserved), a block on
+// an incline (Coulomb stick and slide with the analytic acceleration), and a bar cut by CE6s
+// that is pulled apart and pushed back together (contact only once the CE6s have broken).
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "model/structured.hpp"
+#include "support.hpp"
+
+using namespace fdem;
+
+namespace {
+
+constexpr real kEdge = 0.01;  // m, block edge
+
+/// Two kEdge cubes of c x c x c Kuhn cells: one on [0,e]^3, one above it shifted by `shift`.
+/// The lower block's (c+1)^3 vertices come first.
+Mesh two_blocks(Vec3 shift, int c) {
+  Mesh a = structured_box_mesh({kEdge, kEdge, kEdge}, c, c, c);
+  const Mesh b = structured_box_mesh({kEdge, kEdge, kEdge}, c, c, c);
+  const int off = int(a.vertices.size());
+  for (Vec3 p : b.vertices) a.vertices.push_back(p + Vec3{0, 0, kEdge} + shift);
+  for (auto t : b.tets) a.tets.push_back({t[0] + off, t[1] + off, t[2] + off, t[3] + off});
+  a.source = "two blocks";
+  return a;
+}
+
+Scene block_scene() {
+  Scene s = test::test_scene();
+  s.platens.enabled = false;
+  s.fracture.everywhere = false;  // no CE6: each block is one continuous body
+  s.contact.activation = "full";
+  return s;
+}
+
+struct Body {
+  real mass = 0;
+  Vec3 momentum{0, 0, 0};
+  Vec3 centre{0, 0, 0};
+};
+
+bool in_upper(const Model& m, std::size_t n, int cells) {
+  return m.node_vertex[n] >= (cells + 1) * (cells + 1) * (cells + 1);
+}
+
+/// Mass, momentum and centre of the upper or the lower block.
+Body body(const Solver& s, bool upper, int cells) {
+  Body b;
+  const Model& m = s.model();
+  for (std::size_t n = 0; n < m.X.size(); ++n) {
+    if (in_upper(m, n, cells) != upper) continue;
+    b.mass += m.mass[n];
+    b.momentum += m.mass[n] * s.v[n];
+    b.centre += m.mass[n] * s.x[n];
+  }
+  b.centre = (1 / b.mass) * b.centre;
+  return b;
+}
+
+}  // namespace
+
+TEST(ContactBlocks, BlockBouncesOffABlockConservingEnergy) {
+  Scene scene = block_scene();
+  scene.solver.damping_scale = 0;  // undamped: all the energy must come back
+  scene.material.friction_rock = 0;
+  const real gap = 2e-5, v0 = 1.0;  // m, m/s
+  Solver s(scene, build_model(two_blocks({0, 0, gap}, 2), scene));
+  const Model& m = s.model();
+  for (std::size_t n = 0; n < m.X.size(); ++n) {
+    if (in_upper(m, n, 2))
+      s.v[n] = {0, 0, -v0};
+    else
+      s.prescribe(int(n), 7, {0, 0, 0});  // the lower block is the ground
+  }
+  const real e0 = s.measure().kinetic;
+  bool touched = false;
+  long apart_steps = 0;
+  Monitors row;
+  while (s.step_count() < 200000) {
+    s.step();
+    row = s.measure();
+    touched = touched || row.contacts > 0;
+    // Done once the blocks have been apart for a while after the impact.
+    apart_steps = touched && row.contacts == 0 ? apart_steps + 1 : 0;
+    if (apart_steps > 200) break;
+  }
+  ASSERT_TRUE(touched) << "the blocks never met";
+  ASSERT_GT(apart_steps, 200) << "the blocks did not separate";
+  // The upper block flies up again (part of the energy stays in its vibration).
+  const Body top = body(s, true, 2);
+  EXPECT_GT(top.momentum.z / top.mass, 0.5 * v0);
+  // No damping: kinetic plus elastic (vibration) energy after the bounce equals the start,
+  // and the net work of the contact force over the impact is (nearly) zero.
+  const real e1 = row.kinetic + row.strain;
+  EXPECT_NEAR(e1, e0, 0.02 * e0) << "kinetic " << row.kinetic << " J, strain " << row.strain << " J";
+  EXPECT_LT(std::fabs(row.contact), 0.02 * e0);
+  RecordProperty("energy_ratio", std::to_string(e1 / e0));
+}
+
+namespace {
+
+/// The upper block resting on the fixed lower one under gravity tilted by `angle` from the
+/// normal (an incline of that angle). Returns the upper block's mean velocity along x at
+/// times t1 and t2 and its displacement along x by t2.
+struct Slide {
+  real v1, v2, t1, t2, dx;
+};
+
+Slide incline(real angle, real g, real mu) {
+  Scene scene = block_scene();
+  scene.material.friction_rock = mu;
+  scene.gravity = {g * std::sin(angle), 0, -g * std::cos(angle)};
+  // Blocks of one Kuhn cell each (6 tets): the upper one starts just touching the lower one.
+  Solver s(scene, build_model(two_blocks({0, 0, 0}, 1), scene));
+  const Model& m = s.model();
+  for (std::size_t n = 0; n < m.X.size(); ++n)
+    if (!in_upper(m, n, 1)) s.prescribe(int(n), 7, {0, 0, 0});
+  const real x0 = body(s, true, 1).centre.x;
+  Slide r{};
+  r.t1 = 0.5e-3;
+  r.t2 = 1.5e-3;
+  while (s.time() < r.t1) s.step();
+  Body b = body(s, true, 1);
+  r.v1 = b.momentum.x / b.mass;
+  r.t1 = s.time();
+  while (s.time() < r.t2) s.step();
+  b = body(s, true, 1);
+  r.v2 = b.momentum.x / b.mass;
+  r.t2 = s.time();
+  r.dx = b.centre.x - x0;
+  return r;
+}
+
+}  // namespace
+
+TEST(ContactBlocks, BlockOnAnInclineSticksBelowMuAndSlidesAbove) {
+  const real g = 1000, mu = 0.5;  // m/s^2 (strong, to slide far in few steps); Coulomb coefficient
+  // tan(angle) = 0.3 < mu: the block sticks (only the elastic creep of the friction springs).
+  const Slide stick = incline(std::atan(0.3), g, mu);
+  const real free_fall = 0.5 * g * std::sin(std::atan(0.3)) * stick.t2 * stick.t2;
+  EXPECT_LT(std::fabs(stick.dx), 1e-3 * free_fall) << "dx " << stick.dx << " m";
+  EXPECT_LT(std::fabs(stick.v2), 1e-3 * g * stick.t2);
+  // tan(angle) = 0.8 > mu: sliding with a = g (sin - mu cos).
+  const real angle = std::atan(0.8);
+  const Slide slide = incline(angle, g, mu);
+  const real a = (slide.v2 - slide.v1) / (slide.t2 - slide.t1);
+  const real expect = g * (std::sin(angle) - mu * std::cos(angle));
+  EXPECT_NEAR(a, expect, 0.02 * expect) << "measured " << a << " m/s^2";
+  RecordProperty("acceleration_ratio", std::to_string(a / expect));
+}
+
+TEST(ContactBlocks, BarHalvesTouchOnlyThroughContactOnceBroken) {
+  // A 2x2x2-cell bar of height 2h with CE6s only on its mid-plane z = h (the region holds just
+  // the tets with a face on that plane). Pulled apart until the mid-plane breaks, then pushed
+  // back together.
+  const real h = 0.01;
+  Scene scene = test::test_scene();
+  scene.platens.enabled = false;
+  scene.contact.activation = "adaptive";
+  scene.fracture.everywhere = false;
+  scene.fracture.boxes.push_back({{-1, -1, h - 0.3 * h / 2}, {1, 1, h + 0.3 * h / 2}});
+  Solver s(scene, build_model(structured_box_mesh({h, h, 2 * h}, 2, 2, 4), scene));
+  const Model& m = s.model();
+  // The mid-plane carries 8 CE6s (2 triangles per cell); the region's inner faces get CE6s
+  // whose node pairs are single nodes (joined to the continuous halves), which never open.
+  std::vector<int> mid_ce6;
+  for (std::size_t c = 0; c < m.ce6_nodes.size(); ++c) {
+    bool on_plane = true;
+    for (int i = 0; i < 3; ++i) on_plane = on_plane && std::fabs(m.X[m.ce6_nodes[c][i]].z - h) < 1e-9;
+    if (on_plane) mid_ce6.push_back(int(c));
+  }
+  ASSERT_EQ(mid_ce6.size(), 8u) << "expected 8 CE6s on the mid-plane";
+  auto mid_broken = [&] {
+    int k = 0;
+    for (int c : mid_ce6) k += ce6_broken(s.ce6[c]);
+    return k;
+  };
+  const real v = 0.5;  // m/s, each end
+  std::vector<int> top, bottom;
+  for (std::size_t n = 0; n < m.X.size(); ++n) {
+    if (m.X[n].z > 2 * h - 1e-9) top.push_back(int(n));
+    if (m.X[n].z < 1e-9) bottom.push_back(int(n));
+  }
+  for (int n : top) s.prescribe(n, 4, {0, 0, v});
+  for (int n : bottom) s.prescribe(n, 4, {0, 0, -v});
+  // Gap between the halves: the lowest mid-plane node of the upper half minus the highest of
+  // the lower half (each side has its own copy of a mid-plane vertex once split).
+  std::vector<int> mid_upper, mid_lower;
+  for (std::size_t t = 0; t < m.tet_nodes.size(); ++t) {
+    real zc = 0;
+    for (int q : m.tet_nodes[t]) zc += 0.25 * m.X[q].z;
+    for (int q : m.tet_nodes[t])
+      if (std::fabs(m.X[q].z - h) < 1e-9) (zc > h ? mid_upper : mid_lower).push_back(q);
+  }
+  auto gap = [&] {
+    real lo_top = 1e9, hi_bottom = -1e9;
+    for (int n : mid_upper) lo_top = std::min(lo_top, s.x[n].z);
+    for (int n : mid_lower) hi_bottom = std::max(hi_bottom, s.x[n].z);
+    return lo_top - hi_bottom;
+  };
+  Monitors row = s.measure();
+  while (mid_broken() < 8 && s.step_count() < 400000) {
+    s.step();
+    row = s.measure();
+    if (row.broken == 0) {
+      ASSERT_EQ(row.contacts, 0) << "contact force while the CE6s are intact, step " << s.step_count();
+      ASSERT_EQ(row.contact, 0);
+    }
+  }
+  ASSERT_EQ(mid_broken(), 8) << "the mid-plane did not break";
+  // Adaptive activation: exactly the tets with a vertex on the broken plane.
+  long near = 0;
+  for (const auto& q : m.tet_nodes) {
+    bool touches = false;
+    for (int n : q) touches = touches || std::fabs(m.X[n].z - h) < 1e-9;
+    near += touches;
+  }
+  EXPECT_EQ(row.active_tets, near) << "the vicinity of the broken plane is activated";
+  // Open a clear gap, then reverse and push the halves back together past contact.
+  while (gap() < 2e-5) s.step();
+  for (int n : top) s.prescribe(n, 4, {0, 0, -v});
+  for (int n : bottom) s.prescribe(n, 4, {0, 0, v});
+  real min_gap = 1;
+  long touching_steps = 0;
+  const real travel = 6e-5;  // m of approach after closing: a compressive strain of about 3e-3
+  const real t_end = s.time() + (2e-5 + travel) / (2 * v);
+  while (s.time() < t_end) {
+    s.step();
+    row = s.measure();
+    min_gap = std::min(min_gap, gap());
+    touching_steps += row.contacts > 0;
+  }
+  EXPECT_GT(touching_steps, 0) << "the halves never met";
+  EXPECT_GT(row.contact_pairs, 0);
+  // Never interpenetrate: the overlap that carries the compressive stress stays tiny next to h.
+  EXPECT_GT(min_gap, -1e-3 * h) << "overlap " << -min_gap << " m";
+  // The compression reached the far halves: the bar carries load through contact.
+  EXPECT_GT(row.contacts, 0);
+  EXPECT_GT(row.strain, 0);
+  RecordProperty("max_overlap_over_h", std::to_string(-min_gap / h));
+}
