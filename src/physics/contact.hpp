@@ -78,12 +78,23 @@ FDEM_HD void tet_weights(const Vec3 (&x)[4], const Mat3& Einv, Vec3 p, real (&L)
 }
 
 /// A tet's four face planes, inside positive: face k is opposite node k, its (unnormalised)
-/// normal points toward node k; h[k] = s_k(C), the plane function at the centroid.
+/// normal points toward node k; h[k] = s_k(C), the plane function at the centroid. And the
+/// six planes through the centroid and each edge, which split the tet into its sub-tets.
 struct Planes {
   Vec3 n[4], o[4];
   real h[4];
   Vec3 C;
+  Vec3 en[6];  // edge plane normals, edge e = (kEdge[e][0], kEdge[e][1])
 };
+
+/// The six edges (i, j) of a tet and the two other vertices (k, l).
+FDEM_HD void tet_edge(int e, int& i, int& j, int& k, int& l) {
+  const int E[6][4] = {{0, 1, 2, 3}, {0, 2, 1, 3}, {0, 3, 1, 2}, {1, 2, 0, 3}, {1, 3, 0, 2}, {2, 3, 0, 1}};
+  i = E[e][0];
+  j = E[e][1];
+  k = E[e][2];
+  l = E[e][3];
+}
 
 FDEM_HD Planes tet_planes(const Vec3 (&b)[4]) {
   Planes P;
@@ -95,6 +106,15 @@ FDEM_HD Planes tet_planes(const Vec3 (&b)[4]) {
     P.n[k] = nrm;
     P.o[k] = p0;
     P.h[k] = dot(nrm, P.C - p0);
+  }
+  // Edge plane through b_i, b_j and C, oriented toward b_l: sub-tet k (face opposite k holds
+  // i, j, l) lies on its positive side, sub-tet l (face holds i, j, k) on its negative side.
+  for (int e = 0; e < 6; ++e) {
+    int i, j, k, l;
+    tet_edge(e, i, j, k, l);
+    Vec3 nrm = cross(b[j] - b[i], P.C - b[i]);
+    if (dot(nrm, b[l] - b[i]) < 0) nrm = -nrm;
+    P.en[e] = nrm;
   }
   return P;
 }
@@ -114,56 +134,62 @@ FDEM_HD bool separated_by(const Planes& pb, const Vec3 (&a)[4]) {
 /// roles are swapped (e.normal is always the force on the pair's first tet).
 FDEM_HD void faces_inside(const Vec3 (&a)[4], const Vec3 (&b)[4], const Planes& pb, const Mat3& Binv, real P,
                           Vec3 (&fa)[4], Vec3 (&fb)[4], real sign, ContactEval& e) {
-  const Vec3 Cb = pb.C;
-  const Vec3* bn = pb.n;
-  const Vec3* bo = pb.o;
-  const real* bh = pb.h;
+  Poly buf[2];
   for (int f = 0; f < 4; ++f) {  // face of a opposite node f
     const int i0 = (f + 1) % 4, i1 = (f + 2) % 4, i2 = (f + 3) % 4;
     const Vec3 q0 = a[i0], q1 = a[i1], q2 = a[i2];
+    // Cheap rejection: the whole face on or beyond one of b's face planes.
+    bool outside = false;
+    for (int k = 0; k < 4 && !outside; ++k)
+      outside = dot(pb.n[k], q0 - pb.o[k]) <= 0 && dot(pb.n[k], q1 - pb.o[k]) <= 0 && dot(pb.n[k], q2 - pb.o[k]) <= 0;
+    if (outside) continue;
     const Vec3 na = cross(q1 - q0, q2 - q0);  // for barycentric weights: keep its sign
     const real na2 = dot(na, na);
     if (!(na2 > 0)) continue;
+    const real inv_na2 = real(1) / na2;
     const Vec3 nhat = (dot(na, a[f] - q0) > 0 ? real(-1) : real(1)) / std::sqrt(na2) * na;  // outward
-    // Clip the face against b.
-    Poly P0, P1;
-    P0.n = 3;
-    P0.p[0] = q0;
-    P0.p[1] = q1;
-    P0.p[2] = q2;
-    for (int k = 0; k < 4; ++k) {
-      clip(P0, bn[k], bo[k], P1);
-      P0 = P1;
-      if (P0.n < 3) break;
+    // Clip the face against b (ping-pong between two buffers).
+    int cur = 0;
+    buf[0].n = 3;
+    buf[0].p[0] = q0;
+    buf[0].p[1] = q1;
+    buf[0].p[2] = q2;
+    for (int k = 0; k < 4 && buf[cur].n >= 3; ++k) {
+      clip(buf[cur], pb.n[k], pb.o[k], buf[1 - cur]);
+      cur = 1 - cur;
     }
-    if (P0.n < 3) continue;
-    // Split among b's sub-tets by the three planes through C and each edge of face k.
+    if (buf[cur].n < 3) continue;
+    const Poly& inside = buf[cur];
+    // Split among b's sub-tets: sub-tet k is cut out by the edge planes of face k's edges.
     for (int k = 0; k < 4; ++k) {
-      if (!(bh[k] > 0)) continue;
-      Poly Q = P0, R;
-      for (int j = 0; j < 3; ++j) {
-        const Vec3 e0 = b[(k + 1 + j) % 4], e1 = b[(k + 1 + (j + 1) % 3) % 4];
-        const Vec3 third = b[(k + 1 + (j + 2) % 3) % 4];
-        Vec3 nrm = cross(e1 - e0, Cb - e0);
-        if (dot(nrm, third - e0) < 0) nrm = -nrm;
-        clip(Q, nrm, e0, R);
-        Q = R;
-        if (Q.n < 3) break;
+      if (!(pb.h[k] > 0)) continue;
+      Poly Q[2];
+      int c = 0;
+      Q[0] = inside;
+      for (int ed = 0; ed < 6 && Q[c].n >= 3; ++ed) {
+        int i, j, kk, l;
+        tet_edge(ed, i, j, kk, l);
+        if (i == k || j == k) continue;  // only the three edges of face k
+        // Face k holds i, j and the one of (kk, l) that is not k.
+        const Vec3 nrm = (kk == k) ? pb.en[ed] : -pb.en[ed];
+        clip(Q[c], nrm, b[i], Q[1 - c]);
+        c = 1 - c;
       }
-      if (Q.n < 3) continue;
-      for (int t = 1; t + 1 < Q.n; ++t) {
-        const Vec3 r0 = Q.p[0], r1 = Q.p[t], r2 = Q.p[t + 1];
+      const Poly& q = Q[c];
+      if (q.n < 3) continue;
+      for (int t = 1; t + 1 < q.n; ++t) {
+        const Vec3 r0 = q.p[0], r1 = q.p[t], r2 = q.p[t + 1];
         const real area = real(0.5) * norm(cross(r1 - r0, r2 - r0));
         if (!(area > 0)) continue;
         const Vec3 mids[3] = {real(0.5) * (r0 + r1), real(0.5) * (r1 + r2), real(0.5) * (r2 + r0)};
         for (const Vec3& m : mids) {
-          const real phi = dot(bn[k], m - bo[k]) / bh[k];
+          const real phi = dot(pb.n[k], m - pb.o[k]) / pb.h[k];
           const real g = P * (area / 3) * phi;  // |dF|
           if (!(g > 0)) continue;
           const Vec3 F = -g * nhat;  // on a
           // Barycentric weights of m in a's face and in b.
-          const real l0 = dot(cross(q1 - m, q2 - m), na) / na2;
-          const real l1 = dot(cross(q2 - m, q0 - m), na) / na2;
+          const real l0 = dot(cross(q1 - m, q2 - m), na) * inv_na2;
+          const real l1 = dot(cross(q2 - m, q0 - m), na) * inv_na2;
           const real l2 = 1 - l0 - l1;
           fa[i0] += l0 * F;
           fa[i1] += l1 * F;
@@ -197,10 +223,11 @@ FDEM_HD ContactEval contact_tet_pair(const Vec3 (&a)[4], const Vec3 (&b)[4], rea
   for (int d = 0; d < 3; ++d) {
     real alo = a[0][d], ahi = a[0][d], blo = b[0][d], bhi = b[0][d];
     for (int i = 1; i < 4; ++i) {
-      alo = std::fmin(alo, a[i][d]);
-      ahi = std::fmax(ahi, a[i][d]);
-      blo = std::fmin(blo, b[i][d]);
-      bhi = std::fmax(bhi, b[i][d]);
+      const real ai = a[i][d], bi = b[i][d];
+      alo = ai < alo ? ai : alo;
+      ahi = ai > ahi ? ai : ahi;
+      blo = bi < blo ? bi : blo;
+      bhi = bi > bhi ? bi : bhi;
     }
     if (alo >= bhi || blo >= ahi) return e;
   }

@@ -53,6 +53,9 @@ class ContactSet {
   /// those forces over the central-difference step (the forces are stiff and short-lived).
   real power(const Model& m, const std::vector<Vec3>& v) const;
 
+  /// Rebuild the candidate list at the next evaluation (as after an activation change).
+  void request_rebuild() { dirty_ = true; }
+
   const std::vector<std::uint8_t>& active() const { return active_; }
   long active_count() const { return active_count_; }
   long pair_count() const { return long(pairs_.size()); }

@@ -292,6 +292,15 @@ TEST(CliExe, RunWritesMonitorsAndFields) {
   const std::string xdmf = slurp(out / "fields.xdmf");
   EXPECT_TRUE(has(xdmf, "Xdmf")) << xdmf.substr(0, 200);
   EXPECT_TRUE(has(xdmf, "fields.h5")) << xdmf.substr(0, 400);
+  // Adaptive contact (the default): the activation flag is a cell field, and the tets at the
+  // platens are active from the start. In this continuous mesh (no CE6) candidate pairs are
+  // tets near each other that share no node; none of them overlaps, so none touches.
+  EXPECT_TRUE(has(xdmf, "Name=\"active\"")) << xdmf.substr(0, 400);
+  const int active = column(csv, "active_tets"), touching = column(csv, "contacts");
+  ASSERT_GE(active, 0);
+  ASSERT_GE(touching, 0);
+  EXPECT_GT(csv.rows[0][active], 0);
+  EXPECT_EQ(csv.rows.back()[touching], 0);
 }
 
 TEST(CliExe, UnstableRunStopsWithExitThreeAndAValidCsv) {

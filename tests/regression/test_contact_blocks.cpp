@@ -150,6 +150,39 @@ TEST(ContactBlocks, BlockOnAnInclineSticksBelowMuAndSlidesAbove) {
   RecordProperty("acceleration_ratio", std::to_string(a / expect));
 }
 
+TEST(ContactBlocks, FrictionHistorySurvivesACandidateListRebuild) {
+  // A block held on an incline by friction (tan 0.3 < mu 0.5): its friction springs carry
+  // the tangential load. Rebuilding the candidate list must keep every pair's spring.
+  Scene scene = block_scene();
+  const real g = 1000, angle = std::atan(0.3);
+  scene.gravity = {g * std::sin(angle), 0, -g * std::cos(angle)};
+  Solver s(scene, build_model(two_blocks({0, 0, 0}, 1), scene));
+  const Model& m = s.model();
+  for (std::size_t n = 0; n < m.X.size(); ++n)
+    if (!in_upper(m, n, 1)) s.prescribe(int(n), 7, {0, 0, 0});
+  while (s.time() < 2e-4) s.step();
+  const std::vector<ContactPair> pairs = s.contacts.pairs();
+  const std::vector<Vec3> springs = s.contacts.spring;
+  real total = 0;
+  for (const Vec3& u : springs) total += norm(u);
+  ASSERT_GT(total, 0) << "no friction spring is loaded";
+  const long builds = s.contacts.times.rebuilds;
+  s.contacts.request_rebuild();
+  s.step();
+  ASSERT_EQ(s.contacts.times.rebuilds, builds + 1);
+  ASSERT_EQ(s.contacts.pairs().size(), pairs.size());
+  // One step later each spring has moved by at most |v| dt: nothing was reset.
+  real change = 0, after = 0;
+  for (std::size_t p = 0; p < pairs.size(); ++p) {
+    ASSERT_EQ(s.contacts.pairs()[p].a, pairs[p].a);
+    ASSERT_EQ(s.contacts.pairs()[p].b, pairs[p].b);
+    change += norm(s.contacts.spring[p] - springs[p]);
+    after += norm(s.contacts.spring[p]);
+  }
+  EXPECT_LT(change, 1e-3 * total);
+  EXPECT_NEAR(after, total, 1e-3 * total);
+}
+
 TEST(ContactBlocks, BarHalvesTouchOnlyThroughContactOnceBroken) {
   // A 2x2x2-cell bar of height 2h with CE6s only on its mid-plane z = h (the region holds just
   // the tets with a face on that plane). Pulled apart until the mid-plane breaks, then pushed

@@ -58,6 +58,9 @@ TEST(Scene, DefaultSceneParses) {
   EXPECT_TRUE(s.platens.enabled);
   EXPECT_DOUBLE_EQ(s.platens.velocity, 0.1);
   EXPECT_DOUBLE_EQ(s.platens.ramp_time, 0);
+  EXPECT_EQ(s.contact.activation, "adaptive");
+  EXPECT_DOUBLE_EQ(s.contact.buffer, 0);
+  EXPECT_DOUBLE_EQ(s.gravity.z, 0);
   EXPECT_DOUBLE_EQ(s.solver.mass_scaling, 5);
   EXPECT_DOUBLE_EQ(s.solver.time_step_safety, 0.9);
   EXPECT_DOUBLE_EQ(s.solver.end.axial_strain, 0.006);
@@ -228,12 +231,37 @@ INSTANTIATE_TEST_SUITE_P(
         BadScene{"monitor_interval_zero.yaml", "output.monitor_interval"},
         BadScene{"plot_not_bool.yaml", "output.plot"},
         BadScene{"duplicate_key.yaml", "material.density: key given twice"},
+        BadScene{"bad_activation.yaml",
+                 "contact.activation: 'everywhere' is not recognised; allowed: adaptive | full | none"},
+        BadScene{"negative_buffer.yaml", "contact.buffer: -0.001 is out of range"},
+        BadScene{"contact_typo.yaml", "contact.activaton: unknown key"},
+        BadScene{"gravity_two.yaml", "gravity: expected a list of three numbers"},
         BadScene{"many_errors.yaml", "material.density"}),
     [](const ::testing::TestParamInfo<BadScene>& info) {
       std::string n = info.param.file;
       n = n.substr(0, n.find('.'));
       return n;
     });
+
+TEST(Scene, ContactAndGravityAreRead) {
+  const Scene s = parse_scene(
+      "mesh: {generate: {shape: box, size: [0.01, 0.01, 0.02], element_size: 0.004}}\n"
+      "contact: {activation: full, buffer: 2.5e-4}\n"
+      "gravity: [0, 0, -9.81]\n"
+      "platens: none\n"
+      "solver: {end: {steps: 10}}\n",
+      "inline.yaml");
+  EXPECT_EQ(s.contact.activation, "full");
+  EXPECT_TRUE(s.contact.enabled());
+  EXPECT_DOUBLE_EQ(s.contact.buffer, 2.5e-4);
+  EXPECT_DOUBLE_EQ(s.gravity.x, 0);
+  EXPECT_DOUBLE_EQ(s.gravity.z, -9.81);
+  const Scene none = parse_scene(
+      "mesh: {generate: {shape: box, size: [0.01, 0.01, 0.02], element_size: 0.004}}\n"
+      "contact: {activation: none}\nplatens: none\nsolver: {end: {steps: 10}}\n",
+      "inline.yaml");
+  EXPECT_FALSE(none.contact.enabled());
+}
 
 TEST(Scene, InvalidYamlReportsLineAndColumn) {
   const std::string msg = load_error(kData + "/bad_scenes/invalid_yaml.yaml");

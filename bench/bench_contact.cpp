@@ -1,0 +1,178 @@
+// bench_contact: adaptive against full contact activation on a fracturing UCS run.
+//
+// For each element size: generate a 0.02 m x 0.04 m cylinder, build the default model
+// (Table 2 limestone, CE6 on every internal face), load it with the platens at --velocity
+// (default 0.2 m/s, mass scaling 5) until the axial stress falls below --post-peak (default
+// 0.5) of its peak, once with contact.activation = adaptive and once with full. Prints, as
+// Markdown: wall time, steps, time per step, the share of each contact phase (broad, narrow,
+// friction) in the wall time, the peak stress and broken-CE6 count of each run and their
+// differences, the speed-up; and the active tets and candidate pairs over the run.
+//
+// Usage: bench_contact [--sizes 0.008,0.006] [--velocity 0.2] [--mass-scaling 5]
+//                      [--post-peak 0.5] [--threads T] [--only adaptive|full]
+// This is a benchmark, not a test: it checks nothing.
+#include <omp.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "io/mesh_io.hpp"
+#include "model/model.hpp"
+#include "solver/solver.hpp"
+
+namespace {
+
+using fdem::real;
+using Clock = std::chrono::steady_clock;
+
+struct Sample {
+  real strain, stress;
+  long active, pairs, contacts, broken;
+};
+
+struct Result {
+  std::string activation;
+  long tets = 0, steps = 0;
+  double wall = 0;
+  fdem::ContactTimes times;
+  real peak = 0, strain_at_peak = 0;
+  long broken = 0;
+  std::vector<Sample> samples;
+};
+
+struct Options {
+  std::vector<real> sizes{0.008, 0.006};
+  real velocity = 0.2, mass_scaling = 5, post_peak = 0.5;
+  int threads = 0;
+  std::string only;
+};
+
+Result run(real h, const std::string& activation, const Options& opt) {
+  fdem::MeshSpec spec;
+  spec.shape = "cylinder";
+  spec.diameter = 0.02;
+  spec.height = 0.04;
+  spec.element_size = h;
+  fdem::Scene scene;
+  scene.name = "bench_contact";
+  scene.file = "(bench)";
+  scene.output.progress_interval = 0;
+  scene.output.plot = false;
+  scene.platens.velocity = opt.velocity;
+  scene.solver.mass_scaling = opt.mass_scaling;
+  scene.solver.threads = opt.threads;
+  scene.contact.activation = activation;
+  fdem::Solver s(scene, fdem::build_model(fdem::generate_mesh(spec), scene));
+  Result r;
+  r.activation = activation;
+  r.tets = long(s.model().tet_nodes.size());
+  const auto t0 = Clock::now();
+  fdem::Monitors row = s.measure();
+  const real strain_cap = 0.01;
+  for (;;) {
+    s.step();
+    if (s.step_count() % 100) continue;
+    row = s.measure();
+    r.samples.push_back(
+        {row.axial_strain, row.axial_stress, row.active_tets, row.contact_pairs, row.contacts, row.broken});
+    if (row.axial_stress > r.peak) r.peak = row.axial_stress, r.strain_at_peak = row.axial_strain;
+    if (row.axial_stress < opt.post_peak * r.peak || row.axial_strain > strain_cap) break;
+  }
+  r.wall = std::chrono::duration<double>(Clock::now() - t0).count();
+  r.steps = s.step_count();
+  r.times = s.contacts.times;
+  r.broken = row.broken;
+  return r;
+}
+
+std::vector<real> parse_list(const char* s) {
+  std::vector<real> v;
+  std::stringstream in(s);
+  std::string item;
+  while (std::getline(in, item, ',')) v.push_back(std::atof(item.c_str()));
+  return v;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options opt;
+  for (int i = 1; i + 1 < argc; i += 2) {
+    const std::string k = argv[i];
+    if (k == "--sizes")
+      opt.sizes = parse_list(argv[i + 1]);
+    else if (k == "--velocity")
+      opt.velocity = std::atof(argv[i + 1]);
+    else if (k == "--mass-scaling")
+      opt.mass_scaling = std::atof(argv[i + 1]);
+    else if (k == "--post-peak")
+      opt.post_peak = std::atof(argv[i + 1]);
+    else if (k == "--threads")
+      opt.threads = std::atoi(argv[i + 1]);
+    else if (k == "--only")
+      opt.only = argv[i + 1];
+    else {
+      std::fprintf(stderr, "unknown option %s\n", k.c_str());
+      return 2;
+    }
+  }
+  if (opt.threads > 0) omp_set_num_threads(opt.threads);
+  std::printf("threads %d, platen velocity %g m/s, mass scaling %g, run to %g of the peak\n\n", omp_get_max_threads(),
+              opt.velocity, opt.mass_scaling, opt.post_peak);
+  std::printf(
+      "| element m | activation | tets | steps | wall s | ms/step | broad %% | narrow %% | friction %% | builds | "
+      "peak MPa | strain at peak | broken CE6 |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+  std::vector<std::vector<Result>> all;
+  for (real h : opt.sizes) {
+    std::vector<Result> rs;
+    for (const char* a : {"adaptive", "full"}) {
+      if (!opt.only.empty() && opt.only != a) continue;
+      Result r = run(h, a, opt);
+      const double w = r.wall / 100;
+      std::printf("| %g | %s | %ld | %ld | %.1f | %.3f | %.1f | %.1f | %.1f | %ld | %.3f | %.5f | %ld |\n", h, a,
+                  r.tets, r.steps, r.wall, 1e3 * r.wall / r.steps, r.times.broad / w, r.times.narrow / w,
+                  r.times.friction / w, r.times.rebuilds, r.peak / 1e6, r.strain_at_peak, r.broken);
+      std::fflush(stdout);
+      rs.push_back(std::move(r));
+    }
+    all.push_back(std::move(rs));
+  }
+  std::printf(
+      "\n| element m | speed-up (full wall / adaptive wall) | peak difference | broken difference |\n"
+      "|---|---|---|---|\n");
+  for (std::size_t i = 0; i < all.size(); ++i) {
+    if (all[i].size() < 2) continue;
+    const Result &a = all[i][0], &f = all[i][1];
+    std::printf("| %g | %.1f | %+.2f %% | %+.1f %% |\n", opt.sizes[i], f.wall / a.wall, 100 * (a.peak / f.peak - 1),
+                f.broken > 0 ? 100.0 * double(a.broken - f.broken) / double(f.broken) : 0.0);
+  }
+  // Candidate pairs over the run (about ten rows per size).
+  for (std::size_t i = 0; i < all.size(); ++i) {
+    std::printf("\nelement %g m: active tets and candidate pairs over the run\n\n", opt.sizes[i]);
+    std::printf("| axial strain | stress MPa (adaptive) |");
+    for (const Result& r : all[i])
+      std::printf(" %s active | %s pairs | %s touching |", r.activation.c_str(), r.activation.c_str(),
+                  r.activation.c_str());
+    std::printf("\n|---|---|");
+    for (std::size_t k = 0; k < all[i].size(); ++k) std::printf("---|---|---|");
+    std::printf("\n");
+    const std::size_t n = all[i][0].samples.size();
+    const std::size_t every = std::max<std::size_t>(1, n / 10);
+    for (std::size_t j = 0; j < n; j += every) {
+      const Sample& s0 = all[i][0].samples[j];
+      std::printf("| %.5f | %.2f |", s0.strain, s0.stress / 1e6);
+      for (const Result& r : all[i]) {
+        const Sample& s = r.samples[std::min(j, r.samples.size() - 1)];
+        std::printf(" %ld | %ld | %ld |", s.active, s.pairs, s.contacts);
+      }
+      std::printf("\n");
+    }
+  }
+  return 0;
+}
