@@ -76,7 +76,7 @@ void find_box_pairs(const std::vector<Aabb>& boxes, const std::vector<int>& ids,
                     std::vector<std::array<int, 2>>& pairs, BroadPhaseStats* stats, long max_cells_per_box) {
   pairs.clear();
   const std::size_t n = ids.size();
-  const long cap = std::clamp(max_cells_per_box, 1L, 1L << 40);
+  const long cap = std::clamp(max_cells_per_box, 1L, 1L << 20);
   if (n == 0) {
     if (stats) *stats = BroadPhaseStats{0, 0, 0, 0, cell > 0 ? cell : 0};
     return;
@@ -103,18 +103,21 @@ void find_box_pairs(const std::vector<Aabb>& boxes, const std::vector<int>& ids,
   if (!(cell > 0)) cell = span > 0 ? 1e-6 * span : 1;
   Grid grid{{x0, y0, z0}, cell};
 
-  // Pass 2 (count, repeated while needed): cells per box. Enlarge the cell until no box
-  // covers more than `cap` cells, and until the farthest coordinate is at most 2^50 cells
-  // away, which keeps the int64 indices and the double quotient exact.
+  // Pass 2 (count, repeated while needed): cells per box. Enlarge the cell until all boxes
+  // together cover at most `cap` cells per box on average (memory stays bounded, while one
+  // long box among small ones does not coarsen the grid for all the others, which would make
+  // the pair test quadratic), and until the farthest coordinate is at most 2^50 cells away,
+  // which keeps the int64 indices and the double quotient exact.
   std::vector<long> offset(n + 1);
   const real max_index = std::ldexp(1.0, 50);
+  const long budget = cap * static_cast<long>(n);
   for (;;) {
     while (span / grid.cell > max_index) grid.cell *= 2;
-    long worst = 0;
-    for_each(n, [&](std::size_t i) { offset[i] = cells_of(grid, boxes[ids[i]], cap); });
-#pragma omp parallel for schedule(static) reduction(max : worst)
-    for (std::ptrdiff_t i = 0; i < static_cast<std::ptrdiff_t>(n); ++i) worst = std::max(worst, offset[i]);
-    if (worst <= cap) break;
+    long sum = 0;
+    for_each(n, [&](std::size_t i) { offset[i] = cells_of(grid, boxes[ids[i]], budget); });
+#pragma omp parallel for schedule(static) reduction(+ : sum)
+    for (std::ptrdiff_t i = 0; i < static_cast<std::ptrdiff_t>(n); ++i) sum += offset[i];
+    if (sum <= budget) break;
     grid.cell *= 2;
   }
 

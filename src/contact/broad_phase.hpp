@@ -29,8 +29,9 @@ struct BroadPhaseStats {
 /// overlaps; a pair is reported only by the cell holding the low corner of the two boxes'
 /// intersection, so no pair is found twice. Cell coordinates are 64-bit, so a fragment
 /// far from the rest costs no memory. `cell <= 0` picks twice the mean box extent.
-/// `max_cells_per_box` caps the multi-insertion of one box: beyond it the cell edge is
-/// enlarged (and reported in stats.cell) so memory stays bounded by a few entries per box.
+/// `max_cells_per_box` caps the multi-insertion on average: when all boxes together would
+/// cover more than that many cells per box, the cell edge is enlarged (and reported in
+/// stats.cell), so memory stays bounded; one long box alone does not coarsen the grid.
 void find_box_pairs(const std::vector<Aabb>& boxes, const std::vector<int>& ids, real cell,
                     std::vector<std::array<int, 2>>& pairs, BroadPhaseStats* stats = nullptr,
                     long max_cells_per_box = 64);

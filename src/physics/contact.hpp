@@ -38,7 +38,7 @@ struct ContactEval {
 
 namespace contact_detail {
 
-constexpr int kMaxPoly = 12;  // a triangle clipped by 7 planes has at most 10 vertices
+constexpr int kMaxPoly = 16;  // a triangle clipped by 7 planes: 10 vertices, a few more by round-off
 
 struct Poly {
   Vec3 p[kMaxPoly];

@@ -128,10 +128,12 @@ void ContactSet::rebuild(const Model& m, const std::vector<Vec3>& x) {
   std::vector<ContactPair> next;
   next.reserve(found.size());
   for (const auto& p : found) {
-    if (share_node(m.tet_nodes[p[0]], m.tet_nodes[p[1]])) continue;
     int joint = -1;
     for (int c : tet_ce6_[p[0]])
       if (c >= 0 && (m.ce6_tets[c][0] == p[1] || m.ce6_tets[c][1] == p[1])) joint = c;
+    // Tets sharing a node are one continuous body, unless a CE6 joins them: on the border
+    // of a fracture region a CE6 can have one or two single-node pairs and still break.
+    if (joint < 0 && share_node(m.tet_nodes[p[0]], m.tet_nodes[p[1]])) continue;
     next.push_back({p[0], p[1], joint});
   }
   // Carry each surviving pair's friction spring over (both lists are sorted by (a, b)).

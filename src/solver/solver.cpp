@@ -274,7 +274,6 @@ void Solver::step() {
   w_viscous_ += p_viscous_ * dt;
   w_cohesive_ += p_cohesive_ * dt;
   w_friction_ += p_friction_ * dt;
-  w_external_ += p_gravity_ * dt;
 
   long bad = 0;  // NaN passes through max(), so count non-finite nodes instead
   const int nn = int(x.size());
@@ -295,6 +294,14 @@ void Solver::step() {
   // Contact forces are stiff and act over few steps: their work over the step is taken with
   // the mean of the velocities before and after it, which is exact for central differences.
   if (contacts.enabled()) w_contact_ += 0.5 * dt * (p_contact_ + contacts.power(model_, v));
+  // Gravity's work, the same way: its force at t with the mean of the two velocities.
+  const Vec3 g = scene_.gravity;
+  if (g.x != 0 || g.y != 0 || g.z != 0) {
+    real p_new = 0;
+#pragma omp parallel for schedule(static) reduction(+ : p_new)
+    for (int n = 0; n < nn; ++n) p_new += model_.mass[n] * dot(g, v[n]);
+    w_external_ += 0.5 * dt * (p_gravity_ + p_new);
+  }
   top_offset += speed * dt;
   time_ += dt;
   ++step_;

@@ -143,7 +143,8 @@ TEST(BroadPhase, FarApartFragmentsAndBoxesSpanningManyCells) {
   EXPECT_EQ(many.cell, cell);
   EXPECT_GT(many.entries, 10 * many.boxes);
 
-  // The same cell with the default cap: the large boxes would exceed it, so the cell grows.
+  // The same cell with the default cap (64 cells per box on average): the large boxes would
+  // exceed it, so the cell grows.
   const auto capped = check_against_brute_force(boxes, ids, cell);
   EXPECT_GT(capped.cell, cell);
   EXPECT_LE(capped.entries, 64 * capped.boxes);
@@ -227,4 +228,21 @@ TEST(BroadPhase, EmptyAndSingleBoxGiveNoPairs) {
   // The two together do overlap: the single-box results above were not vacuous.
   find_box_pairs(boxes, {1, 0}, 0.1, pairs, &stats);
   EXPECT_EQ(pairs, (Pairs{{0, 1}}));
+}
+
+TEST(BroadPhase, OneLongBoxDoesNotCoarsenTheGrid) {
+  // 2000 small boxes and one box 50 times longer than the cloud: the grid keeps the cell
+  // it would have without the long box, so the work stays near linear.
+  std::mt19937 rng(3);
+  std::vector<Aabb> boxes;
+  for (int i = 0; i < 2000; ++i) boxes.push_back(random_tet_box(rng, 1.0, 0.05, 0.005));
+  const auto ids_small = all_ids(boxes);
+  std::vector<std::array<int, 2>> pairs;
+  BroadPhaseStats alone;
+  find_box_pairs(boxes, ids_small, 0, pairs, &alone);
+  boxes.push_back({{-25, 0.5, 0.5}, {25, 0.52, 0.52}});
+  const auto ids = all_ids(boxes);
+  const auto with_long = check_against_brute_force(boxes, ids, alone.cell);
+  EXPECT_EQ(with_long.cell, alone.cell);
+  EXPECT_LT(with_long.tested, 3 * alone.tested + 2000);
 }
