@@ -18,6 +18,16 @@ inline Scene test_scene() {
   return s;
 }
 
+/// A gmsh cylinder (axis z) of the given diameter, height and element size, m.
+inline MeshSpec cylinder(real diameter, real height, real element_size) {
+  MeshSpec spec;
+  spec.shape = "cylinder";
+  spec.diameter = diameter;
+  spec.height = height;
+  spec.element_size = element_size;
+  return spec;
+}
+
 /// Load along z until `strain` (platen approach / height), measuring every `every` steps.
 inline std::vector<Monitors> load_to_strain(Solver& solver, real strain, int every = 50) {
   std::vector<Monitors> rows{solver.measure()};

@@ -420,20 +420,41 @@ class Reader {
     }
   }
 
-  void platens(const YAML::Node& n, Platens& pl) {
-    const std::string p = "platens";
+  /// A section that is either the word `none` (enabled = false) or a map of `keys` (checked;
+  /// enabled = true). Returns true when the map's values should be read.
+  bool none_or_map(const YAML::Node& n, const std::string& p, const std::vector<std::string>& keys, bool& enabled) {
     if (n.IsScalar() && n.Scalar() == "none") {
-      pl.enabled = false;
-      return;
+      enabled = false;
+      return false;
     }
     if (n.IsScalar() || n.IsNull()) {
-      error(p, describe(n) + " is not recognised", "allowed: none | a map with velocity, ramp_time");
-      return;
+      std::string list;
+      for (const auto& k : keys) list += (list.empty() ? "" : ", ") + k;
+      error(p, describe(n) + " is not recognised", "allowed: none | a map with " + list);
+      return false;
     }
-    if (!check_map(n, p, {"velocity", "ramp_time"})) return;
-    pl.enabled = true;
+    if (!check_map(n, p, keys)) return false;
+    enabled = true;
+    return true;
+  }
+
+  void platens(const YAML::Node& n, Platens& pl) {
+    const std::string p = "platens";
+    if (!none_or_map(n, p, {"velocity", "ramp_time"}, pl.enabled)) return;
     number(n, p, "velocity", Range{0, 10, true, false}, pl.velocity);
     number(n, p, "ramp_time", at_least(0), pl.ramp_time);
+  }
+
+  void confinement(const YAML::Node& n, Confinement& c, bool platens_on) {
+    const std::string p = "confinement";
+    if (!none_or_map(n, p, {"pressure", "path", "ramp_time"}, c.enabled)) return;
+    if (!n["pressure"]) error(p + ".pressure", "missing", "give the confining stress sigma_3 in Pa, e.g. 5e6");
+    number(n, p, "pressure", Range{0, 1e10, true, false}, c.pressure);
+    choice(n, p, "path", {"hydrostatic", "constant"}, c.path);
+    number(n, p, "ramp_time", at_least(0), c.ramp_time);
+    if (c.path == "hydrostatic" && !platens_on)
+      error(p + ".path", "hydrostatic follows the axial stress of the platens, and `platens: none` is set",
+            "use path: constant, or enable the platens");
   }
 
   void contact(const YAML::Node& n, ContactSettings& c) {
@@ -512,9 +533,9 @@ class Reader {
     s.file = file;
     const std::string stem = fs::path(file).stem().string();
     s.name = stem.empty() ? "scene" : stem;
-    if (!check_map(
-            root, "",
-            {"name", "material", "mesh", "fracture_regions", "platens", "contact", "gravity", "solver", "output"}))
+    if (!check_map(root, "",
+                   {"name", "material", "mesh", "fracture_regions", "platens", "confinement", "contact", "gravity",
+                    "solver", "output"}))
       return s;
     const std::string scene_dir = fs::path(file).parent_path().string();
     text(root, "", "name", s.name, "give a short name for the run");
@@ -531,6 +552,7 @@ class Reader {
     if (errors_.size() == before) cohesive_law(s);
     if (root["fracture_regions"]) fracture_regions(root["fracture_regions"], s.fracture);
     if (given("platens")) platens(root["platens"], s.platens);
+    if (given("confinement")) confinement(root["confinement"], s.confinement, s.platens.enabled);
     if (given("contact")) contact(root["contact"], s.contact);
     if (root["gravity"]) vec3(root["gravity"], "gravity", closed(-1e4, 1e4), s.gravity);
     if (given("solver"))

@@ -57,6 +57,15 @@ struct Platens {
   real ramp_time = 0;    // s, smooth velocity ramp; 0 = automatic (10 axial wave transit times)
 };
 
+/// Confining pressure: a follower load p A n on the lateral surface faces (current area and
+/// normal each step), as in a triaxial cell.
+struct Confinement {
+  bool enabled = false;
+  real pressure = 0;                 // Pa, the target confining stress sigma_3
+  std::string path = "hydrostatic";  // "hydrostatic": p = min(sigma_3, measured axial stress); "constant"
+  real ramp_time = 0;                // s, constant path: smooth rise to sigma_3; 0 = automatic (10 transits)
+};
+
 /// Tet-tet contact between fragments (potential contact, Coulomb friction).
 struct ContactSettings {
   /// "adaptive": tets at the platens from the start, and the vicinity of every broken CE6
@@ -99,6 +108,7 @@ struct Scene {
   FractureRegions fracture;
   Platens platens;
   ContactSettings contact;
+  Confinement confinement;
   Vec3 gravity{0, 0, 0};  // m/s^2, body force per unit mass
   SolverSettings solver;
   OutputSettings output;

@@ -60,6 +60,19 @@ Solver::Solver(const Scene& scene, Model model) : scene_(scene), model_(std::mov
   bottom_z0_ = model_.box_min.z;
   const real c = std::sqrt(M / rho);
   ramp_ = scene_.platens.ramp_time > 0 ? scene_.platens.ramp_time : 10 * model_.height0 / c;
+  confine_ramp_ = scene_.confinement.ramp_time > 0 ? scene_.confinement.ramp_time : 10 * model_.height0 / c;
+  if (scene_.confinement.enabled) {
+    // Lateral faces: surface faces not lying on the top or bottom end.
+    std::vector<char> top(model_.X.size(), 0), bottom(model_.X.size(), 0);
+    for (int n : model_.top_nodes) top[n] = 1;
+    for (int n : model_.bottom_nodes) bottom[n] = 1;
+    for (const auto& q : model_.surface_faces) {
+      const bool on_top = top[q[0]] && top[q[1]] && top[q[2]];
+      const bool on_bottom = bottom[q[0]] && bottom[q[1]] && bottom[q[2]];
+      if (!on_top && !on_bottom) lateral_faces_.push_back(q);
+    }
+    lateral_force_.assign(lateral_faces_.size(), Vec3{0, 0, 0});
+  }
   real volume = 0;
   for (real V : model_.tet_V0) volume += V;
   energy_floor_ = 1e-3 * mat.tensile_strength * mat.tensile_strength / (2 * mat.youngs_modulus) * volume;
@@ -245,10 +258,39 @@ void Solver::compute_forces() {
   }
   force_top_ = ftop;
   force_bottom_ = fbot;
+
+  // Confining pressure, a follower load: p times the current outward area vector of each
+  // lateral face, a third to each node. Hydrostatic path: p follows this evaluation's axial
+  // stress up to sigma_3. One thread: faces of one tet share nodes, and the list is short.
+  if (scene_.confinement.enabled) {
+    const Confinement& cf = scene_.confinement;
+    real p = cf.pressure;
+    if (cf.path == "hydrostatic") {
+      const real axial = m.area0 > 0 ? 0.5 * (-ftop + fbot) / m.area0 : 0;
+      p = std::min(cf.pressure, std::max(real(0), axial));
+    } else {
+      p = ramped_speed(time_, cf.pressure, confine_ramp_);
+    }
+    pressure_ = p;
+    for (std::size_t i = 0; i < lateral_faces_.size(); ++i) {
+      const auto& q = lateral_faces_[i];
+      const Vec3 a = 0.5 * cross(x[q[1]] - x[q[0]], x[q[2]] - x[q[0]]);
+      lateral_force_[i] = (-p / 3) * a;
+      for (int n : q) f[n] += lateral_force_[i];
+    }
+    p_pressure_ = pressure_power(v);
+  }
   p_viscous_ = p_visc;
   p_cohesive_ = p_coh;
   p_friction_ = p_fric;
   w_platen_friction_ += dfric;  // slip already done: counted now, so measure() sees it
+}
+
+real Solver::pressure_power(const std::vector<Vec3>& vel) const {
+  real p = 0;
+  for (std::size_t i = 0; i < lateral_faces_.size(); ++i)
+    for (int n : lateral_faces_[i]) p += dot(lateral_force_[i], vel[n]);
+  return p;
 }
 
 void Solver::check_finite(long bad_nodes) const {
@@ -294,6 +336,7 @@ void Solver::step() {
   // Contact forces are stiff and act over few steps: their work over the step is taken with
   // the mean of the velocities before and after it, which is exact for central differences.
   if (contacts.enabled()) w_contact_ += 0.5 * dt * (p_contact_ + contacts.power(model_, v));
+  if (scene_.confinement.enabled) w_external_ += 0.5 * dt * (p_pressure_ + pressure_power(v));
   // Gravity's work, the same way: its force at t with the mean of the two velocities.
   const Vec3 g = scene_.gravity;
   if (g.x != 0 || g.y != 0 || g.z != 0) {
@@ -399,6 +442,7 @@ Monitors Solver::measure() {
   r.active_tets = contacts.active_count();
   r.contact_pairs = contacts.pair_count();
   r.contacts = touching_;
+  r.confining_pressure = pressure_;
   (void)fric_stored;
   const real internal = ke + se + w_cohesive_ + w_friction_ + w_viscous_ + pl_stored + w_platen_friction_ + w_contact_;
   const real input = w_external_ + initial_kinetic_;

@@ -22,6 +22,7 @@ struct Monitors {
   real platen_stored = 0, platen_friction = 0, external_work = 0;
   real contact = 0, contact_friction = 0;                 // J, work into tet-tet contact (normal) and its friction
   long active_tets = 0, contact_pairs = 0, contacts = 0;  // activated tets, candidate pairs, touching pairs
+  real confining_pressure = 0;                            // Pa, applied on the lateral surface
   real energy_error = 0;                                  // |external - (everything else)| / max(external, floor)
 };
 
@@ -90,6 +91,12 @@ class Solver {
   real w_contact_ = 0, w_contact_slip_ = 0, contact_spring_ = 0;
   real p_contact_ = 0, p_gravity_ = 0;
   long touching_ = 0;
+  // Confining pressure: lateral surface faces, the pressure applied at the last evaluation,
+  // each face's force per node (-p a / 3, a the current outward area vector) and its power.
+  std::vector<std::array<int, 3>> lateral_faces_;
+  std::vector<Vec3> lateral_force_;
+  real pressure_ = 0, p_pressure_ = 0, confine_ramp_ = 0;
+  real pressure_power(const std::vector<Vec3>& vel) const;
   std::vector<std::uint8_t> ce6_broke_;  // set by the CE6 loop on the step a CE6 breaks
   real platen_stored_ = 0;
   real energy_floor_ = 0;

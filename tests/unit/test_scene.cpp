@@ -236,6 +236,9 @@ INSTANTIATE_TEST_SUITE_P(
         BadScene{"negative_buffer.yaml", "contact.buffer: -0.001 is out of range"},
         BadScene{"contact_typo.yaml", "contact.activaton: unknown key"},
         BadScene{"gravity_two.yaml", "gravity: expected a list of three numbers"},
+        BadScene{"confinement_no_pressure.yaml", "confinement.pressure: missing"},
+        BadScene{"confinement_bad_path.yaml", "confinement.path: 'rising' is not recognised"},
+        BadScene{"hydrostatic_without_platens.yaml", "confinement.path: hydrostatic follows the axial stress"},
         BadScene{"many_errors.yaml", "material.density"}),
     [](const ::testing::TestParamInfo<BadScene>& info) {
       std::string n = info.param.file;
@@ -261,6 +264,14 @@ TEST(Scene, ContactAndGravityAreRead) {
       "contact: {activation: none}\nplatens: none\nsolver: {end: {steps: 10}}\n",
       "inline.yaml");
   EXPECT_FALSE(none.contact.enabled());
+  EXPECT_FALSE(none.confinement.enabled);
+  const Scene tri = parse_scene(
+      "mesh: {generate: {shape: cylinder, diameter: 0.02, height: 0.04, element_size: 0.004}}\n"
+      "confinement: {pressure: 5e6}\nsolver: {end: {axial_strain: 0.005}}\n",
+      "inline.yaml");
+  EXPECT_TRUE(tri.confinement.enabled);
+  EXPECT_DOUBLE_EQ(tri.confinement.pressure, 5e6);
+  EXPECT_EQ(tri.confinement.path, "hydrostatic");
 }
 
 TEST(Scene, InvalidYamlReportsLineAndColumn) {
