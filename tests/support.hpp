@@ -20,12 +20,7 @@ inline Scene test_scene() {
 
 /// A gmsh cylinder (axis z) of the given diameter, height and element size, m.
 inline MeshSpec cylinder(real diameter, real height, real element_size) {
-  MeshSpec spec;
-  spec.shape = "cylinder";
-  spec.diameter = diameter;
-  spec.height = height;
-  spec.element_size = element_size;
-  return spec;
+  return MeshSpec::round("cylinder", diameter, height, element_size);
 }
 
 /// Load along z until `strain` (platen approach / height), measuring every `every` steps.

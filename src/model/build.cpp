@@ -272,6 +272,13 @@ Model build_model(const Mesh& mesh, const Scene& scene) {
     }
   }
   m.area0 = 0.5 * (top_area + bottom_area);
+  if (!(m.area0 > 0)) {
+    // No flat ends (a Brazilian disc between flat platens, loaded along a line): the nominal
+    // area is the loaded diametral plane, height x thickness along y, so that the axial
+    // stress is P / (D t) and the indirect tensile stress 2 P / (pi D t).
+    m.line_loaded = true;
+    m.area0 = m.height0 * (m.box_max.y - m.box_min.y);
+  }
   for (std::size_t n = 0; n < nn; ++n) {
     if (is_surface[n]) {
       m.platen_nodes.push_back(int(n));

@@ -56,6 +56,7 @@ struct Model {
   Vec3 axis_point{0, 0, 0};  // the loading axis passes through here along z
   real height0 = 0;          // m, along z
   real area0 = 0;            // m^2, loaded cross-section (mean of top and bottom surface areas)
+  bool line_loaded = false;  // no flat ends (a disc): area0 is the diametral plane, height x y-extent
 
   // Statistics for the build report.
   real min_altitude = 0;  // m

@@ -38,6 +38,16 @@ struct MeshSpec {
   Vec3 size{0, 0, 0};     // m (box edge lengths; the box spans [0,size])
   real element_size = 0;  // m (target edge length of generated meshes)
   real scale = 1;         // factor applied to coordinates read from a file (e.g. 1e-3 for mm)
+
+  /// A generated cylinder or disc: diameter, height (disc: thickness) and element size, m.
+  static MeshSpec round(const std::string& shape, real diameter, real height, real element_size) {
+    MeshSpec m;
+    m.shape = shape;
+    m.diameter = diameter;
+    m.height = height;
+    m.element_size = element_size;
+    return m;
+  }
 };
 
 /// Cohesive elements are inserted on internal faces whose two tets both have their

@@ -23,7 +23,8 @@ const char* kCsvHeader =
     "step,time_s,axial_strain,axial_stress_Pa,lateral_strain,volumetric_strain,force_top_N,force_bottom_N,"
     "damaged_ce6,broken_ce6,broken_mode_I,broken_mode_II,broken_mixed,kinetic_J,strain_J,cohesive_stored_J,"
     "cohesive_dissipated_J,friction_J,viscous_J,platen_stored_J,platen_friction_J,external_work_J,energy_error,"
-    "contact_J,contact_friction_J,active_tets,contact_pairs,contacts,confining_pressure_Pa";
+    "contact_J,contact_friction_J,active_tets,contact_pairs,contacts,confining_pressure_Pa,"
+    "indirect_tensile_Pa";
 
 void write_row(std::ostream& o, const Monitors& m) {
   o << m.step << ',' << m.time << ',' << m.axial_strain << ',' << m.axial_stress << ',' << m.lateral_strain << ','
@@ -32,7 +33,7 @@ void write_row(std::ostream& o, const Monitors& m) {
     << m.cohesive_stored << ',' << m.cohesive_dissipated << ',' << m.friction << ',' << m.viscous << ','
     << m.platen_stored << ',' << m.platen_friction << ',' << m.external_work << ',' << m.energy_error << ','
     << m.contact << ',' << m.contact_friction << ',' << m.active_tets << ',' << m.contact_pairs << ',' << m.contacts
-    << ',' << m.confining_pressure << '\n';
+    << ',' << m.confining_pressure << ',' << m.indirect_tensile << '\n';
 }
 
 std::string duration(real s) {

@@ -443,6 +443,8 @@ Monitors Solver::measure() {
   r.contact_pairs = contacts.pair_count();
   r.contacts = touching_;
   r.confining_pressure = pressure_;
+  // Brazilian test: axial_stress is P / (D t) for a line-loaded disc.
+  if (m.line_loaded) r.indirect_tensile = 2 / M_PI * r.axial_stress;
   (void)fric_stored;
   const real internal = ke + se + w_cohesive_ + w_friction_ + w_viscous_ + pl_stored + w_platen_friction_ + w_contact_;
   const real input = w_external_ + initial_kinetic_;

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "core/error.hpp"
+#include "io/mesh_io.hpp"
 #include "model/model.hpp"
 #include "model/structured.hpp"
 
@@ -390,6 +391,20 @@ TEST(ModelBuildKuhn, SurfacesAreOutwardAndCoverTheBox) {
     }
     EXPECT_NEAR(trib, total_area, 1e-12 * total_area);
   }
+}
+
+TEST(ModelBuildGmsh, BrazilianDiscIsLineLoadedOnItsDiametralPlane) {
+  // A disc (axis y, diameter along z) touches the platens along lines: no flat ends, so the
+  // nominal loaded area is the diametral plane D x t, and the axial stress is P / (D t).
+  Scene scene;
+  const Model m = build_model(generate_mesh(MeshSpec::round("disc", 0.03, 0.015, 0.006)), scene);
+  EXPECT_TRUE(m.line_loaded);
+  EXPECT_NEAR(m.height0, 0.03, 1e-9);
+  EXPECT_NEAR(m.area0, 0.03 * 0.015, 1e-9 * 0.03 * 0.015);
+  // A box has flat ends: its loaded area is the end area, not a diametral plane.
+  const Model box = build_model(structured_box_mesh({0.01, 0.02, 0.03}, 1, 1, 1), scene);
+  EXPECT_FALSE(box.line_loaded);
+  EXPECT_NEAR(box.area0, 0.01 * 0.02, 1e-15);
 }
 
 TEST(ModelBuildKuhn, NodeGroupsOfAContinuousBox) {
