@@ -50,7 +50,7 @@ __global__ void contact_kernel(int n, const int2* pairs, const int4* tets, const
   const Vec3 va[4] = {v[a.x], v[a.y], v[a.z], v[a.w]}, vb[4] = {v[b.x], v[b.y], v[b.z], v[b.w]};
   Vec3 fa[4], fb[4];
   const ContactEval e = contact_tet_pair(xa, xb, P, fa, fb);
-  contact_friction(xa, xb, va, vb, e, mu, P * real(1e-3), dt, spring[p], fa, fb);
+  contact_friction(xa, xb, va, vb, e, mu, contact_tangential_stiffness(xa, xb, P), dt, spring[p], fa, fb);
   for (int i = 0; i < 4; ++i) f_pair[8 * p + i] = fa[i], f_pair[8 * p + 4 + i] = fb[i];
 }
 

@@ -27,6 +27,7 @@
 #include <cmath>
 
 #include "core/vec.hpp"
+#include "physics/tet4.hpp"
 
 namespace fdem {
 
@@ -237,6 +238,13 @@ FDEM_HD ContactEval contact_tet_pair(const Vec3 (&a)[4], const Vec3 (&b)[4], rea
   faces_inside(b, a, pa, inverse(Ea), P, fb, fa, -1, e);
   if (e.weight > 0) e.point = (real(1) / e.weight) * e.point;
   return e;
+}
+
+/// Stiffness of a pair's friction spring, N/m: P (V_min)^(1/3), the normal stiffness scale
+/// of the pair (two faces pressed together stiffen by about 8 P A / h).
+FDEM_HD real contact_tangential_stiffness(const Vec3 (&a)[4], const Vec3 (&b)[4], real P) {
+  const real va = std::fabs(tet4_volume(a)), vb = std::fabs(tet4_volume(b));
+  return P * std::cbrt(va < vb ? va : vb);
 }
 
 /// Coulomb friction of one contact pair after contact_tet_pair. u is the pair's tangential

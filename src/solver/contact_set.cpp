@@ -5,15 +5,10 @@
 #include <algorithm>
 #include <cmath>
 
-#include "physics/tet4.hpp"
+#include "core/gather.hpp"
 
 namespace fdem {
 namespace {
-
-template <std::size_t K>
-void gather(const std::vector<Vec3>& a, const std::array<int, K>& ids, Vec3 (&out)[K]) {
-  for (std::size_t i = 0; i < K; ++i) out[i] = a[ids[i]];
-}
 
 bool share_node(const std::array<int, 4>& p, const std::array<int, 4>& q) {
   for (int i : p)
@@ -239,8 +234,7 @@ ContactPower ContactSet::add_forces(const Model& m, const std::vector<Vec3>& x, 
     gather(v, m.tet_nodes[cp.a], va);
     gather(v, m.tet_nodes[cp.b], vb);
     for (int i = 0; i < 4; ++i) fa[i] = fb[i] = Vec3{0, 0, 0};
-    const real vmin = std::min(std::fabs(tet4_volume(xa)), std::fabs(tet4_volume(xb)));
-    const real k_t = penalty_ * std::cbrt(vmin);
+    const real k_t = contact_tangential_stiffness(xa, xb, penalty_);
     dissipated += contact_friction(xa, xb, va, vb, eval_[p], mu_, k_t, dt, spring[p], fa, fb);
     stored += 0.5 * k_t * dot(spring[p], spring[p]);
     Vec3* fp = &pair_force_[8 * p];

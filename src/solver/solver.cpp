@@ -9,20 +9,13 @@
 #include "core/error.hpp"
 #include "core/for_each.hpp"
 #include "core/format.hpp"
+#include "core/gather.hpp"
 #include "physics/integrate.hpp"
 #include "physics/platen.hpp"
 #include "physics/tet4.hpp"
 #include "physics/time_step.hpp"
 
 namespace fdem {
-namespace {
-
-template <std::size_t K>
-void gather(const std::vector<Vec3>& a, const std::array<int, K>& ids, Vec3 (&out)[K]) {
-  for (std::size_t i = 0; i < K; ++i) out[i] = a[ids[i]];
-}
-
-}  // namespace
 
 Solver::Solver(const Scene& scene, Model model) : scene_(scene), model_(std::move(model)) {
   const Material& mat = scene_.material;
@@ -61,6 +54,7 @@ Solver::Solver(const Scene& scene, Model model) : scene_(scene), model_(std::mov
   const real c = std::sqrt(M / rho);
   ramp_ = scene_.platens.ramp_time > 0 ? scene_.platens.ramp_time : 10 * model_.height0 / c;
   confine_ramp_ = scene_.confinement.ramp_time > 0 ? scene_.confinement.ramp_time : 10 * model_.height0 / c;
+  hydrostatic_ = scene_.confinement.path == "hydrostatic";
   if (scene_.confinement.enabled) {
     // Lateral faces: surface faces not lying on the top or bottom end.
     std::vector<char> top(model_.X.size(), 0), bottom(model_.X.size(), 0);
@@ -265,7 +259,7 @@ void Solver::compute_forces() {
   if (scene_.confinement.enabled) {
     const Confinement& cf = scene_.confinement;
     real p = cf.pressure;
-    if (cf.path == "hydrostatic") {
+    if (hydrostatic_) {
       const real axial = m.area0 > 0 ? 0.5 * (-ftop + fbot) / m.area0 : 0;
       p = std::min(cf.pressure, std::max(real(0), axial));
     } else {

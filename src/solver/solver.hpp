@@ -97,6 +97,7 @@ class Solver {
   std::vector<std::array<int, 3>> lateral_faces_;
   std::vector<Vec3> lateral_force_;
   real pressure_ = 0, p_pressure_ = 0, confine_ramp_ = 0;
+  bool hydrostatic_ = false;  // confinement.path, decided once
   real pressure_power(const std::vector<Vec3>& vel) const;
   std::vector<std::uint8_t> ce6_broke_;  // set by the CE6 loop on the step a CE6 breaks
   real platen_stored_ = 0;
