@@ -405,6 +405,36 @@ void FieldWriter::write(const FieldFrame& f) {
   }
 }
 
+void FieldWriter::relabel(int index, const std::string& label) {
+  if (index < 0 || index >= frames()) throw RunError("field output: no frame " + std::to_string(index) + " to relabel");
+  const std::string gname = frame_name(index);
+  {
+    Handle h5(H5Fopen(h5_path_.c_str(), H5F_ACC_RDWR, H5P_DEFAULT), H5Fclose);
+    if (!h5.ok()) h5_fail(h5_path_, "opening the file to relabel frame " + std::to_string(index));
+    Handle g(H5Gopen2(h5.get(), gname.c_str(), H5P_DEFAULT), H5Gclose);
+    if (!g.ok()) h5_fail(h5_path_, "opening group /" + gname);
+    if (H5Aexists(g.get(), "label") > 0 && H5Adelete(g.get(), "label") < 0)
+      h5_fail(h5_path_, "removing the label of /" + gname);
+    write_attr_string(g.get(), "label", label, h5_path_);
+  }
+  // The grid's first line carries its name; an Information element its label.
+  std::string& grid = grids_[index];
+  const std::string old = grid;
+  const std::size_t eol = grid.find('\n');
+  const std::string name = label.empty() ? gname : gname + "_" + label;
+  grid.replace(0, eol,
+               "    <Grid Name=\"" + xml_escape(name) + "\" GridType=\"Collection\" CollectionType=\"Spatial\">");
+  const std::string key = "<Information Name=\"label\" Value=\"";
+  const std::size_t at = grid.find(key) + key.size();
+  grid.replace(at, grid.find('"', at) - at, xml_escape(label));
+  try {
+    rewrite_index();
+  } catch (...) {
+    grid = old;
+    throw;
+  }
+}
+
 void FieldWriter::rewrite_index() const {
   const std::string tmp = xdmf_path_ + ".tmp";
   std::FILE* fp = std::fopen(tmp.c_str(), "w");

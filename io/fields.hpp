@@ -56,6 +56,8 @@ class FieldWriter {
   FieldWriter(const std::string& folder, const std::string& basename);
   /// Appends one frame.
   void write(const FieldFrame& f);
+  /// Changes the label of frame `index` (0-based, already written) in the .h5 and the index.
+  void relabel(int index, const std::string& label);
   /// Number of frames written so far.
   int frames() const { return static_cast<int>(grids_.size()); }
 

@@ -65,15 +65,22 @@ int run_main(int argc, char** argv) {
             << s.wall_seconds << " s wall\n"
             << "  peak axial stress " << s.peak_stress / 1e6 << " MPa at axial strain " << s.strain_at_peak
             << "; broken CE6 " << s.last.broken << " (mode I " << s.last.broken_I << ", II " << s.last.broken_II
-            << ", mixed " << s.last.broken_mixed << "); energy error " << s.last.energy_error << "\n"
-            << "  contact " << scene.contact.activation;
+            << ", mixed " << s.last.broken_mixed << "); energy error " << s.last.energy_error << "\n";
+  if (s.peak_indirect_tensile > 0)
+    std::cout << "  indirect tensile strength 2P/(pi D t) " << s.peak_indirect_tensile / 1e6 << " MPa\n";
+  if (s.fracture.broken >= 3)
+    std::cout << "  main failure plane at " << s.fracture.plane_angle_deg << " deg to the loading axis (planarity "
+              << s.fracture.planarity << "; facets " << s.fracture.mean_facet_angle_deg << " deg on average)\n";
+  std::cout << "  contact " << scene.contact.activation;
   if (solver.contacts.enabled()) {
     const fdem::ContactTimes& ct = solver.contacts.times;
     std::cout << ": " << s.last.active_tets << " of " << solver.model().tet_nodes.size() << " tets active, "
               << s.last.contact_pairs << " candidate pairs, " << ct.rebuilds << " broad-phase builds; wall time broad "
               << ct.broad << " s, narrow " << ct.narrow << " s, friction " << ct.friction << " s";
   }
-  std::cout << "\n  outputs in " << s.folder << ": monitors.csv, stress_strain.png, fields.xdmf (open in ParaView)\n";
+  std::cout << "\n  outputs in " << s.folder
+            << ": monitors.csv, summary.csv, stress_strain.png, fields.xdmf (open in ParaView; frames labelled "
+               "pre-peak, peak, post-peak)\n";
   return 0;
 }
 

@@ -496,12 +496,14 @@ class Reader {
 
   void output(const YAML::Node& n, OutputSettings& o) {
     const std::string p = "output";
-    if (!check_map(n, p, {"folder", "monitor_interval", "field_interval", "progress_interval", "plot"})) return;
+    if (!check_map(n, p, {"folder", "monitor_interval", "field_interval", "progress_interval", "plot", "peak_frames"}))
+      return;
     text(n, p, "folder", o.folder, "give a folder path, relative to the current directory");
     number(n, p, "monitor_interval", count_at_least(1), o.monitor_interval);
     number(n, p, "field_interval", count_at_least(0), o.field_interval);
     number(n, p, "progress_interval", at_least(0), o.progress_interval);
     boolean(n, p, "plot", o.plot);
+    boolean(n, p, "peak_frames", o.peak_frames);
   }
 
   /// Cross-checks between sections, run only when the values involved are valid.

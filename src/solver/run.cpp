@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <deque>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
@@ -17,6 +18,13 @@
 #include "io/fields.hpp"
 
 namespace fdem {
+
+const char* const kSummaryHeader =
+    "name,peak_stress_Pa,strain_at_peak,peak_indirect_tensile_Pa,confining_pressure_Pa,platen_velocity_m_s,"
+    "energy_error,broken_ce6,broken_mode_I,broken_mode_II,broken_mixed,broken_area_m2,failure_plane_angle_deg,"
+    "planarity,mean_facet_angle_deg,crack_centroid_x_m,crack_centroid_y_m,crack_centroid_z_m,steps,time_s,wall_s,"
+    "end_reason";
+
 namespace {
 
 const char* kCsvHeader =
@@ -36,6 +44,27 @@ void write_row(std::ostream& o, const Monitors& m) {
     << ',' << m.confining_pressure << ',' << m.indirect_tensile << '\n';
 }
 
+/// Writes path.tmp, then renames it over path, so a reader never sees half a file.
+void write_summary(const std::string& path, const Scene& scene, const RunSummary& r) {
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream o(tmp);
+    o << std::setprecision(10) << kSummaryHeader << '\n';
+    const FracturePattern& f = r.fracture;
+    o << scene.name << ',' << r.peak_stress << ',' << r.strain_at_peak << ',' << r.peak_indirect_tensile << ','
+      << scene.confinement.pressure * scene.confinement.enabled << ',' << scene.platens.velocity << ','
+      << r.last.energy_error << ',' << f.broken << ',' << f.mode_I << ',' << f.mode_II << ',' << f.mixed << ','
+      << f.area << ',' << f.plane_angle_deg << ',' << f.planarity << ',' << f.mean_facet_angle_deg << ','
+      << f.centroid.x << ',' << f.centroid.y << ',' << f.centroid.z << ',' << r.steps << ',' << r.time << ','
+      << r.wall_seconds << ",\"" << r.end_reason << "\"\n";
+    o.close();
+    if (!o) throw OutputError("cannot write " + tmp + " (disk full?)");
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) throw OutputError("cannot rename " + tmp + " to " + path + ": " + ec.message());
+}
+
 std::string duration(real s) {
   if (!std::isfinite(s) || s < 0) return "?";
   char b[32];
@@ -48,23 +77,47 @@ std::string duration(real s) {
   return b;
 }
 
-void write_frame(FieldWriter& w, const Solver& s, const std::string& label) {
-  std::vector<Vec3> u(s.x.size());
-  for (std::size_t n = 0; n < u.size(); ++n) u[n] = s.x[n] - s.model().X[n];
+/// The state a ParaView frame shows. Frames before and at the peak are written from saved
+/// copies once the peak is known (the stress has fallen 5 % below it).
+struct FrameState {
+  real time = 0, stress = 0;
+  long step = 0;
+  std::vector<Vec3> x, v;
+  std::vector<Ce6State> ce6;
+  std::vector<std::uint8_t> active;
+};
+
+FrameState save_state(const Solver& s, real stress) {
+  FrameState f;
+  f.time = s.time();
+  f.step = s.step_count();
+  f.stress = stress;
+  f.x = s.x;
+  f.v = s.v;
+  f.ce6 = s.ce6;
+  if (s.contacts.enabled()) f.active = s.contacts.active();
+  return f;
+}
+
+void write_frame(FieldWriter& w, const Solver& s, real time, long step, const std::vector<Vec3>& x,
+                 const std::vector<Vec3>& v, const std::vector<Ce6State>& ce6, const std::vector<std::uint8_t>* flags,
+                 const std::string& label) {
+  std::vector<Vec3> u(x.size());
+  for (std::size_t n = 0; n < u.size(); ++n) u[n] = x[n] - s.model().X[n];
   std::vector<Sym3> stress;
   std::vector<real> vm;
-  s.tet_stress(stress, vm);
+  s.tet_stress(x, v, stress, vm);
   std::vector<std::array<int, 3>> faces;
   std::vector<real> damage;
   std::vector<int> mode;
-  s.crack_faces(faces, damage, mode);
+  s.crack_faces(ce6, faces, damage, mode);
   FieldFrame fr;
-  fr.time = s.time();
-  fr.step = s.step_count();
+  fr.time = time;
+  fr.step = step;
   fr.label = label;
-  fr.x = &s.x;
+  fr.x = &x;
   fr.u = &u;
-  fr.v = &s.v;
+  fr.v = &v;
   fr.tets = &s.model().tet_nodes;
   fr.stress = &stress;
   fr.von_mises = &vm;
@@ -72,12 +125,63 @@ void write_frame(FieldWriter& w, const Solver& s, const std::string& label) {
   fr.crack_damage = &damage;
   fr.crack_mode = &mode;
   std::vector<real> active;
-  if (s.contacts.enabled()) {
-    active.assign(s.contacts.active().begin(), s.contacts.active().end());
+  if (flags) {
+    active.assign(flags->begin(), flags->end());
     fr.extra.push_back({"active", &active});
   }
   w.write(fr);
 }
+
+void write_frame(FieldWriter& w, const Solver& s, const std::string& label) {
+  write_frame(w, s, s.time(), s.step_count(), s.x, s.v, s.ce6, s.contacts.enabled() ? &s.contacts.active() : nullptr,
+              label);
+}
+
+void write_frame(FieldWriter& w, const Solver& s, const FrameState& f, const std::string& label) {
+  write_frame(w, s, f.time, f.step, f.x, f.v, f.ce6, f.active.empty() ? nullptr : &f.active, label);
+}
+
+/// Keeps what the pre-peak and peak frames need: the state at the running maximum of the axial
+/// stress, and a ladder of states 5 % apart in stress between 0.7 and 1 of that maximum, from
+/// which the one nearest kPrePeak of the peak is written as "pre-peak". At most 8 copies.
+class PeakFrames {
+ public:
+  static constexpr real kPrePeak = 0.8;
+  void observe(const Solver& s, real stress) {
+    if (stress <= max_) return;
+    max_ = stress;
+    peak_ = save_state(s, stress);
+    if (ladder_.empty() || stress >= real(1.05) * ladder_.back().stress) ladder_.push_back(peak_);
+    while (ladder_.size() > 1 && ladder_.front().stress < real(0.7) * max_) ladder_.pop_front();
+  }
+  /// Writes "pre-peak", "peak" and (the current state) "post-peak" frames; call once the stress
+  /// has fallen past the peak. The frames of an earlier, lower peak are relabelled "local-...".
+  void write(FieldWriter& w, const Solver& s) {
+    for (const auto& [index, label] : written_) w.relabel(index, "local-" + label);
+    written_.clear();
+    const FrameState* pre = nullptr;
+    for (const FrameState& f : ladder_)
+      if (f.step < peak_.step &&
+          (!pre || std::fabs(f.stress - kPrePeak * max_) < std::fabs(pre->stress - kPrePeak * max_)))
+        pre = &f;
+    if (pre) {
+      write_frame(w, s, *pre, "pre-peak");
+      written_.push_back({w.frames() - 1, "pre-peak"});
+    }
+    if (max_ > 0) {
+      write_frame(w, s, peak_, "peak");
+      written_.push_back({w.frames() - 1, "peak"});
+    }
+    write_frame(w, s, "post-peak");
+    written_.push_back({w.frames() - 1, "post-peak"});
+  }
+
+ private:
+  real max_ = 0;
+  FrameState peak_;
+  std::deque<FrameState> ladder_;
+  std::vector<std::pair<int, std::string>> written_;  // frame index and label of the last set
+};
 
 /// Run scripts/plot_curves.py without a shell (names with quotes stay harmless).
 bool plot_curves(const std::string& csv, const std::string& png, const std::string& title) {
@@ -149,6 +253,7 @@ RunSummary run_scene(Solver& solver, std::ostream& log) {
   write_row(csv, mon);
   write_frame(fields, solver, "initial");
   bool peak_written = false;
+  PeakFrames peak_frames;
   try {
     for (;;) {
       solver.step();
@@ -162,10 +267,16 @@ RunSummary run_scene(Solver& solver, std::ostream& log) {
         if (mon.axial_stress > sum.peak_stress) {
           sum.peak_stress = mon.axial_stress;
           sum.strain_at_peak = mon.axial_strain;
+          sum.peak_indirect_tensile = mon.indirect_tensile;
           peak_written = false;
+          if (out.peak_frames) peak_frames.observe(solver, mon.axial_stress);
         } else if (!peak_written && sum.peak_stress > 0 && mon.axial_stress < 0.95 * sum.peak_stress) {
-          peak_written = true;  // the frame just past the peak marks the fracture pattern at failure
-          write_frame(fields, solver, "post-peak");
+          // The peak has passed: the fracture pattern before, at and just after it.
+          peak_written = true;
+          if (out.peak_frames)
+            peak_frames.write(fields, solver);
+          else
+            write_frame(fields, solver, "post-peak");
         }
       }
       if (n % field_interval == 0) write_frame(fields, solver, "");
@@ -212,12 +323,19 @@ RunSummary run_scene(Solver& solver, std::ostream& log) {
   sum.time = solver.time();
   sum.wall_seconds = elapsed();
   sum.last = mon;
+  {
+    std::vector<std::array<Vec3, 3>> faces;
+    std::vector<int> mode;
+    solver.broken_faces(faces, mode);
+    sum.fracture = fracture_pattern(faces, mode, {0, 0, 1});
+  }
   if (out.plot) {
     const std::string png = (fs::path(out.folder) / "stress_strain.png").string();
     if (!plot_curves(csv_path, png, scene.name))
       log << "warning: could not plot " << png << " (needs python3-matplotlib); the curves are in " << csv_path
           << std::endl;
   }
+  write_summary((fs::path(out.folder) / "summary.csv").string(), scene, sum);
   return sum;
 }
 

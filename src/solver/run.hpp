@@ -4,6 +4,7 @@
 #include <iosfwd>
 #include <string>
 
+#include "analysis/fracture_pattern.hpp"
 #include "solver/solver.hpp"
 
 namespace fdem {
@@ -14,7 +15,9 @@ struct RunSummary {
   real wall_seconds = 0;
   real peak_stress = 0;  // Pa
   real strain_at_peak = 0;
+  real peak_indirect_tensile = 0;  // Pa, 2 P / (pi D t) at the peak of a line-loaded disc, else 0
   Monitors last;
+  FracturePattern fracture;  // broken CE6s at the end: modes and the main failure plane
   std::string end_reason;
   std::string folder;
 };
@@ -23,8 +26,12 @@ struct RunSummary {
 void report_model(const Solver& solver, std::ostream& out);
 
 /// Run the solver to the scene's end condition, writing <folder>/monitors.csv,
-/// <folder>/fields.{h5,xdmf} and <folder>/stress_strain.png. Rethrows RunError after
+/// <folder>/fields.{h5,xdmf}, <folder>/stress_strain.png and, last and atomically,
+/// <folder>/summary.csv (one row: kSummaryHeader), whose presence marks a finished run. Rethrows RunError after
 /// writing the monitor row and a field frame labelled "diagnostic" where possible.
 RunSummary run_scene(Solver& solver, std::ostream& log);
+
+/// Columns of summary.csv.
+extern const char* const kSummaryHeader;
 
 }  // namespace fdem

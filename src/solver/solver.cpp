@@ -453,7 +453,8 @@ Monitors Solver::measure() {
   return r;
 }
 
-void Solver::tet_stress(std::vector<Sym3>& stress, std::vector<real>& von_mises) const {
+void Solver::tet_stress(const std::vector<Vec3>& xs, const std::vector<Vec3>& vs, std::vector<Sym3>& stress,
+                        std::vector<real>& von_mises) const {
   const Model& m = model_;
   const int nt = int(m.tet_nodes.size());
   stress.resize(nt);
@@ -461,24 +462,35 @@ void Solver::tet_stress(std::vector<Sym3>& stress, std::vector<real>& von_mises)
 #pragma omp parallel for
   for (int t = 0; t < nt; ++t) {
     Vec3 xe[4], ve[4], fe[4];
-    gather(x, m.tet_nodes[t], xe);
-    gather(v, m.tet_nodes[t], ve);
+    gather(xs, m.tet_nodes[t], xe);
+    gather(vs, m.tet_nodes[t], ve);
     stress[t] = tet4_forces(xe, ve, m.tet_Xinv[t], m.tet_V0[t], lambda_, mu_, m.tet_eta[t], fe).stress;
     von_mises[t] = fdem::von_mises(stress[t]);
   }
 }
 
-void Solver::crack_faces(std::vector<std::array<int, 3>>& faces, std::vector<real>& damage,
-                         std::vector<int>& mode) const {
+void Solver::crack_faces(const std::vector<Ce6State>& cs, std::vector<std::array<int, 3>>& faces,
+                         std::vector<real>& damage, std::vector<int>& mode) const {
   faces.clear();
   damage.clear();
   mode.clear();
-  for (std::size_t i = 0; i < ce6.size(); ++i) {
-    const real d = ce6_broken(ce6[i]) ? 1 : ce6_max_damage(ce6[i]);
+  for (std::size_t i = 0; i < cs.size(); ++i) {
+    const real d = ce6_broken(cs[i]) ? 1 : ce6_max_damage(cs[i]);
     if (d <= 0) continue;
     const auto& q = model_.ce6_nodes[i];
     faces.push_back({q[0], q[1], q[2]});
     damage.push_back(d);
+    mode.push_back(cs[i].mode);
+  }
+}
+
+void Solver::broken_faces(std::vector<std::array<Vec3, 3>>& corners, std::vector<int>& mode) const {
+  corners.clear();
+  mode.clear();
+  for (std::size_t i = 0; i < ce6.size(); ++i) {
+    if (!ce6_broken(ce6[i])) continue;
+    const auto& q = model_.ce6_nodes[i];
+    corners.push_back({model_.X[q[0]], model_.X[q[1]], model_.X[q[2]]});
     mode.push_back(ce6[i].mode);
   }
 }

@@ -53,10 +53,15 @@ class Solver {
   /// Prescribe velocity components (mask bit 0 = x, 1 = y, 2 = z) of a node.
   void prescribe(int node, int mask, Vec3 velocity);
 
-  /// Per-tet Cauchy stress and von Mises stress at the current state (for output).
-  void tet_stress(std::vector<Sym3>& stress, std::vector<real>& von_mises) const;
-  /// Damaged or broken CE6 faces (A side), their damage and break mode (for output).
-  void crack_faces(std::vector<std::array<int, 3>>& faces, std::vector<real>& damage, std::vector<int>& mode) const;
+  /// Per-tet Cauchy stress and von Mises stress at node positions xs and velocities vs (for
+  /// output; the current state or a saved one).
+  void tet_stress(const std::vector<Vec3>& xs, const std::vector<Vec3>& vs, std::vector<Sym3>& stress,
+                  std::vector<real>& von_mises) const;
+  /// Damaged or broken faces (A side) of CE6 states cs, their damage and break mode (for output).
+  void crack_faces(const std::vector<Ce6State>& cs, std::vector<std::array<int, 3>>& faces, std::vector<real>& damage,
+                   std::vector<int>& mode) const;
+  /// Reference-configuration corners and break mode of every broken CE6 (for fracture statistics).
+  void broken_faces(std::vector<std::array<Vec3, 3>>& corners, std::vector<int>& mode) const;
 
   // State (node arrays indexed by node id; CE6 state by CE6 id).
   std::vector<Vec3> x, v, f;

@@ -304,6 +304,31 @@ TEST(FieldWriter, TwoFramesRoundTripExactly) {
   EXPECT_EQ(items, 20);  // 8 per rock grid (x, tets, u, v, stress, von_mises, rank, active) x 2 + 4 for one cracks grid
 }
 
+TEST(FieldWriter, RelabelChangesTheIndexAndTheAttributeOnly) {
+  TempDir tmp;
+  Model m0(0), m1(1);
+  FieldWriter w(tmp.path.string(), "fields");
+  w.write(m0.frame(0.0, 0, "peak"));
+  w.write(m1.frame(1.25e-5, 500, ""));
+  w.relabel(0, "local-peak");
+  w.relabel(1, "peak");
+  EXPECT_THROW(w.relabel(2, "x"), RunError);
+  {
+    H5File f((tmp.path / "fields.h5").string());
+    expect_frame(f.id, "/frame_000000", m0, 0.0, 0, "local-peak");
+    expect_frame(f.id, "/frame_000001", m1, 1.25e-5, 500, "peak");
+  }
+  const std::string x = slurp(tmp.path / "fields.xdmf");
+  EXPECT_TRUE(balanced_xml(x));
+  EXPECT_NE(x.find("Name=\"frame_000000_local-peak\""), std::string::npos);
+  EXPECT_NE(x.find("<Information Name=\"label\" Value=\"local-peak\"/>"), std::string::npos);
+  EXPECT_NE(x.find("Name=\"frame_000001_peak\""), std::string::npos);
+  EXPECT_EQ(count(x, "\"frame_000001\""), 0);
+  int items = 0;
+  expect_index_matches_h5(x, (tmp.path / "fields.h5").string(), "fields.h5", &items);
+  EXPECT_EQ(items, 20);
+}
+
 TEST(FieldWriter, NonFiniteThrowsAndKeepsPreviousIndex) {
   TempDir tmp;
   Model m0(0), m1(1);
