@@ -3,15 +3,70 @@
 #include <mpi.h>
 
 #include <CLI/CLI.hpp>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
 #include <iostream>
+#include <sstream>
 
+#include "analysis/mohr_coulomb.hpp"
 #include "core/error.hpp"
+#include "core/format.hpp"
 #include "io/mesh_io.hpp"
 #include "model/model.hpp"
 #include "scene/scene.hpp"
 #include "solver/run.hpp"
+#include "solver/series.hpp"
+#include "solver/study.hpp"
 
 namespace {
+
+/// The series commands: run, tabulate, fit (triaxial) and plot.
+int run_series_command(const std::string& scene_path, const std::vector<fdem::SeriesAxis>& axes, std::string folder,
+                       int threads, bool quiet, bool triaxial) {
+  namespace fs = std::filesystem;
+  if (folder.empty()) folder = fdem::load_scene(scene_path).output.folder;
+  const auto rows = fdem::run_series(scene_path, axes, folder, threads, quiet, std::cout);
+  const std::string csv = (fs::path(folder) / "series.csv").string();
+  fdem::write_series_csv(csv, rows);
+  std::cout << "series: " << rows.size() << " runs in " << folder << "; table " << csv << "\n";
+  std::vector<std::string> plot_args = {csv, folder};
+  if (triaxial) {
+    std::vector<fdem::real> s3, s1;
+    for (const auto& r : rows) {
+      std::cout << "  sigma3 " << r.number("confining_pressure_Pa") / 1e6 << " MPa: peak sigma1 "
+                << r.number("peak_stress_Pa") / 1e6 << " MPa at axial strain " << r.number("strain_at_peak")
+                << ", failure plane " << r.number("failure_plane_angle_deg") << " deg to the axis\n";
+      s3.push_back(r.number("confining_pressure_Pa"));
+      s1.push_back(r.number("peak_stress_Pa"));
+    }
+    const std::string mc = (fs::path(folder) / "mohr_coulomb.csv").string();
+    try {
+      const fdem::MohrCoulombFit f = fdem::fit_mohr_coulomb(s3, s1);
+      std::ofstream o(mc);
+      o << std::setprecision(10)
+        << "cohesion_Pa,cohesion_se_Pa,friction_angle_deg,friction_angle_se_deg,intercept_Pa,slope,rms_misfit_Pa,"
+           "peaks\n"
+        << f.cohesion << ',' << f.cohesion_se << ',' << f.friction_angle << ',' << f.friction_angle_se << ','
+        << f.intercept << ',' << f.slope << ',' << f.rms_misfit << ',' << s3.size() << '\n';
+      if (!o) throw fdem::OutputError("cannot write " + mc);
+      std::cout << "  Mohr-Coulomb envelope: c = " << f.cohesion / 1e6 << " +- " << f.cohesion_se / 1e6
+                << " MPa, phi = " << f.friction_angle << " +- " << f.friction_angle_se << " deg (" << mc << ")\n";
+      plot_args.push_back("--mohr");
+      plot_args.push_back(mc);
+    } catch (const fdem::InputError& e) {
+      std::error_code ec;
+      fs::remove(mc, ec);
+      std::cout << "  no Mohr-Coulomb envelope: " << e.what() << "\n";
+    }
+  }
+  if (!fdem::run_python_script("plot_series.py", plot_args))
+    std::cout << "warning: could not plot the series (needs python3-matplotlib); the table is " << csv << "\n";
+  else
+    std::cout << "  plots: " << (fs::path(folder) / "series_curves.png").string()
+              << (triaxial ? ", " + (fs::path(folder) / "mohr_circles.png").string() : std::string()) << "\n";
+  return 0;
+}
 
 int run_main(int argc, char** argv) {
   CLI::App app{"fdem " FDEM_VERSION
@@ -35,11 +90,78 @@ int run_main(int argc, char** argv) {
   auto* check = app.add_subcommand("check", "Validate a scene, build its model and report counts and the time step");
   check->add_option("scene", scene_path, "Scene file (YAML)")->required();
 
+  std::string sigma3;
+  auto* triaxial = app.add_subcommand(
+      "triaxial",
+      "Run a scene at several confining pressures (hydrostatic, then held), one after another, skipping finished "
+      "ones; writes series.csv, series_curves.png, mohr_coulomb.csv and mohr_circles.png");
+  triaxial->add_option("scene", scene_path, "Scene file (YAML)")->required();
+  triaxial->add_option("--sigma3", sigma3, "Confining pressures in Pa, comma-separated, e.g. 0,2.5e6,5e6,10e6")
+      ->required();
+  std::vector<std::string> vary;
+  auto* series = app.add_subcommand(
+      "series",
+      "Run a scene for every combination of the varied parameters, skipping finished runs; writes series.csv and "
+      "series_curves.png (loading-rate and specimen-size studies)");
+  const char* vary_help =
+      "key=v1,v2,... (repeatable; every combination runs), SI units; keys: sigma3 (Pa), platen_velocity (m/s), "
+      "diameter (m, height scaled with it), element_size (m), mass_scaling, activation, time_step_safety";
+  series->add_option("scene", scene_path, "Scene file (YAML)")->required();
+  series->add_option("--vary", vary, vary_help)->required();
+  std::vector<std::string> budget;
+  std::string reference;
+  auto* study = app.add_subcommand(
+      "study",
+      "Speed against error: run variants of a scene, compare each with a reference variant (peak, strain at peak, "
+      "curve before/after the peak, broken CE6, fracture overlap) and recommend the fastest within a budget; writes "
+      "study.csv, study.md, study.png");
+  study->add_option("scene", scene_path, "Scene file (YAML)")->required();
+  study->add_option("--vary", vary, vary_help)->required();
+  study->add_option("--reference", reference,
+                    "The reference variant, key=value[,key=value] (default: the most exact value of each axis: "
+                    "activation full, the smallest mass_scaling, platen_velocity, element_size, time_step_safety)");
+  study->add_option("--budget", budget,
+                    "Error budget, metric=limit[,...]: peak, strain_at_peak, curve_pre, curve_post, broken (at most, "
+                    "e.g. 2%), jaccard (at least, e.g. 0.8)");
+  for (auto* sub : {triaxial, series, study}) {
+    sub->add_option("-o,--output", output, "Series folder (default: the scene's output.folder)");
+    sub->add_option("-t,--threads", threads, "OpenMP threads per run")->check(CLI::NonNegativeNumber);
+    sub->add_flag("-q,--quiet", quiet, "No progress lines");
+  }
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     const int code = app.exit(e);
     return code == 0 ? 0 : 2;
+  }
+
+  if (triaxial->parsed())
+    return run_series_command(scene_path, {fdem::parse_series_axis("sigma3=" + sigma3)}, output, threads, quiet, true);
+  if (study->parsed()) {
+    std::vector<fdem::SeriesAxis> axes;
+    for (const std::string& a : vary) axes.push_back(fdem::parse_series_axis(a));
+    std::vector<std::pair<std::string, std::string>> ref;
+    std::stringstream in(reference);
+    for (std::string kv; std::getline(in, kv, ',');) {
+      const std::size_t eq = kv.find('=');
+      if (eq == std::string::npos)
+        throw fdem::InputError("--reference " + reference + ": expected key=value[,key=value]");
+      ref.push_back({kv.substr(0, eq), kv.substr(eq + 1)});
+    }
+    const auto limits = fdem::parse_budget(budget);
+    if (output.empty()) output = fdem::load_scene(scene_path).output.folder + "/study";
+    const fdem::StudyResult r = fdem::run_study(scene_path, axes, ref, limits, output, threads, quiet, std::cout);
+    const bool plotted = fdem::write_study(output, r);
+    std::ifstream md(output + "/study.md");
+    std::cout << md.rdbuf() << "\nstudy: " << output << "/study.csv, study.md"
+              << (plotted ? ", study.png" : " (no plot: needs python3-matplotlib)") << "\n";
+    return 0;
+  }
+  if (series->parsed()) {
+    std::vector<fdem::SeriesAxis> axes;
+    for (const std::string& a : vary) axes.push_back(fdem::parse_series_axis(a));
+    return run_series_command(scene_path, axes, output, threads, quiet, false);
   }
 
   fdem::Scene scene = fdem::load_scene(scene_path);

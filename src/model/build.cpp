@@ -287,7 +287,12 @@ Model build_model(const Mesh& mesh, const Scene& scene) {
     }
     if (is_top[n]) m.top_nodes.push_back(int(n));
     if (is_bottom[n]) m.bottom_nodes.push_back(int(n));
-    if (is_lateral[n] && !is_top[n] && !is_bottom[n]) m.lateral_nodes.push_back(int(n));
+    if (is_lateral[n] && !is_top[n] && !is_bottom[n] && !m.line_loaded) m.lateral_nodes.push_back(int(n));
+    // A disc: the lateral strain is that of its horizontal diameter, from the rim nodes at its
+    // two ends (within 0.1 D of mid-height, at the x extremes).
+    if (m.line_loaded && is_surface[n] && std::fabs(m.X[n].z - (m.box_min.z + 0.5 * m.height0)) < 0.1 * m.height0 &&
+        std::fabs(m.X[n].x - m.axis_point.x) > 0.5 * (m.box_max.x - m.box_min.x) - 0.25 * m.mean_edge)
+      m.lateral_nodes.push_back(int(n));
   }
 
   m.tet_colours = colour_elements(m.tet_nodes, nn, "TET4");

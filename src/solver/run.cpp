@@ -32,7 +32,7 @@ const char* kCsvHeader =
     "damaged_ce6,broken_ce6,broken_mode_I,broken_mode_II,broken_mixed,kinetic_J,strain_J,cohesive_stored_J,"
     "cohesive_dissipated_J,friction_J,viscous_J,platen_stored_J,platen_friction_J,external_work_J,energy_error,"
     "contact_J,contact_friction_J,active_tets,contact_pairs,contacts,confining_pressure_Pa,"
-    "indirect_tensile_Pa";
+    "indirect_tensile_Pa,lateral_stress_Pa";
 
 void write_row(std::ostream& o, const Monitors& m) {
   o << m.step << ',' << m.time << ',' << m.axial_strain << ',' << m.axial_stress << ',' << m.lateral_strain << ','
@@ -41,7 +41,7 @@ void write_row(std::ostream& o, const Monitors& m) {
     << m.cohesive_stored << ',' << m.cohesive_dissipated << ',' << m.friction << ',' << m.viscous << ','
     << m.platen_stored << ',' << m.platen_friction << ',' << m.external_work << ',' << m.energy_error << ','
     << m.contact << ',' << m.contact_friction << ',' << m.active_tets << ',' << m.contact_pairs << ',' << m.contacts
-    << ',' << m.confining_pressure << ',' << m.indirect_tensile << '\n';
+    << ',' << m.confining_pressure << ',' << m.indirect_tensile << ',' << m.lateral_stress << '\n';
 }
 
 /// Writes path.tmp, then renames it over path, so a reader never sees half a file.
@@ -183,11 +183,11 @@ class PeakFrames {
   std::vector<std::pair<int, std::string>> written_;  // frame index and label of the last set
 };
 
-/// Run scripts/plot_curves.py without a shell (names with quotes stay harmless).
-bool plot_curves(const std::string& csv, const std::string& png, const std::string& title) {
+}  // namespace
+
+bool run_python_script(const std::string& script, std::vector<std::string> args) {
   const std::string py = std::filesystem::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
-  const std::string script = std::string(FDEM_SCRIPTS_DIR) + "/plot_curves.py";
-  std::vector<std::string> args = {py, script, csv, png, "--title", title};
+  args.insert(args.begin(), {py, std::string(FDEM_SCRIPTS_DIR) + "/" + script});
   std::vector<char*> argv;
   for (std::string& a : args) argv.push_back(a.data());
   argv.push_back(nullptr);
@@ -201,8 +201,6 @@ bool plot_curves(const std::string& csv, const std::string& png, const std::stri
   int status = 0;
   return rc == 0 && waitpid(pid, &status, 0) == pid && WIFEXITED(status) && WEXITSTATUS(status) == 0;
 }
-
-}  // namespace
 
 void report_model(const Solver& solver, std::ostream& out) {
   const Model& m = solver.model();
@@ -331,9 +329,18 @@ RunSummary run_scene(Solver& solver, std::ostream& log) {
   }
   if (out.plot) {
     const std::string png = (fs::path(out.folder) / "stress_strain.png").string();
-    if (!plot_curves(csv_path, png, scene.name))
+    if (!run_python_script("plot_curves.py", {csv_path, png, "--title", scene.name}))
       log << "warning: could not plot " << png << " (needs python3-matplotlib); the curves are in " << csv_path
           << std::endl;
+  }
+  {
+    // The broken CE6s by id (the fracture pattern, for comparisons such as `fdem study`).
+    const std::string path = (fs::path(out.folder) / "broken_ce6.csv").string();
+    std::ofstream o(path);
+    o << "ce6,mode\n";
+    for (std::size_t i = 0; i < solver.ce6.size(); ++i)
+      if (solver.ce6[i].mode != 0) o << i << ',' << solver.ce6[i].mode << '\n';
+    if (!o) throw OutputError("cannot write " + path);
   }
   write_summary((fs::path(out.folder) / "summary.csv").string(), scene, sum);
   return sum;

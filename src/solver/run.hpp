@@ -3,6 +3,7 @@
 // progress lines, the end condition and the final plot.
 #include <iosfwd>
 #include <string>
+#include <vector>
 
 #include "analysis/fracture_pattern.hpp"
 #include "solver/solver.hpp"
@@ -30,6 +31,10 @@ void report_model(const Solver& solver, std::ostream& out);
 /// <folder>/summary.csv (one row: kSummaryHeader), whose presence marks a finished run. Rethrows RunError after
 /// writing the monitor row and a field frame labelled "diagnostic" where possible.
 RunSummary run_scene(Solver& solver, std::ostream& log);
+
+/// Runs scripts/<script> with python3 and the arguments, without a shell and with its output
+/// silenced; true when it exited with 0.
+bool run_python_script(const std::string& script, std::vector<std::string> args);
 
 /// Columns of summary.csv.
 extern const char* const kSummaryHeader;

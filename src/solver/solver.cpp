@@ -361,6 +361,7 @@ Monitors Solver::measure() {
     const int n = m.lateral_nodes[i];
     Vec3 rr = m.X[n] - m.axis_point;
     rr.z = 0;
+    if (m.line_loaded) rr.y = 0;  // a disc: along its horizontal diameter
     const real r2 = dot(rr, rr);
     if (r2 > 0) lat += dot(x[n] - m.X[n], rr) / r2;
   }
@@ -372,15 +373,26 @@ Monitors Solver::measure() {
 #pragma omp parallel for reduction(+ : ke)
   for (int n = 0; n < nn; ++n) ke += 0.5 * m.mass[n] * dot(v[n], v[n]);
   if (step_ == 0) initial_kinetic_ = ke;
-  real se = 0;
+  real se = 0, lat_sv = 0, lat_v = 0;
   const int nt = int(m.tet_nodes.size());
-#pragma omp parallel for reduction(+ : se)
+  // Lateral stress in the middle third of the height (reference centroid), away from the ends.
+  const real z_lo = m.box_min.z + (m.box_max.z - m.box_min.z) / 3, z_hi = m.box_max.z - (m.box_max.z - m.box_min.z) / 3;
+#pragma omp parallel for reduction(+ : se, lat_sv, lat_v)
   for (int t = 0; t < nt; ++t) {
     Vec3 xe[4], ve[4], fe[4];
     gather(x, m.tet_nodes[t], xe);
     gather(v, m.tet_nodes[t], ve);
-    se += tet4_forces(xe, ve, m.tet_Xinv[t], m.tet_V0[t], lambda_, mu_, 0, fe).strain_energy;
+    const Tet4Eval e = tet4_forces(xe, ve, m.tet_Xinv[t], m.tet_V0[t], lambda_, mu_, m.tet_eta[t], fe);
+    se += e.strain_energy;
+    const auto& q = m.tet_nodes[t];
+    const real zc = 0.25 * (m.X[q[0]].z + m.X[q[1]].z + m.X[q[2]].z + m.X[q[3]].z);
+    if (zc >= z_lo && zc <= z_hi) {
+      const real vol = dot(cross(xe[1] - xe[0], xe[2] - xe[0]), xe[3] - xe[0]) / 6;
+      lat_sv += -0.5 * (e.stress.xx + e.stress.yy) * vol;
+      lat_v += vol;
+    }
   }
+  r.lateral_stress = lat_v > 0 ? lat_sv / lat_v : 0;
   real coh_stored = 0, fric_stored = 0;
   long damaged = 0, broken = 0, b1 = 0, b2 = 0, b3 = 0;
   const int nc = int(ce6.size());

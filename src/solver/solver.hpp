@@ -23,6 +23,8 @@ struct Monitors {
   real contact = 0, contact_friction = 0;                 // J, work into tet-tet contact (normal) and its friction
   long active_tets = 0, contact_pairs = 0, contacts = 0;  // activated tets, candidate pairs, touching pairs
   real confining_pressure = 0;                            // Pa, applied on the lateral surface
+  real lateral_stress =
+      0;  // Pa, -(s_xx + s_yy)/2 (with the viscous part) averaged over the tets of the middle third of the height
   real indirect_tensile = 0;  // Pa, 2 P / (pi D t) of a line-loaded disc (Brazilian test), else 0
   real energy_error = 0;      // |external - (everything else)| / max(external, floor)
 };

@@ -136,6 +136,8 @@ TEST(CliExe, HelpListsTheSubcommands) {
   EXPECT_EQ(o.code, 0) << o.text;
   EXPECT_TRUE(has(o.text, "run")) << o.text;
   EXPECT_TRUE(has(o.text, "check")) << o.text;
+  EXPECT_TRUE(has(o.text, "triaxial")) << o.text;
+  EXPECT_TRUE(has(o.text, "series")) << o.text;
   EXPECT_TRUE(has(o.text, "Subcommands")) << o.text;
   // Each subcommand has its own help naming its scene argument.
   const Outcome r = fdem("run --help");
@@ -257,6 +259,8 @@ TEST(CliExe, RunWritesMonitorsAndFields) {
   ASSERT_TRUE(fs::exists(out / "fields.xdmf")) << o.text;
   ASSERT_TRUE(fs::exists(out / "fields.h5")) << o.text;
   EXPECT_FALSE(fs::exists(out / "stress_strain.png"));  // output.plot: false
+  EXPECT_TRUE(fs::exists(out / "summary.csv"));
+  EXPECT_FALSE(fs::exists(out / "summary.csv.tmp"));
   EXPECT_GT(fs::file_size(out / "fields.h5"), 1000u);
 
   const Csv csv = read_csv(out / "monitors.csv");
@@ -343,4 +347,100 @@ TEST(CliExe, RunsUnderMpiexecWithOneRankOnly) {
   EXPECT_TRUE(has(two.text, "one MPI rank")) << two.text;
   EXPECT_TRUE(has(two.text, "-n 1")) << two.text;
   EXPECT_FALSE(fs::exists(out2));
+}
+
+TEST(CliExe, SeriesRunsEveryValueOnceAndTabulatesThem) {
+  TempDir tmp("series");
+  const fs::path out = tmp.path / "study";
+  const std::string scene = quote((kData / "cli" / "run_box.yaml").string());
+  const std::string args = "series " + scene + " --vary mass_scaling=10,40 -q -o " + quote(out.string());
+  const Outcome o = fdem(args);
+  ASSERT_EQ(o.code, 0) << o.text;
+  EXPECT_TRUE(has(o.text, "[2/2] mass_scaling_40: running")) << o.text;
+  const Csv csv = read_csv(out / "series.csv");
+  ASSERT_EQ(csv.rows.size(), 2u);
+  EXPECT_EQ(csv.header[0], "mass_scaling");
+  EXPECT_EQ(csv.rows[0][0], 10);
+  EXPECT_EQ(csv.rows[1][0], 40);
+  const int steps = column(csv, "steps"), time = column(csv, "time_s");
+  ASSERT_GE(steps, 0);
+  ASSERT_GE(time, 0);
+  EXPECT_EQ(csv.rows[0][steps], 400);
+  EXPECT_EQ(csv.rows[1][steps], 400);
+  // The stable step grows with sqrt(m): 400 steps cover twice the time at m = 40.
+  EXPECT_NEAR(csv.rows[1][time] / csv.rows[0][time], 2.0, 0.02);
+  for (const char* f : {"mass_scaling_10/summary.csv", "mass_scaling_40/monitors.csv", "mass_scaling_40/run.txt"})
+    EXPECT_TRUE(fs::exists(out / f)) << f;
+  // Again: both found finished, the table unchanged.
+  const std::string before = slurp(out / "series.csv");
+  const Outcome again = fdem(args);
+  ASSERT_EQ(again.code, 0) << again.text;
+  EXPECT_TRUE(has(again.text, "[1/2] mass_scaling_10: finished before, not run again")) << again.text;
+  EXPECT_TRUE(has(again.text, "[2/2] mass_scaling_40: finished before, not run again")) << again.text;
+  EXPECT_EQ(slurp(out / "series.csv"), before);
+}
+
+TEST(CliExe, SeriesBadValuesExitTwoBeforeAnyRun) {
+  TempDir tmp("series_bad");
+  const std::string scene = quote((kData / "cli" / "run_box.yaml").string());
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"triaxial " + scene + " --sigma3 0,5", "below 1 kPa"},
+      {"series " + scene + " --vary frob=1,2", "unknown key 'frob'"},
+      {"series " + scene + " --vary diameter=0.05", "needs a generated cylinder or disc"},
+      {"series " + scene + " --vary mass_scaling=5,x", "mass_scaling=x: not a number"},
+      {"series " + scene + " --vary mass_scaling=0.5", "mass scaling must be >= 1"},
+      {"series " + scene + " --vary activation=some", "allowed: adaptive, full, none"},
+      {"study " + scene + " --vary precision=fp64,fp32", "double precision only"},
+      {"study " + scene + " --vary sigma3=0,1e6", "sigma3 has no most exact value"},
+      {"study " + scene + " --vary mass_scaling=1,5 --budget speed=2", "should be metric=limit"},
+  };
+  int i = 0;
+  for (const auto& [args, msg] : cases) {
+    const fs::path out = tmp.path / ("o" + std::to_string(i++));
+    const Outcome o = fdem(args + " -q -o " + quote(out.string()));
+    EXPECT_EQ(o.code, 2) << args << "\n" << o.text;
+    EXPECT_TRUE(has(o.text, msg)) << args << "\n" << o.text;
+    EXPECT_FALSE(fs::exists(out)) << args;
+  }
+}
+
+TEST(CliExe, StudyMeasuresErrorsAgainstTheReferenceAndResumes) {
+  // An elastic column loaded at three time steps: the finest (the default reference: the
+  // smallest time_step_safety) has zero error; the coarsest the largest.
+  TempDir tmp("study");
+  const fs::path out = tmp.path / "study";
+  const std::string args = "study " + quote((kData / "cli" / "study_box.yaml").string()) +
+                           " --vary time_step_safety=0.9,0.2,0.45 --budget curve_pre=1% -q -o " + quote(out.string());
+  const Outcome o = fdem(args);
+  ASSERT_EQ(o.code, 0) << o.text;
+  const Csv csv = read_csv(out / "study.csv");
+  ASSERT_EQ(csv.rows.size(), 3u);  // rows in --vary order: 0.9, 0.2, 0.45
+  const int ref = column(csv, "reference"), pre = column(csv, "error_curve_pre"), peak = column(csv, "error_peak"),
+            jac = column(csv, "error_jaccard"), rec = column(csv, "recommended");
+  ASSERT_GE(ref, 0);
+  ASSERT_GE(pre, 0);
+  ASSERT_GE(jac, 0);
+  EXPECT_EQ(csv.rows[1][ref], 1);
+  for (std::size_t c = 0; c < csv.header.size(); ++c) {
+    if (csv.header[c].rfind("error_", 0) == 0 && csv.header[c] != "error_jaccard") {
+      EXPECT_EQ(csv.rows[1][c], 0) << csv.header[c];
+    }
+  }
+  EXPECT_EQ(csv.rows[1][jac], 1);
+  EXPECT_GT(csv.rows[2][pre], 0);
+  EXPECT_GT(csv.rows[0][pre], csv.rows[2][pre]);  // the coarser step is further off
+  EXPECT_GT(csv.rows[0][peak], csv.rows[2][peak]);
+  EXPECT_EQ(csv.rows[0][rec] + csv.rows[1][rec] + csv.rows[2][rec], 1);
+  EXPECT_TRUE(fs::exists(out / "study.md"));
+  EXPECT_TRUE(has(slurp(out / "study.md"), "(reference)"));
+  // Again: nothing reruns, the table is the same.
+  const std::string before = slurp(out / "study.csv");
+  const Outcome again = fdem(args);
+  ASSERT_EQ(again.code, 0) << again.text;
+  EXPECT_FALSE(has(again.text, ": running in")) << again.text;
+  EXPECT_EQ(slurp(out / "study.csv"), before);
+  // A reference that is not among the variants is bad input.
+  const Outcome bad = fdem(args + " --reference time_step_safety=0.3");
+  EXPECT_EQ(bad.code, 2) << bad.text;
+  EXPECT_TRUE(has(bad.text, "--reference names no variant")) << bad.text;
 }

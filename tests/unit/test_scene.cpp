@@ -1,6 +1,7 @@
 // Scene files: the default scene, defaults of a minimal scene, and one test per kind of bad input.
 #include <gtest/gtest.h>
 
+#include <filesystem>
 #include <string>
 
 #include "core/error.hpp"
@@ -39,6 +40,30 @@ std::string parse_error(const std::string& text, const std::string& file = "mem.
 }
 
 }  // namespace
+
+TEST(Scene, EveryShippedSceneParsesWithSiValues) {
+  namespace fs = std::filesystem;
+  int n = 0;
+  for (const auto& e : fs::directory_iterator(fs::path(FDEM_SOURCE_DIR) / "scenes")) {
+    if (e.path().extension() != ".yaml") continue;
+    const Scene s = load_scene(e.path().string());
+    ++n;
+    EXPECT_EQ(s.name, e.path().stem().string());
+    EXPECT_EQ(s.output.folder, "out/" + s.name) << e.path();
+    // Lengths in m: a laboratory specimen is centimetres, not millimetres or metres.
+    EXPECT_GT(s.mesh.diameter, 0.01) << e.path();
+    EXPECT_LT(s.mesh.diameter, 0.2) << e.path();
+    EXPECT_GT(s.mesh.element_size, 0.0005) << e.path();
+    EXPECT_LT(s.mesh.element_size, s.mesh.diameter / 4) << e.path();
+    EXPECT_LE(s.platens.velocity, 0.2) << e.path() << ": the paper's quasi-static limit";
+  }
+  EXPECT_GE(n, 4);
+  const Scene paper = load_scene(std::string(FDEM_SOURCE_DIR) + "/scenes/ucs_paper.yaml");
+  EXPECT_DOUBLE_EQ(paper.mesh.diameter, 0.057);
+  EXPECT_DOUBLE_EQ(paper.mesh.height, 0.129);
+  EXPECT_DOUBLE_EQ(paper.mesh.element_size, 0.0013);
+  EXPECT_DOUBLE_EQ(paper.solver.mass_scaling, 5);
+}
 
 TEST(Scene, DefaultSceneParses) {
   const Scene s = load_scene(std::string(FDEM_SOURCE_DIR) + "/scenes/ucs_small.yaml");

@@ -1,0 +1,297 @@
+#include "solver/series.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <sstream>
+
+#include "core/error.hpp"
+#include "core/format.hpp"
+#include "io/mesh_io.hpp"
+#include "model/model.hpp"
+#include "solver/run.hpp"
+
+namespace fdem {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string read_text(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream t;
+  t << in.rdbuf();
+  return t.str();
+}
+
+real number(const std::string& key, const std::string& value) {
+  std::size_t used = 0;
+  double v = 0;
+  try {
+    v = std::stod(value, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used != value.size() || value.empty() || !std::isfinite(v))
+    throw InputError(key + "=" + value + ": not a number; give SI values such as 5e6 (Pa) or 0.1 (m/s)");
+  return v;
+}
+
+void require(bool ok, const std::string& key, const std::string& value, const std::string& what) {
+  if (!ok) throw InputError(key + "=" + value + ": " + what);
+}
+
+// Splits a CSV line, honouring double quotes (no embedded quotes are written).
+std::vector<std::string> split_csv(const std::string& line) {
+  std::vector<std::string> out(1);
+  bool quoted = false;
+  for (char c : line) {
+    if (c == '"')
+      quoted = !quoted;
+    else if (c == ',' && !quoted)
+      out.emplace_back();
+    else if (c != '\r')
+      out.back() += c;
+  }
+  return out;
+}
+
+std::string folder_name(const SeriesValues& values) {
+  std::string n;
+  for (const auto& [k, v] : values) n += (n.empty() ? "" : "_") + k + "_" + v;
+  return n;
+}
+
+// summary.csv of a run stopped as unstable: its name and the reason, no numbers.
+void write_unstable_summary(const std::string& path, const std::string& name, std::string why) {
+  for (char& c : why)
+    if (c == '"' || c == '\n') c = '\'';
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream o(tmp);
+    // name, empty numbers, then end_reason (the last column).
+    const std::string header = kSummaryHeader;
+    o << header << '\n'
+      << name << std::string(std::count(header.begin(), header.end(), ','), ',') << "\"unstable: " << why << "\"\n";
+    if (!o) throw OutputError("cannot write " + tmp);
+  }
+  fs::rename(tmp, path);
+}
+
+}  // namespace
+
+const std::vector<std::string>& series_keys() {
+  static const std::vector<std::string> k = {"sigma3",       "platen_velocity", "diameter",        "element_size",
+                                             "mass_scaling", "activation",      "time_step_safety"};
+  return k;
+}
+
+SeriesAxis parse_series_axis(const std::string& arg) {
+  const std::size_t eq = arg.find('=');
+  std::string keys;
+  for (const std::string& k : series_keys()) keys += (keys.empty() ? "" : ", ") + k;
+  if (eq == std::string::npos || eq == 0)
+    throw InputError("--vary " + arg + ": expected key=value1,value2,... with key one of " + keys);
+  SeriesAxis a;
+  a.key = arg.substr(0, eq);
+  if (a.key == "precision")
+    throw InputError("--vary " + arg +
+                     ": fdem computes in double precision only (core/config.hpp); a single-precision solver is not "
+                     "built, and casting the outputs would not measure its error, so there is no precision axis");
+  bool known = false;
+  for (const std::string& k : series_keys()) known |= k == a.key;
+  if (!known) throw InputError("--vary " + arg + ": unknown key '" + a.key + "'; allowed: " + keys);
+  std::stringstream in(arg.substr(eq + 1));
+  for (std::string v; std::getline(in, v, ',');) {
+    if (v.empty()) throw InputError("--vary " + arg + ": an empty value; separate values by single commas");
+    for (const std::string& seen : a.values)
+      if (seen == v) throw InputError("--vary " + arg + ": value " + v + " is given twice");
+    a.values.push_back(v);
+  }
+  if (a.values.empty()) throw InputError("--vary " + arg + ": no values after '='");
+  return a;
+}
+
+void apply_series_value(Scene& s, const std::string& key, const std::string& value) {
+  if (key == "activation") {
+    require(value == "adaptive" || value == "full" || value == "none", key, value, "allowed: adaptive, full, none");
+    s.contact.activation = value;
+    return;
+  }
+  const real v = number(key, value);
+  if (key == "sigma3") {
+    require(v >= 0, key, value, "the confining pressure must be >= 0 Pa");
+    require(v == 0 || v >= 1e3, key, value,
+            "values are in Pa: a confining pressure below 1 kPa is surely a slip (did you mean " + value + "e6?)");
+    s.confinement.enabled = v > 0;
+    s.confinement.pressure = v;
+    require(v == 0 || s.platens.enabled || s.confinement.path == "constant", key, value,
+            "the hydrostatic path follows the axial stress, which needs platens; enable platens or set "
+            "confinement.path: constant in " +
+                s.file);
+  } else if (key == "platen_velocity") {
+    require(v > 0, key, value, "the platen speed must be > 0 m/s");
+    require(s.platens.enabled, key, value, "the scene " + s.file + " has no platens");
+    s.platens.velocity = v;
+  } else if (key == "diameter" || key == "element_size") {
+    require(v > 0, key, value, "must be > 0 m");
+    require(!s.mesh.shape.empty() && (key == "element_size" || s.mesh.shape != "box"), key, value,
+            "needs a generated cylinder or disc mesh (mesh.generate in " + s.file + ")");
+    if (key == "element_size") {
+      s.mesh.element_size = v;
+    } else {
+      s.mesh.height *= v / s.mesh.diameter;
+      s.mesh.diameter = v;
+    }
+    require(s.mesh.element_size < std::min(s.mesh.diameter, s.mesh.height), key, value,
+            "the element size must be smaller than the specimen (diameter " + fmt(s.mesh.diameter) + " m, height " +
+                fmt(s.mesh.height) + " m)");
+  } else if (key == "mass_scaling") {
+    require(v >= 1, key, value, "mass scaling must be >= 1");
+    s.solver.mass_scaling = v;
+  } else if (key == "time_step_safety") {
+    require(v > 0 && v <= 10, key, value, "the time-step safety factor must be in (0, 10] (<= 1 is stable)");
+    s.solver.time_step_safety = v;
+  } else {
+    throw InputError("unknown series key '" + key + "'");
+  }
+}
+
+std::vector<SeriesValues> series_combinations(const std::vector<SeriesAxis>& axes) {
+  std::vector<SeriesValues> combos(1);
+  for (const SeriesAxis& a : axes) {
+    std::vector<SeriesValues> next;
+    for (const auto& c : combos)
+      for (const std::string& v : a.values) {
+        next.push_back(c);
+        next.back().push_back({a.key, v});
+      }
+    combos = std::move(next);
+  }
+  return combos;
+}
+
+double SeriesRow::number(const std::string& column) const {
+  const auto it = summary.find(column);
+  if (it == summary.end()) return NAN;
+  try {
+    return std::stod(it->second);
+  } catch (const std::exception&) {
+    return NAN;
+  }
+}
+
+std::map<std::string, std::string> read_summary(const std::string& path) {
+  std::map<std::string, std::string> m;
+  std::ifstream in(path);
+  std::string head, row;
+  if (!std::getline(in, head) || !std::getline(in, row)) return m;
+  const auto h = split_csv(head), r = split_csv(row);
+  if (h.size() != r.size()) return m;
+  for (std::size_t i = 0; i < h.size(); ++i) m[h[i]] = r[i];
+  return m;
+}
+
+std::vector<SeriesRow> run_series(const std::string& scene_path, const std::vector<SeriesAxis>& axes,
+                                  const std::string& folder, int threads, bool quiet, std::ostream& log) {
+  const Scene base = load_scene(scene_path);
+  const std::string text = read_text(scene_path);
+  // All checked before anything runs.
+  const std::vector<SeriesValues> combos = series_combinations(axes);
+  for (const auto& c : combos) {
+    Scene s = base;
+    for (const auto& [k, v] : c) apply_series_value(s, k, v);
+  }
+  std::vector<SeriesRow> rows;
+  for (std::size_t i = 0; i < combos.size(); ++i) {
+    SeriesRow row;
+    row.values = combos[i];
+    row.folder = (fs::path(folder) / folder_name(combos[i])).string();
+    std::ostringstream fp;
+    fp << "fdem " FDEM_VERSION "\nscene " << scene_path << "\n";
+    for (const auto& [k, v] : combos[i]) fp << k << " = " << v << "\n";
+    fp << "---\n" << text;
+    const std::string fp_path = (fs::path(row.folder) / "run.txt").string();
+    const std::string summary_path = (fs::path(row.folder) / "summary.csv").string();
+    const std::string label = folder_name(combos[i]);
+    log << "[" << i + 1 << "/" << combos.size() << "] " << label << ": ";
+    if (fs::exists(summary_path) && read_text(fp_path) == fp.str() && !read_summary(summary_path).empty()) {
+      row.resumed = true;
+      log << "finished before, not run again (" << summary_path << ")" << std::endl;
+    } else {
+      log << "running in " << row.folder << std::endl;
+      Scene s = base;
+      for (const auto& [k, v] : combos[i]) apply_series_value(s, k, v);
+      s.name = base.name + " " + label;
+      s.output.folder = row.folder;
+      if (threads > 0) s.solver.threads = threads;
+      if (quiet) s.output.progress_interval = 0;
+      std::error_code ec;
+      fs::remove(summary_path, ec);
+      fs::create_directories(row.folder, ec);
+      {
+        std::ofstream o(fp_path, std::ios::binary);
+        o << fp.str();
+        if (!o) throw OutputError("cannot write " + fp_path);
+      }
+      Model model;
+      try {
+        model = build_model(load_mesh(s.mesh), s);
+      } catch (const InputError& e) {
+        throw InputError(scene_path + " (" + label + "): mesh: " + e.what());
+      }
+      Solver solver(s, std::move(model));
+      try {
+        const RunSummary r = run_scene(solver, log);
+        log << "  peak " << r.peak_stress / 1e6 << " MPa at strain " << r.strain_at_peak << ", " << r.last.broken
+            << " broken CE6, " << r.wall_seconds << " s wall" << std::endl;
+      } catch (const RunError& e) {
+        // An unstable variant is a result of the series (e.g. too much mass scaling), not its end.
+        log << "  stopped: " << e.what() << std::endl;
+        write_unstable_summary(summary_path, s.name, e.what());
+      }
+    }
+    row.summary = read_summary(summary_path);
+    if (row.summary.empty()) throw OutputError(summary_path + ": missing or unreadable after the run");
+    rows.push_back(std::move(row));
+  }
+  return rows;
+}
+
+void write_series_csv(const std::string& path, const std::vector<SeriesRow>& rows) {
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream o(tmp);
+    std::vector<std::string> cols;
+    for (const char* p = kSummaryHeader; *p;) {
+      const char* e = p;
+      while (*e && *e != ',') ++e;
+      cols.emplace_back(p, e);
+      p = *e ? e + 1 : e;
+    }
+    if (!rows.empty())
+      for (const auto& kv : rows[0].values) o << kv.first << ',';
+    o << "folder";
+    for (const std::string& c : cols) o << ',' << c;
+    o << '\n';
+    for (const SeriesRow& r : rows) {
+      for (const auto& kv : r.values) o << kv.second << ',';
+      o << r.folder;
+      for (const std::string& c : cols) {
+        const auto it = r.summary.find(c);
+        const std::string v = it == r.summary.end() ? "" : it->second;
+        o << ',' << (v.find_first_of(", ") != std::string::npos ? "\"" + v + "\"" : v);
+      }
+      o << '\n';
+    }
+    o.close();
+    if (!o) throw OutputError("cannot write " + tmp);
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) throw OutputError("cannot rename " + tmp + " to " + path + ": " + ec.message());
+}
+
+}  // namespace fdem

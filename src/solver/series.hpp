@@ -1,0 +1,72 @@
+#pragma once
+// A series of runs of one scene that differ in one or more parameters: the triaxial series over
+// confining pressures and the paper's loading-rate and specimen-size studies.
+//
+// Each run writes a normal run folder <folder>/<key>_<value>[_<key>_<value>...]/ (monitors.csv,
+// fields, summary.csv) plus run.txt, the fingerprint of what was run (fdem version, the scene
+// file's text, the values). A run whose folder holds summary.csv and the same run.txt is not run
+// again: an interrupted series resumes where it stopped. The series writes
+// <folder>/series.csv, one row per run: the varied values, then the columns of summary.csv.
+#include <iosfwd>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "scene/scene.hpp"
+
+namespace fdem {
+
+/// One varied parameter and its values as typed (SI units). Keys:
+///   sigma3           Pa   confining pressure (0 = unconfined); the path is the scene's
+///                         confinement.path (hydrostatic unless it says constant)
+///   platen_velocity  m/s  loading rate
+///   diameter         m    specimen diameter of a generated cylinder or disc; the height
+///                         (disc: thickness) scales with it, keeping the scene's ratio
+///   element_size     m    of a generated mesh
+///   mass_scaling     -    density factor m >= 1
+///   activation       -    adaptive | full | none
+///   time_step_safety -    fraction of the stable-step bound
+/// A run stopped as unstable (RunError) gets a summary.csv with empty numbers and end_reason
+/// "unstable: <why>", and the series goes on.
+struct SeriesAxis {
+  std::string key;
+  std::vector<std::string> values;
+};
+
+/// The keys above, for messages and --help.
+const std::vector<std::string>& series_keys();
+
+/// Parses "key=v1,v2,..." (throws InputError naming the argument and the fix).
+SeriesAxis parse_series_axis(const std::string& arg);
+
+/// Sets one parameter of a scene; throws InputError naming the key, the value and what is allowed.
+void apply_series_value(Scene& scene, const std::string& key, const std::string& value);
+
+using SeriesValues = std::vector<std::pair<std::string, std::string>>;  // key, value as typed
+
+/// Every combination of the axes' values, the last axis varying fastest.
+std::vector<SeriesValues> series_combinations(const std::vector<SeriesAxis>& axes);
+
+struct SeriesRow {
+  SeriesValues values;
+  std::string folder;
+  std::map<std::string, std::string> summary;  // the run's summary.csv: column -> value
+  bool resumed = false;                        // found finished, not run again
+
+  /// summary[column] as a number (NaN when missing or not a number).
+  double number(const std::string& column) const;
+};
+
+/// Runs every combination of the axes' values (the last axis varying fastest) in turn,
+/// skipping finished runs. All values are checked before the first run starts. threads > 0
+/// overrides solver.threads; quiet silences the progress lines of each run.
+std::vector<SeriesRow> run_series(const std::string& scene_path, const std::vector<SeriesAxis>& axes,
+                                  const std::string& folder, int threads, bool quiet, std::ostream& log);
+
+/// Writes <path> (atomically): the varied keys, then the summary columns.
+void write_series_csv(const std::string& path, const std::vector<SeriesRow>& rows);
+
+/// Reads a one-row CSV with a header (summary.csv) into column -> value; empty when missing.
+std::map<std::string, std::string> read_summary(const std::string& path);
+
+}  // namespace fdem

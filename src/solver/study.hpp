@@ -1,0 +1,56 @@
+#pragma once
+// `fdem study`: a series of variants of one scene measured against a reference variant for
+// speed and accuracy, with a recommendation under an error budget.
+//
+// Runs go through run_series (same folders, same resuming). For each variant, against the
+// reference: speed-up (reference wall time / variant wall time), time per step, and the errors
+//   peak            |peak - peak_ref| / peak_ref
+//   strain_at_peak  |e_pk - e_pk_ref| / e_pk_ref
+//   curve_pre       relative L2 of the stress-strain curve on [0, e_pk_ref]
+//   curve_post      relative L2 on [e_pk_ref, the reference's last strain]
+//   broken          |n - n_ref| / max(n_ref, 1), n the broken-CE6 count
+//   jaccard         |A n B| / |A u B| of the broken-CE6 sets (same mesh only; a minimum in budgets)
+// (run_comparison.hpp). Outputs in the study folder: study.csv, study.md, study.png.
+#include <iosfwd>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "solver/series.hpp"
+
+namespace fdem {
+
+/// The error names above, in table order.
+const std::vector<std::string>& study_metrics();
+
+/// "peak=2%,curve_pre=0.05" (repeatable): metric -> limit as a fraction. Throws InputError.
+std::map<std::string, real> parse_budget(const std::vector<std::string>& args);
+
+struct StudyRow {
+  SeriesRow run;
+  bool reference = false, stable = true, pareto = false, within_budget = false;
+  real wall = 0, steps = 0, seconds_per_step = 0, speedup = 0;
+  std::map<std::string, real> error;  // by metric name; NaN when not comparable
+};
+
+struct StudyResult {
+  std::vector<StudyRow> rows;
+  int reference = -1;
+  int recommended = -1;  // fastest stable variant within the budget
+  std::string plotted;   // the error on the plot's axis
+  std::map<std::string, real> budget;
+};
+
+/// reference: key=value pairs naming one variant; empty = for each axis its most exact value
+/// (activation full; the smallest mass_scaling, platen_velocity, element_size,
+/// time_step_safety); sigma3 and diameter have no most exact value and need it named.
+StudyResult run_study(const std::string& scene_path, const std::vector<SeriesAxis>& axes,
+                      const std::vector<std::pair<std::string, std::string>>& reference,
+                      const std::map<std::string, real>& budget, const std::string& folder, int threads, bool quiet,
+                      std::ostream& log);
+
+/// study.csv and study.md in folder (atomically), and study.png through scripts/plot_study.py
+/// (false when the plot could not be made).
+bool write_study(const std::string& folder, const StudyResult& r);
+
+}  // namespace fdem
