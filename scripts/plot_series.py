@@ -54,6 +54,7 @@ def main(argv):
     ap.add_argument("csv", help="series.csv written by fdem triaxial / fdem series")
     ap.add_argument("folder", help="where to write the PNGs")
     ap.add_argument("--mohr", default=None, help="mohr_coulomb.csv of a triaxial series")
+    ap.add_argument("--input", default=None, help="cohesion_Pa,friction_angle_deg of the input (CE6) strength")
     args = ap.parse_args(argv)
     rows = read_rows(args.csv)
 
@@ -63,25 +64,31 @@ def main(argv):
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(1, 3, figsize=(15, 4.8), constrained_layout=True)
+    # A Brazilian disc: the indirect tensile stress 2P/(pi D t) instead of P/(D t).
+    stress_col, stress_name = "axial_stress_Pa", "axial stress $\\sigma_1$ (MPa)"
+    if any(float(r.get("peak_indirect_tensile_Pa") or 0) > 0 for r in rows):
+        stress_col, stress_name = "indirect_tensile_Pa", "indirect tensile stress $2P/(\\pi D t)$ (MPa)"
     colours = plt.cm.viridis([i / max(1, len(rows) - 1) * 0.9 for i in range(len(rows))])
     for row, c in zip(rows, colours):
         monitors = os.path.join(row["folder"], "monitors.csv")
         cols, _ = read_columns(monitors)
         lab = run_label(row)
-        ea, sa = pairs(cols["axial_strain"], cols["axial_stress_Pa"])
+        if row.get("end_reason", "").startswith("unstable"):
+            lab += " (stopped: unstable)"
+        ea, sa = pairs(cols["axial_strain"], cols[stress_col])
         axes[0].plot([e * 100 for e in ea], [s / 1e6 for s in sa], color=c, lw=1.4, label=lab)
         if "lateral_strain" in cols:
-            el, sl = pairs(cols["lateral_strain"], cols["axial_stress_Pa"])
+            el, sl = pairs(cols["lateral_strain"], cols[stress_col])
             axes[1].plot([e * 100 for e in el], [s / 1e6 for s in sl], color=c, lw=1.4, label=lab)
         if "volumetric_strain" in cols:
             e2, ev = pairs(cols["axial_strain"], cols["volumetric_strain"])
             axes[2].plot([e * 100 for e in e2], [v * 100 for v in ev], color=c, lw=1.4, label=lab)
     axes[0].set_xlabel("axial strain $\\varepsilon_a$ (%)")
-    axes[0].set_ylabel("axial stress $\\sigma_1$ (MPa)")
-    axes[0].set_title("(a) axial stress - axial strain")
+    axes[0].set_ylabel(stress_name)
+    axes[0].set_title("(a) stress - axial strain")
     axes[1].set_xlabel("lateral strain $\\varepsilon_l$ (%)  (expansion negative)")
-    axes[1].set_ylabel("axial stress $\\sigma_1$ (MPa)")
-    axes[1].set_title("(b) axial stress - lateral strain")
+    axes[1].set_ylabel(stress_name)
+    axes[1].set_title("(b) stress - lateral strain")
     axes[2].set_xlabel("axial strain $\\varepsilon_a$ (%)")
     axes[2].set_ylabel("volumetric strain $\\varepsilon_v$ (%)  (compaction +)")
     axes[2].set_title("(c) volumetric - axial strain")
@@ -112,6 +119,12 @@ def main(argv):
         ax.plot([sig0, smax], [0.0, c + smax * tanp], "k--", lw=1.2,
                 label="fit: c = %.3g $\\pm$ %.2g MPa, $\\varphi$ = %.3g $\\pm$ %.2g$^\\circ$"
                 % (c, float(fit["cohesion_se_Pa"]) / 1e6, phi, float(fit["friction_angle_se_deg"])))
+        if args.input:
+            ci, pi = (float(v) for v in args.input.split(","))
+            ci /= 1e6
+            ti = math.tan(math.radians(pi))
+            ax.plot([-ci / ti, smax], [0.0, ci + smax * ti], ":", color="0.4", lw=1.2,
+                    label="input (CE6): c = %.3g MPa, $\\varphi$ = %.3g$^\\circ$" % (ci, pi))
         ax.set_xlabel("normal stress $\\sigma$ (MPa)")
         ax.set_ylabel("shear stress $\\tau$ (MPa)")
         ax.set_title("Mohr circles at the peaks and the Mohr-Coulomb envelope")

@@ -52,8 +52,9 @@ int run_series_command(const std::string& scene_path, const std::vector<fdem::Se
       if (!o) throw fdem::OutputError("cannot write " + mc);
       std::cout << "  Mohr-Coulomb envelope: c = " << f.cohesion / 1e6 << " +- " << f.cohesion_se / 1e6
                 << " MPa, phi = " << f.friction_angle << " +- " << f.friction_angle_se << " deg (" << mc << ")\n";
-      plot_args.push_back("--mohr");
-      plot_args.push_back(mc);
+      const fdem::Material& mat = fdem::load_scene(scene_path).material;
+      plot_args.insert(plot_args.end(), {"--mohr", mc, "--input",
+                                         fdem::fmt(mat.cohesion, 10) + "," + fdem::fmt(mat.friction_angle, 10)});
     } catch (const fdem::InputError& e) {
       std::error_code ec;
       fs::remove(mc, ec);

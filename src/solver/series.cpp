@@ -96,6 +96,7 @@ SeriesAxis parse_series_axis(const std::string& arg) {
     throw InputError("--vary " + arg + ": expected key=value1,value2,... with key one of " + keys);
   SeriesAxis a;
   a.key = arg.substr(0, eq);
+  if (a.key == "platen_speed") a.key = "platen_velocity";  // the name users also say
   if (a.key == "precision")
     throw InputError("--vary " + arg +
                      ": fdem computes in double precision only (core/config.hpp); a single-precision solver is not "

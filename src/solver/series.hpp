@@ -19,7 +19,7 @@ namespace fdem {
 /// One varied parameter and its values as typed (SI units). Keys:
 ///   sigma3           Pa   confining pressure (0 = unconfined); the path is the scene's
 ///                         confinement.path (hydrostatic unless it says constant)
-///   platen_velocity  m/s  loading rate
+///   platen_velocity  m/s  loading rate (also accepted as platen_speed)
 ///   diameter         m    specimen diameter of a generated cylinder or disc; the height
 ///                         (disc: thickness) scales with it, keeping the scene's ratio
 ///   element_size     m    of a generated mesh

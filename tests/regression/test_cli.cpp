@@ -389,6 +389,7 @@ TEST(CliExe, SeriesBadValuesExitTwoBeforeAnyRun) {
       {"series " + scene + " --vary diameter=0.05", "needs a generated cylinder or disc"},
       {"series " + scene + " --vary mass_scaling=5,x", "mass_scaling=x: not a number"},
       {"series " + scene + " --vary mass_scaling=0.5", "mass scaling must be >= 1"},
+      {"series " + scene + " --vary platen_speed=0", "platen_velocity=0: the platen speed must be > 0 m/s"},
       {"series " + scene + " --vary activation=some", "allowed: adaptive, full, none"},
       {"study " + scene + " --vary precision=fp64,fp32", "double precision only"},
       {"study " + scene + " --vary sigma3=0,1e6", "sigma3 has no most exact value"},
