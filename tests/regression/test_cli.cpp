@@ -6,6 +6,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -444,4 +445,37 @@ TEST(CliExe, StudyMeasuresErrorsAgainstTheReferenceAndResumes) {
   const Outcome bad = fdem(args + " --reference time_step_safety=0.3");
   EXPECT_EQ(bad.code, 2) << bad.text;
   EXPECT_TRUE(has(bad.text, "--reference names no variant")) << bad.text;
+}
+
+TEST(CliExe, EveryHostileInputFileExitsTwoQuicklyWithItsNameAndWritesNothing) {
+  // Every malformed scene in tests/data/bad_scenes and every malformed mesh in
+  // tests/data/meshes (bad_*.msh, through a scene that reads it), run by the real executable
+  // under a time limit: exit 2 (not a crash, a signal or a hang), an "error" line naming the
+  // file, and no output folder.
+  TempDir tmp("hostile");
+  std::vector<std::pair<fs::path, std::string>> cases;  // scene, file the message must name
+  for (const auto& e : fs::directory_iterator(kData / "bad_scenes"))
+    if (e.path().extension() == ".yaml") cases.push_back({e.path(), e.path().filename().string()});
+  for (const auto& e : fs::directory_iterator(kData / "meshes")) {
+    const std::string name = e.path().filename().string();
+    if (name.rfind("bad_", 0) != 0) continue;
+    const fs::path scene = tmp.path / (e.path().stem().string() + ".yaml");
+    std::ofstream(scene) << "name: hostile\nmesh:\n  file: " << e.path().string()
+                         << "\nsolver: {end: {steps: 10}}\noutput: {progress_interval: 0, plot: false}\n";
+    cases.push_back({scene, name});
+  }
+  ASSERT_GE(cases.size(), 50u);
+  std::sort(cases.begin(), cases.end());
+  int i = 0;
+  for (const auto& [scene, name] : cases) {
+    const fs::path out = tmp.path / ("out" + std::to_string(i++));
+    const Outcome o = run_cmd("timeout 60 env " + kEnv + quote(kExe) + " run " + quote(scene.string()) + " -q -o " +
+                              quote(out.string()));
+    SCOPED_TRACE(scene.string() + "\n" + o.text);
+    EXPECT_EQ(o.code, 2);  // 124 would be the time limit, 134/139 a crash
+    EXPECT_TRUE(has(o.text, "error")) << o.text;
+    EXPECT_TRUE(has(o.text, name)) << "the message should name " << name;
+    EXPECT_FALSE(fs::exists(out));
+  }
+  RecordProperty("hostile_files", std::to_string(cases.size()));
 }
