@@ -14,6 +14,7 @@
 #include <type_traits>
 
 #include "core/error.hpp"
+#include "io/atomic_file.hpp"
 
 namespace fdem {
 namespace {
@@ -436,9 +437,6 @@ void FieldWriter::relabel(int index, const std::string& label) {
 }
 
 void FieldWriter::rewrite_index() const {
-  const std::string tmp = xdmf_path_ + ".tmp";
-  std::FILE* fp = std::fopen(tmp.c_str(), "w");
-  if (!fp) throw OutputError("field output: cannot write index " + tmp + ": " + std::strerror(errno));
   std::string text =
       "<?xml version=\"1.0\" encoding=\"utf-8\"?>\n"
       "<Xdmf xmlns:xi=\"http://www.w3.org/2001/XInclude\" Version=\"3.0\">\n"
@@ -446,17 +444,10 @@ void FieldWriter::rewrite_index() const {
       "  <Grid Name=\"fdem\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
   for (const std::string& g : grids_) text += g;
   text += "  </Grid>\n  </Domain>\n</Xdmf>\n";
-  const bool ok =
-      std::fwrite(text.data(), 1, text.size(), fp) == text.size() && std::fflush(fp) == 0 && ::fsync(fileno(fp)) == 0;
-  const int err = errno;
-  if (std::fclose(fp) != 0 || !ok) {
-    std::remove(tmp.c_str());
-    throw OutputError("field output: cannot write index " + tmp + ": " + std::strerror(ok ? errno : err));
-  }
-  if (std::rename(tmp.c_str(), xdmf_path_.c_str()) != 0) {
-    const int e = errno;
-    std::remove(tmp.c_str());
-    throw OutputError("field output: cannot rename " + tmp + " to " + xdmf_path_ + ": " + std::strerror(e));
+  try {
+    write_file_atomically(xdmf_path_, text);
+  } catch (const OutputError& e) {
+    throw OutputError(std::string("field output: index: ") + e.what());
   }
 }
 

@@ -12,6 +12,7 @@
 #include "analysis/mohr_coulomb.hpp"
 #include "core/error.hpp"
 #include "core/format.hpp"
+#include "io/atomic_file.hpp"
 #include "io/mesh_io.hpp"
 #include "model/model.hpp"
 #include "scene/scene.hpp"
@@ -25,7 +26,8 @@ namespace {
 int run_series_command(const std::string& scene_path, const std::vector<fdem::SeriesAxis>& axes, std::string folder,
                        int threads, bool quiet, bool triaxial) {
   namespace fs = std::filesystem;
-  if (folder.empty()) folder = fdem::load_scene(scene_path).output.folder;
+  const fdem::Scene scene = fdem::load_scene(scene_path);
+  if (folder.empty()) folder = scene.output.folder;
   const auto rows = fdem::run_series(scene_path, axes, folder, threads, quiet, std::cout);
   const std::string csv = (fs::path(folder) / "series.csv").string();
   fdem::write_series_csv(csv, rows);
@@ -43,16 +45,16 @@ int run_series_command(const std::string& scene_path, const std::vector<fdem::Se
     const std::string mc = (fs::path(folder) / "mohr_coulomb.csv").string();
     try {
       const fdem::MohrCoulombFit f = fdem::fit_mohr_coulomb(s3, s1);
-      std::ofstream o(mc);
+      std::ostringstream o;
       o << std::setprecision(10)
         << "cohesion_Pa,cohesion_se_Pa,friction_angle_deg,friction_angle_se_deg,intercept_Pa,slope,rms_misfit_Pa,"
            "peaks\n"
         << f.cohesion << ',' << f.cohesion_se << ',' << f.friction_angle << ',' << f.friction_angle_se << ','
         << f.intercept << ',' << f.slope << ',' << f.rms_misfit << ',' << s3.size() << '\n';
-      if (!o) throw fdem::OutputError("cannot write " + mc);
+      fdem::write_file_atomically(mc, o.str());
       std::cout << "  Mohr-Coulomb envelope: c = " << f.cohesion / 1e6 << " +- " << f.cohesion_se / 1e6
                 << " MPa, phi = " << f.friction_angle << " +- " << f.friction_angle_se << " deg (" << mc << ")\n";
-      const fdem::Material& mat = fdem::load_scene(scene_path).material;
+      const fdem::Material& mat = scene.material;
       plot_args.insert(plot_args.end(), {"--mohr", mc, "--input",
                                          fdem::fmt(mat.cohesion, 10) + "," + fdem::fmt(mat.friction_angle, 10)});
     } catch (const fdem::InputError& e) {

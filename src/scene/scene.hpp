@@ -108,7 +108,7 @@ struct OutputSettings {
   long field_interval = 0;       // steps between ParaView frames; 0 = about 20 frames per run
   real progress_interval = 2.0;  // s of wall time between progress lines; 0 = quiet
   bool plot = true;              // write a PNG of the stress-strain curve at the end
-  bool peak_frames = true;       // frames labelled pre-peak and peak (keeps up to 8 copies of the state)
+  bool peak_frames = true;       // frames labelled pre-peak and peak (keeps up to 9 copies of the state)
 };
 
 struct Scene {

@@ -15,6 +15,7 @@
 #include <sstream>
 
 #include "core/error.hpp"
+#include "io/atomic_file.hpp"
 #include "io/fields.hpp"
 
 namespace fdem {
@@ -44,25 +45,18 @@ void write_row(std::ostream& o, const Monitors& m) {
     << ',' << m.confining_pressure << ',' << m.indirect_tensile << ',' << m.lateral_stress << '\n';
 }
 
-/// Writes path.tmp, then renames it over path, so a reader never sees half a file.
+/// One row under kSummaryHeader, written atomically: its presence marks a finished run.
 void write_summary(const std::string& path, const Scene& scene, const RunSummary& r) {
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream o(tmp);
-    o << std::setprecision(10) << kSummaryHeader << '\n';
-    const FracturePattern& f = r.fracture;
-    o << scene.name << ',' << r.peak_stress << ',' << r.strain_at_peak << ',' << r.peak_indirect_tensile << ','
-      << scene.confinement.pressure * scene.confinement.enabled << ',' << scene.platens.velocity << ','
-      << r.last.energy_error << ',' << f.broken << ',' << f.mode_I << ',' << f.mode_II << ',' << f.mixed << ','
-      << f.area << ',' << f.plane_angle_deg << ',' << f.planarity << ',' << f.mean_facet_angle_deg << ','
-      << f.centroid.x << ',' << f.centroid.y << ',' << f.centroid.z << ',' << r.steps << ',' << r.time << ','
-      << r.wall_seconds << ",\"" << r.end_reason << "\"\n";
-    o.close();
-    if (!o) throw OutputError("cannot write " + tmp + " (disk full?)");
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) throw OutputError("cannot rename " + tmp + " to " + path + ": " + ec.message());
+  std::ostringstream o;
+  o << std::setprecision(10) << kSummaryHeader << '\n';
+  const FracturePattern& f = r.fracture;
+  o << scene.name << ',' << r.peak_stress << ',' << r.strain_at_peak << ',' << r.peak_indirect_tensile << ','
+    << scene.confinement.pressure * scene.confinement.enabled << ',' << scene.platens.velocity << ','
+    << r.last.energy_error << ',' << f.broken << ',' << f.mode_I << ',' << f.mode_II << ',' << f.mixed << ',' << f.area
+    << ',' << f.plane_angle_deg << ',' << f.planarity << ',' << f.mean_facet_angle_deg << ',' << f.centroid.x << ','
+    << f.centroid.y << ',' << f.centroid.z << ',' << r.steps << ',' << r.time << ',' << r.wall_seconds << ",\""
+    << r.end_reason << "\"\n";
+  write_file_atomically(path, o.str());
 }
 
 std::string duration(real s) {
@@ -143,7 +137,8 @@ void write_frame(FieldWriter& w, const Solver& s, const FrameState& f, const std
 
 /// Keeps what the pre-peak and peak frames need: the state at the running maximum of the axial
 /// stress, and a ladder of states 5 % apart in stress between 0.7 and 1 of that maximum, from
-/// which the one nearest kPrePeak of the peak is written as "pre-peak". At most 8 copies.
+/// which the one nearest kPrePeak of the peak is written as "pre-peak". At most 8 in the ladder
+/// (0.7 x 1.05^7 < 1) and the peak: 9 copies.
 class PeakFrames {
  public:
   static constexpr real kPrePeak = 0.8;

@@ -10,6 +10,7 @@
 
 #include "core/error.hpp"
 #include "core/format.hpp"
+#include "io/atomic_file.hpp"
 #include "io/mesh_io.hpp"
 #include "model/model.hpp"
 #include "solver/run.hpp"
@@ -64,20 +65,14 @@ std::string folder_name(const SeriesValues& values) {
   return n;
 }
 
-// summary.csv of a run stopped as unstable: its name and the reason, no numbers.
+// summary.csv of a run stopped as unstable: its name, empty numbers, then end_reason (the
+// last column) with the reason.
 void write_unstable_summary(const std::string& path, const std::string& name, std::string why) {
   for (char& c : why)
     if (c == '"' || c == '\n') c = '\'';
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream o(tmp);
-    // name, empty numbers, then end_reason (the last column).
-    const std::string header = kSummaryHeader;
-    o << header << '\n'
-      << name << std::string(std::count(header.begin(), header.end(), ','), ',') << "\"unstable: " << why << "\"\n";
-    if (!o) throw OutputError("cannot write " + tmp);
-  }
-  fs::rename(tmp, path);
+  const std::string header = kSummaryHeader;
+  write_file_atomically(path, header + '\n' + name + std::string(std::count(header.begin(), header.end(), ','), ',') +
+                                  "\"unstable: " + why + "\"\n");
 }
 
 }  // namespace
@@ -232,11 +227,7 @@ std::vector<SeriesRow> run_series(const std::string& scene_path, const std::vect
       std::error_code ec;
       fs::remove(summary_path, ec);
       fs::create_directories(row.folder, ec);
-      {
-        std::ofstream o(fp_path, std::ios::binary);
-        o << fp.str();
-        if (!o) throw OutputError("cannot write " + fp_path);
-      }
+      write_file_atomically(fp_path, fp.str());
       Model model;
       try {
         model = build_model(load_mesh(s.mesh), s);
@@ -262,37 +253,24 @@ std::vector<SeriesRow> run_series(const std::string& scene_path, const std::vect
 }
 
 void write_series_csv(const std::string& path, const std::vector<SeriesRow>& rows) {
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream o(tmp);
-    std::vector<std::string> cols;
-    for (const char* p = kSummaryHeader; *p;) {
-      const char* e = p;
-      while (*e && *e != ',') ++e;
-      cols.emplace_back(p, e);
-      p = *e ? e + 1 : e;
+  std::ostringstream o;
+  const std::vector<std::string> cols = split_csv(kSummaryHeader);
+  if (!rows.empty())
+    for (const auto& kv : rows[0].values) o << kv.first << ',';
+  o << "folder";
+  for (const std::string& c : cols) o << ',' << c;
+  o << '\n';
+  for (const SeriesRow& r : rows) {
+    for (const auto& kv : r.values) o << kv.second << ',';
+    o << r.folder;
+    for (const std::string& c : cols) {
+      const auto it = r.summary.find(c);
+      const std::string v = it == r.summary.end() ? "" : it->second;
+      o << ',' << (v.find_first_of(", ") != std::string::npos ? "\"" + v + "\"" : v);
     }
-    if (!rows.empty())
-      for (const auto& kv : rows[0].values) o << kv.first << ',';
-    o << "folder";
-    for (const std::string& c : cols) o << ',' << c;
     o << '\n';
-    for (const SeriesRow& r : rows) {
-      for (const auto& kv : r.values) o << kv.second << ',';
-      o << r.folder;
-      for (const std::string& c : cols) {
-        const auto it = r.summary.find(c);
-        const std::string v = it == r.summary.end() ? "" : it->second;
-        o << ',' << (v.find_first_of(", ") != std::string::npos ? "\"" + v + "\"" : v);
-      }
-      o << '\n';
-    }
-    o.close();
-    if (!o) throw OutputError("cannot write " + tmp);
   }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) throw OutputError("cannot rename " + tmp + " to " + path + ": " + ec.message());
+  write_file_atomically(path, o.str());
 }
 
 }  // namespace fdem

@@ -260,8 +260,7 @@ void Solver::compute_forces() {
     const Confinement& cf = scene_.confinement;
     real p = cf.pressure;
     if (hydrostatic_) {
-      const real axial = m.area0 > 0 ? 0.5 * (-ftop + fbot) / m.area0 : 0;
-      p = std::min(cf.pressure, std::max(real(0), axial));
+      p = std::min(cf.pressure, std::max(real(0), axial_stress()));
     } else {
       p = ramped_speed(time_, cf.pressure, confine_ramp_);
     }
@@ -278,6 +277,10 @@ void Solver::compute_forces() {
   p_cohesive_ = p_coh;
   p_friction_ = p_fric;
   w_platen_friction_ += dfric;  // slip already done: counted now, so measure() sees it
+}
+
+real Solver::axial_stress() const {
+  return model_.area0 > 0 ? 0.5 * (-force_top_ + force_bottom_) / model_.area0 : 0;
 }
 
 real Solver::pressure_power(const std::vector<Vec3>& vel) const {
@@ -353,7 +356,7 @@ Monitors Solver::measure() {
   r.axial_strain = top_offset / m.height0;
   r.force_top = -force_top_;
   r.force_bottom = force_bottom_;
-  r.axial_stress = m.area0 > 0 ? 0.5 * (r.force_top + r.force_bottom) / m.area0 : 0;
+  r.axial_stress = axial_stress();
   real lat = 0;
   const int nl = int(m.lateral_nodes.size());
 #pragma omp parallel for reduction(+ : lat)

@@ -23,8 +23,8 @@ struct Monitors {
   real contact = 0, contact_friction = 0;                 // J, work into tet-tet contact (normal) and its friction
   long active_tets = 0, contact_pairs = 0, contacts = 0;  // activated tets, candidate pairs, touching pairs
   real confining_pressure = 0;                            // Pa, applied on the lateral surface
-  real lateral_stress =
-      0;  // Pa, -(s_xx + s_yy)/2 (with the viscous part) averaged over the tets of the middle third of the height
+  // Pa, -(s_xx + s_yy)/2 with the viscous part, averaged over the tets of the middle third of the height
+  real lateral_stress = 0;
   real indirect_tensile = 0;  // Pa, 2 P / (pi D t) of a line-loaded disc (Brazilian test), else 0
   real energy_error = 0;      // |external - (everything else)| / max(external, floor)
 };
@@ -106,6 +106,8 @@ class Solver {
   real pressure_ = 0, p_pressure_ = 0, confine_ramp_ = 0;
   bool hydrostatic_ = false;  // confinement.path, decided once
   real pressure_power(const std::vector<Vec3>& vel) const;
+  /// Mean of the two platen reactions over the loaded area (compression positive), Pa.
+  real axial_stress() const;
   std::vector<std::uint8_t> ce6_broke_;  // set by the CE6 loop on the step a CE6 breaks
   real platen_stored_ = 0;
   real energy_floor_ = 0;

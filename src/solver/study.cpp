@@ -11,6 +11,7 @@
 #include "analysis/run_comparison.hpp"
 #include "core/error.hpp"
 #include "core/format.hpp"
+#include "io/atomic_file.hpp"
 #include "solver/run.hpp"
 
 namespace fdem {
@@ -38,18 +39,6 @@ std::string get(const SeriesValues& v, const std::string& key) {
   for (const auto& kv : v)
     if (kv.first == key) return kv.second;
   return "";
-}
-
-void write_atomically(const std::string& path, const std::string& text) {
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream o(tmp);
-    o << text;
-    if (!o) throw OutputError("cannot write " + tmp);
-  }
-  std::error_code ec;
-  fs::rename(tmp, path, ec);
-  if (ec) throw OutputError("cannot rename " + tmp + " to " + path + ": " + ec.message());
 }
 
 std::string label_of(const SeriesValues& v) {
@@ -237,8 +226,8 @@ bool write_study(const std::string& folder, const StudyResult& r) {
     md << "fastest variant within it: " << label_of(r.rows[r.recommended].run.values) << ".\n";
   else
     md << "no variant is within it.\n";
-  write_atomically((fs::path(folder) / "study.csv").string(), csv.str());
-  write_atomically((fs::path(folder) / "study.md").string(), md.str());
+  write_file_atomically((fs::path(folder) / "study.csv").string(), csv.str());
+  write_file_atomically((fs::path(folder) / "study.md").string(), md.str());
   return run_python_script("plot_study.py", {(fs::path(folder) / "study.csv").string(),
                                              (fs::path(folder) / "study.png").string(), "--error", r.plotted});
 }

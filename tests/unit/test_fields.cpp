@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "core/error.hpp"
+#include "io/atomic_file.hpp"
 #include "io/fields.hpp"
 
 namespace fs = std::filesystem;
@@ -483,4 +484,22 @@ TEST(PlotCurves, WritesPng) {
                            (tmp.path / "y.png").string() + "' >/dev/null 2>&1";
   EXPECT_NE(std::system(none.c_str()), 0);
   EXPECT_FALSE(fs::exists(tmp.path / "y.png"));
+}
+
+TEST(AtomicFile, ReplacesWholeAndFailsCleanly) {
+  TempDir tmp;
+  const fs::path p = tmp.path / "summary.csv";
+  write_file_atomically(p.string(), "a,b\n1,2\n");
+  EXPECT_EQ(slurp(p), "a,b\n1,2\n");
+  write_file_atomically(p.string(), "x\n");  // replaced, not appended
+  EXPECT_EQ(slurp(p), "x\n");
+  EXPECT_FALSE(fs::exists(tmp.path / "summary.csv.tmp"));
+  const fs::path nowhere = tmp.path / "no_such_folder" / "f.csv";
+  try {
+    write_file_atomically(nowhere.string(), "x");
+    FAIL() << "no error for a missing folder";
+  } catch (const OutputError& e) {
+    EXPECT_NE(std::string(e.what()).find(nowhere.string() + ".tmp"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(fs::exists(nowhere));
 }

@@ -1,0 +1,12 @@
+#pragma once
+// Whole small files written so that a reader (or a run resumed after a crash) sees either the
+// old file or the new one, never half of one: written to <path>.tmp, flushed to disk, renamed.
+#include <string>
+
+namespace fdem {
+
+/// Writes text to path atomically; throws OutputError naming the file and the system's reason,
+/// removing the temporary file.
+void write_file_atomically(const std::string& path, const std::string& text);
+
+}  // namespace fdem
