@@ -278,6 +278,8 @@ TEST(ReadMsh, BadFilesThrowInputErrorNamingTheFile) {
       {"bad_tet_tokens.msh", "needs 9 values"},
       {"bad_v41_block_count.msh", "more elements than the 9 announced on line 36"},
       {"bad_unclosed_section.msh", "$EndPhysicalNames"},
+      {"bad_tag_count_wraps.msh", ":31: the element announces 18446744073709551612 tags"},  // ntags wrapped
+      {"bad_tag_count_misread.msh", "announces 18446744073709551613 tags but has only 1"},
       {"bad_does_not_exist.msh", "does not exist"},
   };
   for (const BadCase& c : cases) {
