@@ -398,10 +398,12 @@ void FieldWriter::write(const FieldFrame& f) {
   o << "    </Grid>\n";
 
   grids_.push_back(o.str());
+  labels_.push_back(f.label);
   try {
     rewrite_index();
   } catch (...) {
-    grids_.pop_back();  // the frame group stays in the .h5 but is not indexed; the next write replaces it
+    grids_.pop_back();
+    labels_.pop_back();  // the frame group stays in the .h5 but is not indexed; the next write replaces it
     throw;
   }
 }
@@ -428,12 +430,46 @@ void FieldWriter::relabel(int index, const std::string& label) {
   const std::string key = "<Information Name=\"label\" Value=\"";
   const std::size_t at = grid.find(key) + key.size();
   grid.replace(at, grid.find('"', at) - at, xml_escape(label));
+  const std::string old_label = labels_[index];
+  labels_[index] = label;
   try {
     rewrite_index();
   } catch (...) {
     grid = old;
+    labels_[index] = old_label;
     throw;
   }
+}
+
+FieldWriter::FieldWriter(const std::string& folder, const std::string& basename, const FieldWriterState& state)
+    : grids_(state.grids), labels_(state.labels) {
+  namespace fs = std::filesystem;
+  const fs::path dir = folder.empty() ? fs::path(".") : fs::path(folder);
+  h5_name_ = basename + ".h5";
+  h5_path_ = (dir / h5_name_).string();
+  xdmf_path_ = (dir / (basename + ".xdmf")).string();
+  mesh_tets_ = state.mesh_tets;
+  have_mesh_ = state.have_mesh;
+  if (labels_.size() != grids_.size()) throw OutputError("field output " + h5_path_ + ": inconsistent saved state");
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  Handle h5(H5Fopen(h5_path_.c_str(), H5F_ACC_RDWR, H5P_DEFAULT), H5Fclose);
+  if (!h5.ok()) h5_fail(h5_path_, "opening the file of the interrupted run (restart in its output folder)");
+  for (int i = 0; i < frames(); ++i) {
+    const std::string gname = frame_name(i);
+    Handle g(H5Gopen2(h5.get(), gname.c_str(), H5P_DEFAULT), H5Gclose);
+    if (!g.ok()) h5_fail(h5_path_, "opening group /" + gname + " that the checkpoint says was written");
+    if (H5Aexists(g.get(), "label") > 0 && H5Adelete(g.get(), "label") < 0)
+      h5_fail(h5_path_, "removing the label of /" + gname);
+    write_attr_string(g.get(), "label", labels_[i], h5_path_);
+  }
+  // Frames written after the checkpoint are written again by the continued run.
+  for (int i = frames();; ++i) {
+    const std::string gname = frame_name(i);
+    if (H5Lexists(h5.get(), gname.c_str(), H5P_DEFAULT) <= 0) break;
+    if (H5Ldelete(h5.get(), gname.c_str(), H5P_DEFAULT) < 0) h5_fail(h5_path_, "removing /" + gname);
+  }
+  if (!h5.reset()) h5_fail(h5_path_, "closing the file");
+  rewrite_index();
 }
 
 void FieldWriter::rewrite_index() const {

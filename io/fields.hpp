@@ -45,6 +45,14 @@ struct FieldFrame {
   const std::vector<int>* crack_mode = nullptr;                  // 0 intact(damaged), 1 I, 2 II, 3 mixed
 };
 
+/// What a FieldWriter has written, so that a restarted run can take over its files.
+struct FieldWriterState {
+  std::vector<std::string> grids;             // XDMF text of each frame
+  std::vector<std::string> labels;            // label of each frame
+  std::vector<std::array<int, 4>> mesh_tets;  // connectivity in /mesh/tets
+  bool have_mesh = false;
+};
+
 /// Appends frames to <folder>/<basename>.h5 and keeps <folder>/<basename>.xdmf up to date.
 /// A file-system or HDF5 failure throws OutputError; a non-finite value or inconsistent sizes
 /// throw RunError
@@ -54,6 +62,12 @@ class FieldWriter {
  public:
   /// Creates folder if missing, starts a fresh .h5 (truncating an old one) and removes a stale .xdmf.
   FieldWriter(const std::string& folder, const std::string& basename);
+  /// Takes over the files of an earlier writer whose state was saved (a restart): frames after
+  /// those in `state` are removed from the .h5, the labels of the kept ones are set as saved
+  /// (a later relabel is undone) and the index is rewritten. Throws OutputError if the .h5 is
+  /// missing or lacks a saved frame.
+  FieldWriter(const std::string& folder, const std::string& basename, const FieldWriterState& state);
+  FieldWriterState state() const { return {grids_, labels_, mesh_tets_, have_mesh_}; }
   /// Appends one frame.
   void write(const FieldFrame& f);
   /// Changes the label of frame `index` (0-based, already written) in the .h5 and the index.
@@ -70,7 +84,8 @@ class FieldWriter {
   std::string xdmf_path_;
   std::vector<std::array<int, 4>> mesh_tets_;  // copy of /mesh/tets, to detect a topology change
   bool have_mesh_ = false;
-  std::vector<std::string> grids_;  // XDMF text of each frame written so far
+  std::vector<std::string> grids_;   // XDMF text of each frame written so far
+  std::vector<std::string> labels_;  // and its label
 
   void rewrite_index() const;
 };

@@ -1,5 +1,5 @@
 // The fdem command line. Exit codes: 0 success, 2 bad input, 3 run stopped (unstable),
-// 4 writing output failed, 1 other.
+// 4 writing output failed, 5 stopped by SIGTERM/SIGINT after a checkpoint, 1 other.
 #include <mpi.h>
 
 #include <CLI/CLI.hpp>
@@ -89,6 +89,10 @@ int run_main(int argc, char** argv) {
   std::string activation;
   run->add_option("--contact", activation, "Contact activation (overrides contact.activation)")
       ->check(CLI::IsMember({"adaptive", "full", "none"}));
+  fdem::RunOptions run_options;
+  run->add_option("--restart", run_options.restart,
+                  "Continue an interrupted run from its newest checkpoint: the run's output folder, its "
+                  "checkpoints/ folder or a .ckpt file (same scene and mesh; solver.end and output may change)");
 
   auto* check = app.add_subcommand("check", "Validate a scene, build its model and report counts and the time step");
   check->add_option("scene", scene_path, "Scene file (YAML)")->required();
@@ -185,7 +189,13 @@ int run_main(int argc, char** argv) {
   fdem::report_model(solver, std::cout);
   if (check->parsed()) return 0;
 
-  const fdem::RunSummary s = fdem::run_scene(solver, std::cout);
+  fdem::RunSummary s;
+  try {
+    s = fdem::run_scene(solver, std::cout, run_options);
+  } catch (const fdem::Interrupted& e) {
+    throw fdem::Interrupted(std::string(e.what()) + "; continue with: fdem run " + scene_path +
+                            (output.empty() ? "" : " -o " + output) + " --restart " + scene.output.folder);
+  }
   std::cout << "finished: " << s.end_reason << " after " << s.steps << " steps, t = " << s.time << " s, "
             << s.wall_seconds << " s wall\n"
             << "  peak axial stress " << s.peak_stress / 1e6 << " MPa at axial strain " << s.strain_at_peak
@@ -229,6 +239,9 @@ int main(int argc, char** argv) {
   } catch (const fdem::RunError& e) {
     std::cerr << "run stopped: " << e.what() << std::endl;
     code = 3;
+  } catch (const fdem::Interrupted& e) {
+    std::cerr << "interrupted: " << e.what() << std::endl;
+    code = 5;
   } catch (const std::exception& e) {
     std::cerr << "error: " << e.what() << std::endl;
     code = 1;

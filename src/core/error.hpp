@@ -15,6 +15,12 @@ struct RunError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// The run was stopped by a signal (SIGTERM, SIGINT) after writing a checkpoint; continue it
+/// with `fdem run scene --restart <folder>`. Exit code 5.
+struct Interrupted : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
 /// Writing results failed (disk full, permissions, a broken file). Exit code 4.
 struct OutputError : std::runtime_error {
   using std::runtime_error::runtime_error;

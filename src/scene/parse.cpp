@@ -465,12 +465,16 @@ class Reader {
 
   void solver(const YAML::Node& n, SolverSettings& s, bool platens_on) {
     const std::string p = "solver";
-    if (!check_map(n, p, {"time_step_safety", "time_step", "mass_scaling", "damping_scale", "threads", "end"})) return;
+    if (!check_map(n, p,
+                   {"time_step_safety", "time_step", "mass_scaling", "damping_scale", "threads", "max_energy_error",
+                    "end"}))
+      return;
     number(n, p, "time_step_safety", Range{0, 10, true, false}, s.time_step_safety);
     number(n, p, "time_step", at_least(0), s.time_step);
     number(n, p, "mass_scaling", closed(1, 1e6), s.mass_scaling);
     number(n, p, "damping_scale", closed(0, 100), s.damping_scale);
     number(n, p, "threads", count_at_least(0, 65536), s.threads);
+    number(n, p, "max_energy_error", closed(0, 1e3), s.max_energy_error);
     const std::string need = "give at least one of axial_strain, post_peak_fraction, time, steps > 0";
     const YAML::Node e = n["end"];
     if (!e) {
@@ -495,7 +499,9 @@ class Reader {
 
   void output(const YAML::Node& n, OutputSettings& o) {
     const std::string p = "output";
-    if (!check_map(n, p, {"folder", "monitor_interval", "field_interval", "progress_interval", "plot", "peak_frames"}))
+    if (!check_map(n, p,
+                   {"folder", "monitor_interval", "field_interval", "progress_interval", "plot", "peak_frames",
+                    "checkpoint_interval", "checkpoint_wall_interval"}))
       return;
     text(n, p, "folder", o.folder, "give a folder path, relative to the current directory");
     number(n, p, "monitor_interval", count_at_least(1), o.monitor_interval);
@@ -503,6 +509,8 @@ class Reader {
     number(n, p, "progress_interval", at_least(0), o.progress_interval);
     boolean(n, p, "plot", o.plot);
     boolean(n, p, "peak_frames", o.peak_frames);
+    number(n, p, "checkpoint_interval", count_at_least(0), o.checkpoint_interval);
+    number(n, p, "checkpoint_wall_interval", at_least(0), o.checkpoint_wall_interval);
   }
 
   /// Cross-checks between sections, run only when the values involved are valid.

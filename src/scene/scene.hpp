@@ -100,6 +100,9 @@ struct SolverSettings {
   real damping_scale = 1;       // factor on the critical damping eta = 2 h sqrt(m rho E); 0 = undamped
   EndCondition end;
   int threads = 0;  // OpenMP threads; 0 = as set by OMP_NUM_THREADS or all cores
+  /// Stop the run when the energy balance error (monitors.csv energy_error) exceeds this once
+  /// the work put in is above the noise floor; 0 = never. A stable run stays below a few 0.01.
+  real max_energy_error = 0.1;
 };
 
 struct OutputSettings {
@@ -109,6 +112,9 @@ struct OutputSettings {
   real progress_interval = 2.0;  // s of wall time between progress lines; 0 = quiet
   bool plot = true;              // write a PNG of the stress-strain curve at the end
   bool peak_frames = true;       // frames labelled pre-peak and peak (keeps up to 9 copies of the state)
+  // Checkpoints in <folder>/checkpoints (the last two kept; also on SIGUSR1, SIGTERM, SIGINT).
+  long checkpoint_interval = 0;            // steps between checkpoints; 0 = not by steps
+  real checkpoint_wall_interval = 1800.0;  // s of wall time between checkpoints; 0 = not by time
 };
 
 struct Scene {

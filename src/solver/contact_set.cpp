@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "core/gather.hpp"
+#include "io/checkpoint.hpp"
 
 namespace fdem {
 namespace {
@@ -258,6 +259,50 @@ ContactPower ContactSet::add_forces(const Model& m, const std::vector<Vec3>& x, 
   out.spring_energy = stored;
   out.touching = touching;
   return out;
+}
+
+void ContactSet::save(CheckpointOut& out) const {
+  out.put(enabled_);
+  if (!enabled_) return;
+  out.put(active_);
+  out.put(active_count_);
+  out.put(dirty_);
+  out.put(pairs_);
+  out.put(stats_);
+  out.put(watch_nodes_);
+  out.put(watch_x_);
+  out.put(eval_);
+  out.put(pair_force_);
+  out.put(gather_node_);
+  out.put(gather_ptr_);
+  out.put(gather_slot_);
+  out.put(spring);
+  out.put(times);
+}
+
+void ContactSet::load(CheckpointIn& in) {
+  bool enabled = false;
+  in.get(enabled);
+  if (enabled != enabled_) in.mismatch("contact.activation differs: 'none' in one of them");
+  if (!enabled_) return;
+  const std::size_t nt = active_.size();
+  in.get(active_);
+  if (active_.size() != nt)
+    in.mismatch("tet count " + std::to_string(active_.size()) + ", the model has " + std::to_string(nt));
+  in.get(active_count_);
+  in.get(dirty_);
+  in.get(pairs_);
+  in.get(stats_);
+  in.get(watch_nodes_);
+  in.get(watch_x_);
+  in.get(eval_);
+  in.get(pair_force_);
+  in.get(gather_node_);
+  in.get(gather_ptr_);
+  in.get(gather_slot_);
+  in.get(spring);
+  in.get(times);
+  if (spring.size() != pairs_.size() || eval_.size() != pairs_.size()) in.mismatch("inconsistent contact pair arrays");
 }
 
 }  // namespace fdem

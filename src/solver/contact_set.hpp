@@ -15,6 +15,9 @@
 
 namespace fdem {
 
+class CheckpointOut;
+class CheckpointIn;
+
 /// A candidate pair: tets a < b and the CE6 that joins them (-1 if none). While that CE6
 /// is intact the pair is skipped; once it breaks the two faces meet through contact.
 struct ContactPair {
@@ -66,6 +69,11 @@ class ContactSet {
 
   /// Friction springs per pair (same order as pairs()), for checkpoints and tests.
   std::vector<Vec3> spring;
+
+  /// Everything that changes during a run (flags, pairs, springs, the last forces and the
+  /// broad phase's watch list), so a restarted run continues bit for bit.
+  void save(CheckpointOut& out) const;
+  void load(CheckpointIn& in);
 
  private:
   void rebuild(const Model& m, const std::vector<Vec3>& x);

@@ -4,18 +4,23 @@
 #include <spawn.h>
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <deque>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <memory>
+#include <optional>
 #include <sstream>
 
 #include "core/error.hpp"
 #include "io/atomic_file.hpp"
+#include "io/checkpoint.hpp"
 #include "io/fields.hpp"
 
 namespace fdem {
@@ -93,6 +98,26 @@ FrameState save_state(const Solver& s, real stress) {
   return f;
 }
 
+void save_frame_state(CheckpointOut& o, const FrameState& f) {
+  o.put(f.time);
+  o.put(f.stress);
+  o.put(f.step);
+  o.put(f.x);
+  o.put(f.v);
+  o.put(f.ce6);
+  o.put(f.active);
+}
+
+void load_frame_state(CheckpointIn& in, FrameState& f) {
+  in.get(f.time);
+  in.get(f.stress);
+  in.get(f.step);
+  in.get(f.x);
+  in.get(f.v);
+  in.get(f.ce6);
+  in.get(f.active);
+}
+
 void write_frame(FieldWriter& w, const Solver& s, real time, long step, const std::vector<Vec3>& x,
                  const std::vector<Vec3>& v, const std::vector<Ce6State>& ce6, const std::vector<std::uint8_t>* flags,
                  const std::string& label) {
@@ -135,6 +160,61 @@ void write_frame(FieldWriter& w, const Solver& s, const FrameState& f, const std
   write_frame(w, s, f.time, f.step, f.x, f.v, f.ce6, f.active.empty() ? nullptr : &f.active, label);
 }
 
+/// The frame of an unstable run, labelled "diagnostic": non-finite positions and velocities are
+/// replaced by the reference positions and zero (so no file holds NaN), and two per-tet fields
+/// show where it went wrong: "non_finite" (a node of the tet had a non-finite value) and
+/// "inverted" (volume ratio J <= 0). Never throws: the frames written before stay valid.
+void write_diagnostic(FieldWriter& w, const Solver& s) {
+  try {
+    const Model& m = s.model();
+    std::vector<Vec3> x = s.x, v = s.v;
+    std::vector<char> bad(x.size(), 0);
+    for (std::size_t n = 0; n < x.size(); ++n)
+      if (!std::isfinite(x[n].x + x[n].y + x[n].z + v[n].x + v[n].y + v[n].z)) {
+        bad[n] = 1;
+        x[n] = m.X[n];
+        v[n] = {0, 0, 0};
+      }
+    const std::size_t nt = m.tet_nodes.size();
+    std::vector<real> non_finite(nt, 0), inverted(nt, 0);
+    for (std::size_t t = 0; t < nt; ++t) {
+      const auto& q = m.tet_nodes[t];
+      for (int n : q) non_finite[t] = std::max(non_finite[t], real(bad[n]));
+      const real vol = dot(cross(x[q[1]] - x[q[0]], x[q[2]] - x[q[0]]), x[q[3]] - x[q[0]]) / 6;
+      inverted[t] = !(vol / m.tet_V0[t] > 0);
+    }
+    std::vector<Vec3> u(x.size());
+    for (std::size_t n = 0; n < u.size(); ++n) u[n] = x[n] - m.X[n];
+    std::vector<Sym3> stress;
+    std::vector<real> vm;
+    s.tet_stress(x, v, stress, vm);
+    for (std::size_t t = 0; t < nt; ++t)
+      if (!std::isfinite(vm[t]) || non_finite[t] > 0) stress[t] = Sym3{}, vm[t] = 0;
+    std::vector<std::array<int, 3>> faces;
+    std::vector<real> damage;
+    std::vector<int> mode;
+    s.crack_faces(s.ce6, faces, damage, mode);
+    FieldFrame fr;
+    fr.time = s.time();
+    fr.step = s.step_count();
+    fr.label = "diagnostic";
+    fr.x = &x;
+    fr.u = &u;
+    fr.v = &v;
+    fr.tets = &m.tet_nodes;
+    fr.stress = &stress;
+    fr.von_mises = &vm;
+    fr.crack_faces = &faces;
+    fr.crack_damage = &damage;
+    fr.crack_mode = &mode;
+    fr.extra.push_back({"non_finite", &non_finite});
+    fr.extra.push_back({"inverted", &inverted});
+    w.write(fr);
+  } catch (const std::exception&) {
+    // Nothing more to show; the frames written before remain valid.
+  }
+}
+
 /// Keeps what the pre-peak and peak frames need: the state at the running maximum of the axial
 /// stress, and a ladder of states 5 % apart in stress between 0.7 and 1 of that maximum, from
 /// which the one nearest kPrePeak of the peak is written as "pre-peak". At most 8 in the ladder
@@ -171,6 +251,33 @@ class PeakFrames {
     written_.push_back({w.frames() - 1, "post-peak"});
   }
 
+  void save(CheckpointOut& o) const {
+    o.put(max_);
+    save_frame_state(o, peak_);
+    o.put(std::uint64_t(ladder_.size()));
+    for (const FrameState& f : ladder_) save_frame_state(o, f);
+    o.put(std::uint64_t(written_.size()));
+    for (const auto& [index, label] : written_) {
+      o.put(index);
+      o.put(label);
+    }
+  }
+  void load(CheckpointIn& in) {
+    in.get(max_);
+    load_frame_state(in, peak_);
+    std::uint64_t n = 0;
+    in.get(n);
+    ladder_.clear();
+    for (std::uint64_t i = 0; i < n; ++i) load_frame_state(in, ladder_.emplace_back());
+    in.get(n);
+    written_.clear();
+    for (std::uint64_t i = 0; i < n; ++i) {
+      auto& [index, label] = written_.emplace_back();
+      in.get(index);
+      in.get(label);
+    }
+  }
+
  private:
   real max_ = 0;
   FrameState peak_;
@@ -178,7 +285,58 @@ class PeakFrames {
   std::vector<std::pair<int, std::string>> written_;  // frame index and label of the last set
 };
 
+// Checkpoint requests from signals: 1 = SIGUSR1 (write one, go on), 2 = SIGTERM or SIGINT (write
+// one, stop). Only the flag is set in the handler; the time loop looks at it after every step.
+volatile std::sig_atomic_t g_signal_request = 0;
+
+extern "C" void on_checkpoint_signal(int sig) {
+  if (sig != SIGUSR1)
+    g_signal_request = 2;
+  else if (g_signal_request == 0)
+    g_signal_request = 1;
+}
+
+/// Installs the handlers for the duration of a run and puts the earlier ones back.
+class SignalGuard {
+ public:
+  SignalGuard() {
+    g_signal_request = 0;
+    struct sigaction sa {};
+    sa.sa_handler = on_checkpoint_signal;
+    sigemptyset(&sa.sa_mask);
+    for (int i = 0; i < 3; ++i) sigaction(kSignals[i], &sa, &old_[i]);
+  }
+  ~SignalGuard() {
+    for (int i = 0; i < 3; ++i) sigaction(kSignals[i], &old_[i], nullptr);
+  }
+
+ private:
+  static constexpr int kSignals[3] = {SIGTERM, SIGINT, SIGUSR1};
+  struct sigaction old_[3];
+};
+
+/// Keeps the newest `keep` checkpoints of a folder and removes the rest.
+void prune_checkpoints(const std::string& folder, std::size_t keep) {
+  std::vector<std::string> all = find_checkpoints(folder);
+  for (std::size_t i = keep; i < all.size(); ++i) std::filesystem::remove(all[i]);
+}
+
 }  // namespace
+
+std::vector<std::string> find_checkpoints(const std::string& path) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (fs::is_regular_file(path, ec)) return {path};
+  fs::path dir = path;
+  if (fs::is_directory(dir / "checkpoints", ec)) dir /= "checkpoints";
+  std::vector<std::string> found;
+  if (fs::is_directory(dir, ec))
+    for (const fs::directory_entry& e : fs::directory_iterator(dir, ec))
+      if (e.is_regular_file() && e.path().extension() == ".ckpt") found.push_back(e.path().string());
+  // step_<12 digits>.ckpt: the names sort by step.
+  std::sort(found.rbegin(), found.rend());
+  return found;
+}
 
 bool run_python_script(const std::string& script, std::vector<std::string> args) {
   const std::string py = std::filesystem::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
@@ -212,7 +370,7 @@ void report_model(const Solver& solver, std::ostream& out) {
       << solver.scene().solver.mass_scaling << ")\n";
 }
 
-RunSummary run_scene(Solver& solver, std::ostream& log) {
+RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& options) {
   namespace fs = std::filesystem;
   const Scene& scene = solver.scene();
   const OutputSettings& out = scene.output;
@@ -223,10 +381,71 @@ RunSummary run_scene(Solver& solver, std::ostream& log) {
   fs::create_directories(out.folder, ec);
   if (ec) throw InputError(scene.file + ": output.folder: cannot create '" + out.folder + "': " + ec.message());
   const std::string csv_path = (fs::path(out.folder) / "monitors.csv").string();
-  std::ofstream csv(csv_path);
+  const std::string ckpt_dir = (fs::path(out.folder) / "checkpoints").string();
+
+  // Everything the loop below carries from step to step, besides the solver.
+  Monitors mon;
+  bool peak_written = false;
+  PeakFrames peak_frames;
+  real wall_before = 0;  // s, spent by the run before the checkpoint it continues from
+  std::ofstream csv;
+  std::unique_ptr<FieldWriter> fields;
+
+  if (!options.restart.empty()) {
+    // The newest checkpoint that reads; a damaged newest one falls back to the one before.
+    const std::vector<std::string> found = find_checkpoints(options.restart);
+    if (found.empty())
+      throw InputError("--restart " + options.restart +
+                       ": no checkpoint there (files checkpoints/step_<n>.ckpt). Fix: give the output folder of the "
+                       "interrupted run or one of its .ckpt files");
+    std::string problems;
+    for (const std::string& file : found) {
+      std::optional<CheckpointIn> in;
+      try {
+        in.emplace(read_checkpoint(file));
+      } catch (const InputError& e) {
+        log << "warning: " << e.what() << std::endl;
+        problems += std::string("\n  ") + e.what();
+        continue;
+      }
+      solver.load(*in);
+      in->get(mon);
+      in->get(sum.peak_stress);
+      in->get(sum.strain_at_peak);
+      in->get(sum.peak_indirect_tensile);
+      in->get(peak_written);
+      peak_frames.load(*in);
+      in->get(wall_before);
+      std::uint64_t csv_bytes = 0;
+      in->get(csv_bytes);
+      FieldWriterState fs_state;
+      in->get(fs_state.grids);
+      in->get(fs_state.labels);
+      in->get(fs_state.mesh_tets);
+      in->get(fs_state.have_mesh);
+      in->finish();
+      // Rows and frames written after the checkpoint are dropped; the loop writes them again.
+      if (!fs::is_regular_file(csv_path, ec) || fs::file_size(csv_path, ec) < csv_bytes)
+        throw InputError(file + ": " + csv_path + " is missing or shorter than at the checkpoint. Fix: restart with " +
+                         "output.folder (or -o) set to the folder of the interrupted run");
+      fs::resize_file(csv_path, csv_bytes, ec);
+      if (ec) throw OutputError("cannot truncate " + csv_path + ": " + ec.message());
+      csv.open(csv_path, std::ios::app);
+      fields = std::make_unique<FieldWriter>(out.folder, "fields", fs_state);
+      log << "restart: continuing from " << file << " at step " << solver.step_count() << ", t = " << solver.time()
+          << " s" << std::endl;
+      break;
+    }
+    if (!csv.is_open()) throw InputError("--restart " + options.restart + ": no readable checkpoint:" + problems);
+  } else {
+    csv.open(csv_path);
+  }
   if (!csv) throw InputError(scene.file + ": output.folder: cannot write '" + csv_path + "'");
-  csv << std::setprecision(10) << kCsvHeader << '\n';
-  FieldWriter fields(out.folder, "fields");
+  csv << std::setprecision(10);
+  if (!fields) {
+    csv << kCsvHeader << '\n';
+    fields = std::make_unique<FieldWriter>(out.folder, "fields");
+  }
 
   // Expected number of steps, for the ETA and the automatic field interval.
   const real dt = solver.dt();
@@ -242,11 +461,42 @@ RunSummary run_scene(Solver& solver, std::ostream& log) {
   const auto t0 = std::chrono::steady_clock::now();
   auto elapsed = [&] { return std::chrono::duration<real>(std::chrono::steady_clock::now() - t0).count(); };
   real next_progress = out.progress_interval;
-  Monitors mon = solver.measure();
-  write_row(csv, mon);
-  write_frame(fields, solver, "initial");
-  bool peak_written = false;
-  PeakFrames peak_frames;
+  real last_checkpoint_wall = 0;
+  const long first_step = solver.step_count();
+  auto checkpoint = [&](const std::string& why) {
+    csv.flush();
+    if (!csv) throw OutputError("cannot write " + csv_path + " (disk full or file removed?)");
+    fs::create_directories(ckpt_dir, ec);
+    CheckpointOut o;
+    solver.save(o);
+    o.put(mon);
+    o.put(sum.peak_stress);
+    o.put(sum.strain_at_peak);
+    o.put(sum.peak_indirect_tensile);
+    o.put(peak_written);
+    peak_frames.save(o);
+    o.put(wall_before + elapsed());
+    o.put(std::uint64_t(fs::file_size(csv_path)));
+    const FieldWriterState st = fields->state();
+    o.put(st.grids);
+    o.put(st.labels);
+    o.put(st.mesh_tets);
+    o.put(st.have_mesh);
+    char name[48];
+    std::snprintf(name, sizeof name, "step_%012ld.ckpt", solver.step_count());
+    const std::string path = (fs::path(ckpt_dir) / name).string();
+    write_checkpoint(path, o);
+    prune_checkpoints(ckpt_dir, 2);
+    last_checkpoint_wall = elapsed();
+    log << "checkpoint (" << why << "): " << path << std::endl;
+    return path;
+  };
+  SignalGuard signals;
+  if (options.restart.empty()) {
+    mon = solver.measure();
+    write_row(csv, mon);
+    write_frame(*fields, solver, "initial");
+  }
   try {
     for (;;) {
       solver.step();
@@ -267,12 +517,12 @@ RunSummary run_scene(Solver& solver, std::ostream& log) {
           // The peak has passed: the fracture pattern before, at and just after it.
           peak_written = true;
           if (out.peak_frames)
-            peak_frames.write(fields, solver);
+            peak_frames.write(*fields, solver);
           else
-            write_frame(fields, solver, "post-peak");
+            write_frame(*fields, solver, "post-peak");
         }
       }
-      if (n % field_interval == 0) write_frame(fields, solver, "");
+      if (n % field_interval == 0) write_frame(*fields, solver, "");
       const real strain = solver.top_offset / solver.model().height0;
       std::string reason;
       if (end.steps > 0 && n >= end.steps) reason = "step count " + std::to_string(end.steps) + " reached";
@@ -285,11 +535,12 @@ RunSummary run_scene(Solver& solver, std::ostream& log) {
       if (!reason.empty() || (out.progress_interval > 0 && wall >= next_progress)) {
         real frac = expected > 0 ? n / expected : 0;
         char line[256];
+        const real rate = (n - first_step) / std::max(wall, 1e-9);
         std::snprintf(line, sizeof line,
                       "step %ld  t %.4g s  axial strain %.3e  stress %.3f MPa  broken CE6 %ld  %.0f steps/s  ETA %s", n,
-                      solver.time(), strain, mon.axial_stress / 1e6, mon.broken, n / std::max(wall, 1e-9),
+                      solver.time(), strain, mon.axial_stress / 1e6, mon.broken, rate,
                       !reason.empty() ? "done"
-                      : frac > 0      ? duration(wall / frac - wall).c_str()
+                      : frac > 0      ? duration((expected - n) / std::max(rate, 1e-9)).c_str()
                                       : "?");
         log << line << std::endl;
         next_progress = wall + out.progress_interval;
@@ -298,23 +549,32 @@ RunSummary run_scene(Solver& solver, std::ostream& log) {
         sum.end_reason = reason;
         break;
       }
+      // Checkpoints: by steps, by wall time, or asked for by a signal.
+      const int request = g_signal_request;
+      if (request > 0) g_signal_request = 0;
+      if (request == 2) {
+        const std::string path = checkpoint("signal");
+        throw Interrupted("stopped by a signal at step " + std::to_string(n) + " after writing " + path);
+      }
+      if (request == 1)
+        checkpoint("SIGUSR1");
+      else if (out.checkpoint_interval > 0 && n % out.checkpoint_interval == 0)
+        checkpoint("every " + std::to_string(out.checkpoint_interval) + " steps");
+      else if (out.checkpoint_wall_interval > 0 && wall - last_checkpoint_wall >= out.checkpoint_wall_interval)
+        checkpoint("wall-time interval");
     }
   } catch (const RunError&) {
-    try {
-      write_frame(fields, solver, "diagnostic");
-    } catch (const std::exception&) {
-      // The state is not finite; the frames written before remain valid.
-    }
+    write_diagnostic(*fields, solver);
     throw;
   }
   mon = solver.measure();
   if (solver.step_count() % out.monitor_interval != 0) write_row(csv, mon);
   csv.close();
   if (!csv) throw OutputError("cannot write " + csv_path + " (disk full or file removed?)");
-  write_frame(fields, solver, "final");
+  write_frame(*fields, solver, "final");
   sum.steps = solver.step_count();
   sum.time = solver.time();
-  sum.wall_seconds = elapsed();
+  sum.wall_seconds = wall_before + elapsed();
   sum.last = mon;
   {
     std::vector<std::array<Vec3, 3>> faces;

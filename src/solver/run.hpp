@@ -23,6 +23,12 @@ struct RunSummary {
   std::string folder;
 };
 
+struct RunOptions {
+  /// Continue from a checkpoint: a checkpoint file, a run's output folder or its checkpoints/
+  /// folder (the newest readable checkpoint is used). Empty: start from step 0.
+  std::string restart;
+};
+
 /// One line per quantity: counts, the minimum altitude, the stable step and what limits it.
 void report_model(const Solver& solver, std::ostream& out);
 
@@ -30,7 +36,19 @@ void report_model(const Solver& solver, std::ostream& out);
 /// <folder>/fields.{h5,xdmf}, <folder>/stress_strain.png and, last and atomically,
 /// <folder>/summary.csv (one row: kSummaryHeader), whose presence marks a finished run. Rethrows RunError after
 /// writing the monitor row and a field frame labelled "diagnostic" where possible.
-RunSummary run_scene(Solver& solver, std::ostream& log);
+///
+/// Checkpoints go to <folder>/checkpoints/step_<n>.ckpt (the last two are kept) every
+/// output.checkpoint_interval steps, every output.checkpoint_wall_interval seconds of wall time,
+/// on SIGUSR1 (the run goes on) and on SIGTERM or SIGINT (the run then stops with Interrupted).
+/// With options.restart the run continues from a checkpoint in the same output folder: the
+/// monitor rows and field frames written after it are dropped and written again, so the
+/// continued run's files equal an uninterrupted run's (bit for bit on the CPU backend with the
+/// same thread count).
+RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& options = {});
+
+/// The checkpoints under path (a checkpoint file, a run folder or its checkpoints/ folder),
+/// newest first; InputError if there is none.
+std::vector<std::string> find_checkpoints(const std::string& path);
 
 /// Runs scripts/<script> with python3 and the arguments, without a shell and with its output
 /// silenced; true when it exited with 0.

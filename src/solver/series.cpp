@@ -213,11 +213,16 @@ std::vector<SeriesRow> run_series(const std::string& scene_path, const std::vect
     const std::string summary_path = (fs::path(row.folder) / "summary.csv").string();
     const std::string label = folder_name(combos[i]);
     log << "[" << i + 1 << "/" << combos.size() << "] " << label << ": ";
-    if (fs::exists(summary_path) && read_text(fp_path) == fp.str() && !read_summary(summary_path).empty()) {
+    const bool same_run = read_text(fp_path) == fp.str();
+    if (fs::exists(summary_path) && same_run && !read_summary(summary_path).empty()) {
       row.resumed = true;
       log << "finished before, not run again (" << summary_path << ")" << std::endl;
     } else {
-      log << "running in " << row.folder << std::endl;
+      // An interrupted run of the same variant continues from its newest checkpoint.
+      RunOptions run_options;
+      if (same_run && !find_checkpoints(row.folder).empty()) run_options.restart = row.folder;
+      log << (run_options.restart.empty() ? "running in " : "continuing from the checkpoint in ") << row.folder
+          << std::endl;
       Scene s = base;
       for (const auto& [k, v] : combos[i]) apply_series_value(s, k, v);
       s.name = base.name + " " + label;
@@ -226,6 +231,7 @@ std::vector<SeriesRow> run_series(const std::string& scene_path, const std::vect
       if (quiet) s.output.progress_interval = 0;
       std::error_code ec;
       fs::remove(summary_path, ec);
+      if (run_options.restart.empty()) fs::remove_all(fs::path(row.folder) / "checkpoints", ec);
       fs::create_directories(row.folder, ec);
       write_file_atomically(fp_path, fp.str());
       Model model;
@@ -236,9 +242,13 @@ std::vector<SeriesRow> run_series(const std::string& scene_path, const std::vect
       }
       Solver solver(s, std::move(model));
       try {
-        const RunSummary r = run_scene(solver, log);
+        const RunSummary r = run_scene(solver, log, run_options);
         log << "  peak " << r.peak_stress / 1e6 << " MPa at strain " << r.strain_at_peak << ", " << r.last.broken
             << " broken CE6, " << r.wall_seconds << " s wall" << std::endl;
+      } catch (const Interrupted& e) {
+        throw Interrupted(std::string(e.what()) + " (" + label +
+                          "); run the same command again to continue: finished runs are skipped and this one "
+                          "resumes from its checkpoint");
       } catch (const RunError& e) {
         // An unstable variant is a result of the series (e.g. too much mass scaling), not its end.
         log << "  stopped: " << e.what() << std::endl;

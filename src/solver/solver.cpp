@@ -10,6 +10,7 @@
 #include "core/for_each.hpp"
 #include "core/format.hpp"
 #include "core/gather.hpp"
+#include "io/checkpoint.hpp"
 #include "physics/integrate.hpp"
 #include "physics/platen.hpp"
 #include "physics/tet4.hpp"
@@ -185,17 +186,10 @@ void Solver::compute_forces() {
       p_visc += r.viscous_power;
     }
   }
-  if (jmin_tet >= 0) {
-    const SolverSettings& s = scene_.solver;
+  if (jmin_tet >= 0)
     throw RunError("step " + std::to_string(step_) + " (t = " + fmt(time_, 3) + " s): TET4 #" +
                    std::to_string(model_.tet_input[jmin_tet] + 1) + " inverted (J = " + fmt(jmin, 3) +
-                   "). The run is unstable: the time step " + fmt(dt_, 3) +
-                   " s is too large for the stiffness. Fix: lower solver.time_step_safety (now " +
-                   fmt(s.time_step_safety, 3) +
-                   ", <= 1 is stable), lower the cohesive or contact penalties, or raise "
-                   "solver.mass_scaling (now " +
-                   fmt(s.mass_scaling, 3) + ")");
-  }
+                   "). The run is unstable. " + instability_advice());
 
   real p_coh = 0, p_fric = 0;
   long breaks = 0;
@@ -292,10 +286,53 @@ real Solver::pressure_power(const std::vector<Vec3>& vel) const {
 
 void Solver::check_finite(long bad_nodes) const {
   if (bad_nodes == 0) return;
+  int first = -1;
+  for (std::size_t n = 0; n < v.size() && first < 0; ++n)
+    if (!std::isfinite(v[n].x + v[n].y + v[n].z)) first = int(n);
   throw RunError("step " + std::to_string(step_) + " (t = " + fmt(time_, 3) + " s): the velocity of " +
-                 std::to_string(bad_nodes) +
-                 " node(s) is no longer finite. The run is unstable; lower solver.time_step_safety (now " +
-                 fmt(scene_.solver.time_step_safety, 3) + ") or the penalties, or raise solver.mass_scaling");
+                 std::to_string(bad_nodes) + " node(s) is no longer finite (first: node " + std::to_string(first + 1) +
+                 " at reference position " + fmt(model_.X[first].x, 3) + ", " + fmt(model_.X[first].y, 3) + ", " +
+                 fmt(model_.X[first].z, 3) + " m). The run is unstable. " + instability_advice());
+}
+
+void Solver::check_runaway(real ke) const {
+  // Energy enters only through the platens, the pressure and gravity; prescribed velocities
+  // (tests) bring their own.
+  const real input = w_external_ + initial_kinetic_;
+  if (!fixed_node_.empty() || ke <= 2 * std::fabs(input) + energy_floor_) return;
+  throw RunError("step " + std::to_string(step_) + " (t = " + fmt(time_, 3) + " s): kinetic energy " + fmt(ke, 3) +
+                 " J against external work " + fmt(input, 3) + " J: the run is unstable. " + instability_advice());
+}
+
+std::string Solver::instability_advice() const {
+  const SolverSettings& s = scene_.solver;
+  const Material& mat = scene_.material;
+  const real bound = stable_.dt / s.time_step_safety;  // the stable-step bound without the safety factor
+  const real ratio = dt_ / bound;
+  const real E = mat.youngs_modulus;
+  const real p_ce6 =
+      std::max({mat.cohesive_penalty_open, mat.cohesive_penalty_tangential, mat.cohesive_penalty_overlap});
+  std::string cause;
+  if (ratio > 1)
+    cause = "the time step " + fmt(dt_, 3) + " s is " + fmt(ratio, 3) + " x the stable-step bound " + fmt(bound, 3) +
+            " s (limited by " + stable_.limit + ")";
+  else if (s.mass_scaling >= 100)
+    cause = "mass scaling m = " + fmt(s.mass_scaling, 3) +
+            ": the loading is no longer quasi-static and the inertia of the fragments dominates";
+  else if (contacts.enabled() && touching_ > 0)
+    cause = "tet-tet contact (" + std::to_string(touching_) + " pairs touching, penalty " +
+            fmt(mat.contact_penalty, 3) + " Pa = " + fmt(mat.contact_penalty / E, 3) +
+            " E): the potential contact force is not exactly conservative, and overlaps of fragments, or of tets "
+            "that share only an edge or a corner, can feed energy in whatever the time step (docs/stability.md)";
+  else if (p_ce6 > 1000 * E)
+    cause = "the cohesive penalty " + fmt(p_ce6, 3) + " Pa (" + fmt(p_ce6 / E, 3) + " E)";
+  else
+    cause = "large deformation or fragment overlap beyond the stable-step bound " + fmt(bound, 3) + " s (limited by " +
+            stable_.limit + "); the time step is " + fmt(ratio, 3) + " of it";
+  return "Cause: " + cause + ". Fix: lower solver.time_step_safety (now " + fmt(s.time_step_safety, 3) +
+         ", <= 1 is stable for the small-strain model), lower the penalties (material.contact_penalty, "
+         "material.cohesive_penalty_*), or lower solver.mass_scaling (now " +
+         fmt(s.mass_scaling, 3) + ")";
 }
 
 void Solver::step() {
@@ -315,11 +352,13 @@ void Solver::step() {
   w_friction_ += p_friction_ * dt;
 
   long bad = 0;  // NaN passes through max(), so count non-finite nodes instead
+  real ke = 0;   // for the runaway check of every step (the loop is memory-bound: this is free)
   const int nn = int(x.size());
-#pragma omp parallel for schedule(static) reduction(+ : bad)
+#pragma omp parallel for schedule(static) reduction(+ : bad, ke)
   for (int n = 0; n < nn; ++n) {
     central_difference(x[n], v[n], f[n], inv_mass_[n], dt);
     bad += !std::isfinite(v[n].x + v[n].y + v[n].z);
+    ke += model_.mass[n] * dot(v[n], v[n]);
   }
   for (std::size_t i = 0; i < fixed_node_.size(); ++i) {
     const int n = fixed_node_[i];
@@ -330,6 +369,7 @@ void Solver::step() {
       }
   }
   check_finite(bad);
+  check_runaway(0.5 * ke);
   // Contact forces are stiff and act over few steps: their work over the step is taken with
   // the mean of the velocities before and after it, which is exact for central differences.
   if (contacts.enabled()) w_contact_ += 0.5 * dt * (p_contact_ + contacts.power(model_, v));
@@ -458,13 +498,18 @@ Monitors Solver::measure() {
   const real internal = ke + se + w_cohesive_ + w_friction_ + w_viscous_ + pl_stored + w_platen_friction_ + w_contact_;
   const real input = w_external_ + initial_kinetic_;
   r.energy_error = std::fabs(input - internal) / std::max(std::fabs(input), energy_floor_);
-  // Energy enters only through the platens; prescribed velocities (tests) bring their own.
-  const bool runaway = fixed_node_.empty() && ke > 2 * std::fabs(input) + energy_floor_;
-  if (!std::isfinite(internal) || runaway)
-    throw RunError("step " + std::to_string(step_) + " (t = " + fmt(time_, 3) + " s): kinetic energy " + fmt(ke, 3) +
-                   " J against external work " + fmt(input, 3) +
-                   " J: the run is unstable. Fix: lower solver.time_step_safety (now " +
-                   fmt(scene_.solver.time_step_safety, 3) + ") or the penalties, or raise solver.mass_scaling");
+  if (!std::isfinite(internal))
+    throw RunError("step " + std::to_string(step_) + " (t = " + fmt(time_, 3) +
+                   " s): an energy is no longer finite: the run is unstable. " + instability_advice());
+  check_runaway(ke);
+  // The energy balance: work put in against everything stored, dissipated and moving. Runs
+  // with prescribed node velocities (tests) do not account for the work those do.
+  const real tol = scene_.solver.max_energy_error;
+  if (tol > 0 && fixed_node_.empty() && std::fabs(input) > 100 * energy_floor_ && r.energy_error > tol)
+    throw RunError("step " + std::to_string(step_) + " (t = " + fmt(time_, 3) + " s): the energy balance is off by " +
+                   fmt(100 * r.energy_error, 3) + " % of the work put in (" + fmt(input, 3) + " J against " +
+                   fmt(internal, 3) + " J stored, dissipated and kinetic), above solver.max_energy_error " +
+                   fmt(100 * tol, 3) + " %: the run is unstable. " + instability_advice());
   return r;
 }
 
@@ -508,6 +553,103 @@ void Solver::broken_faces(std::vector<std::array<Vec3, 3>>& corners, std::vector
     corners.push_back({model_.X[q[0]], model_.X[q[1]], model_.X[q[2]]});
     mode.push_back(ce6[i].mode);
   }
+}
+
+namespace {
+
+/// What a checkpoint must agree with: the model (reference positions, connectivity, masses),
+/// the time step, and every scene value the equations of motion use.
+std::uint64_t physics_fingerprint(const Scene& s, const Model& m, real dt) {
+  std::uint64_t h = fnv1a64(m.X.data(), m.X.size() * sizeof(Vec3));
+  h = fnv1a64(m.tet_nodes.data(), m.tet_nodes.size() * sizeof(m.tet_nodes[0]), h);
+  h = fnv1a64(m.ce6_nodes.data(), m.ce6_nodes.size() * sizeof(m.ce6_nodes[0]), h);
+  h = fnv1a64(m.mass.data(), m.mass.size() * sizeof(real), h);
+  const Material& a = s.material;
+  const real values[] = {a.density,
+                         a.youngs_modulus,
+                         a.poisson_ratio,
+                         a.tensile_strength,
+                         a.cohesion,
+                         a.friction_angle,
+                         a.fracture_energy_I,
+                         a.fracture_energy_II,
+                         a.contact_penalty,
+                         a.cohesive_penalty_open,
+                         a.cohesive_penalty_tangential,
+                         a.cohesive_penalty_overlap,
+                         a.friction_platen,
+                         a.friction_rock,
+                         real(s.platens.enabled),
+                         s.platens.velocity,
+                         s.platens.ramp_time,
+                         real(s.confinement.enabled),
+                         s.confinement.pressure,
+                         s.confinement.ramp_time,
+                         s.contact.buffer,
+                         s.gravity.x,
+                         s.gravity.y,
+                         s.gravity.z,
+                         s.solver.mass_scaling,
+                         s.solver.damping_scale,
+                         dt};
+  h = fnv1a64(values, sizeof values, h);
+  const std::string words = a.softening + "|" + s.confinement.path + "|" + s.contact.activation;
+  return fnv1a64(words.data(), words.size(), h);
+}
+
+}  // namespace
+
+void Solver::save(CheckpointOut& out) const {
+  out.put(physics_fingerprint(scene_, model_, dt_));
+  out.put(std::uint64_t(fixed_node_.size()));
+  out.put(step_);
+  out.put(time_);
+  out.put(top_offset);
+  out.put(x);
+  out.put(v);
+  out.put(f);
+  out.put(ce6);
+  out.put(ce6_broke_);
+  out.put(platen_anchor);
+  const real scalars[] = {force_top_,       force_bottom_,      w_external_,     w_cohesive_,     w_friction_,
+                          w_viscous_,       w_platen_friction_, p_cohesive_,     p_friction_,     p_viscous_,
+                          initial_kinetic_, w_contact_,         w_contact_slip_, contact_spring_, p_contact_,
+                          p_gravity_,       pressure_,          p_pressure_,     platen_stored_};
+  for (real r : scalars) out.put(r);
+  out.put(touching_);
+  out.put(lateral_force_);
+  contacts.save(out);
+}
+
+void Solver::load(CheckpointIn& in) {
+  std::uint64_t fp = 0, fixed = 0;
+  in.get(fp);
+  if (fp != physics_fingerprint(scene_, model_, dt_))
+    in.mismatch("the mesh, the material, the loading, mass scaling or the time step differ");
+  in.get(fixed);
+  if (fixed != fixed_node_.size()) in.mismatch("a different set of prescribed nodes");
+  in.get(step_);
+  in.get(time_);
+  in.get(top_offset);
+  const std::size_t nn = x.size(), nc = ce6.size(), np = platen_anchor.size(), nl = lateral_force_.size();
+  in.get(x);
+  in.get(v);
+  in.get(f);
+  in.get(ce6);
+  in.get(ce6_broke_);
+  in.get(platen_anchor);
+  if (x.size() != nn || v.size() != nn || f.size() != nn || ce6.size() != nc || ce6_broke_.size() != nc ||
+      platen_anchor.size() != np)
+    in.mismatch("node, CE6 or platen node counts differ");
+  real* scalars[] = {&force_top_,       &force_bottom_,      &w_external_,     &w_cohesive_,     &w_friction_,
+                     &w_viscous_,       &w_platen_friction_, &p_cohesive_,     &p_friction_,     &p_viscous_,
+                     &initial_kinetic_, &w_contact_,         &w_contact_slip_, &contact_spring_, &p_contact_,
+                     &p_gravity_,       &pressure_,          &p_pressure_,     &platen_stored_};
+  for (real* r : scalars) in.get(*r);
+  in.get(touching_);
+  in.get(lateral_force_);
+  if (lateral_force_.size() != nl) in.mismatch("the lateral surface differs");
+  contacts.load(in);
 }
 
 }  // namespace fdem

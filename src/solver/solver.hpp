@@ -11,6 +11,9 @@
 
 namespace fdem {
 
+class CheckpointOut;
+class CheckpointIn;
+
 /// One row of the monitor CSV (SI units; stresses and strains compression positive).
 struct Monitors {
   long step = 0;
@@ -52,6 +55,13 @@ class Solver {
   /// Reductions over the whole model; also checks the energy for runaway growth.
   Monitors measure();
 
+  /// The whole evolving state (nodes, CE6 damage and slip, contact, platen anchors and travel,
+  /// pressure, energy integrals, step and time) for a checkpoint. load() continues a run of the
+  /// same scene and model bit for bit (same thread count); it throws InputError naming what
+  /// differs when the checkpoint belongs to another model, time step or loading.
+  void save(CheckpointOut& out) const;
+  void load(CheckpointIn& in);
+
   /// Prescribe velocity components (mask bit 0 = x, 1 = y, 2 = z) of a node.
   void prescribe(int node, int mask, Vec3 velocity);
 
@@ -76,6 +86,11 @@ class Solver {
   void compute_forces();
   StableStep stable_step_bound() const;
   void check_finite(long bad_nodes) const;
+  /// Throws RunError when the kinetic energy ke (J) far exceeds the work put in.
+  void check_runaway(real ke) const;
+  /// "Cause: ... Fix: ..." for an unstable run: the time step against its bound, mass scaling,
+  /// the penalties, in that order of likelihood.
+  std::string instability_advice() const;
 
   Scene scene_;
   Model model_;

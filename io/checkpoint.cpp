@@ -1,0 +1,58 @@
+#include "io/checkpoint.hpp"
+
+#include <fstream>
+#include <iterator>
+
+#include "io/atomic_file.hpp"
+
+namespace fdem {
+
+namespace {
+constexpr char kMagic[8] = {'F', 'D', 'E', 'M', 'C', 'K', 'P', 'T'};
+constexpr std::size_t kHeader = 8 + 4 + 8 + 8;
+}  // namespace
+
+std::uint64_t fnv1a64(const void* data, std::size_t size, std::uint64_t h) {
+  const unsigned char* p = static_cast<const unsigned char*>(data);
+  for (std::size_t i = 0; i < size; ++i) h = (h ^ p[i]) * 1099511628211ull;
+  return h;
+}
+
+void write_checkpoint(const std::string& path, const CheckpointOut& out) {
+  const std::string& payload = out.payload();
+  std::string text(kHeader, '\0');
+  const std::uint32_t version = kCheckpointVersion;
+  const std::uint64_t size = payload.size(), sum = fnv1a64(payload.data(), payload.size());
+  std::memcpy(&text[0], kMagic, 8);
+  std::memcpy(&text[8], &version, 4);
+  std::memcpy(&text[12], &size, 8);
+  std::memcpy(&text[20], &sum, 8);
+  text += payload;
+  write_file_atomically(path, text);
+}
+
+CheckpointIn read_checkpoint(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path + ": cannot open the checkpoint. Fix: give a checkpoint file or the run's folder");
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  auto bad = [&](const std::string& what) {
+    throw InputError(path + ": not a usable fdem checkpoint (" + what +
+                     "). Fix: restart from the other checkpoint in its folder (fdem keeps two)");
+  };
+  if (text.size() < kHeader || std::memcmp(text.data(), kMagic, 8) != 0) bad("no FDEMCKPT header");
+  std::uint32_t version = 0;
+  std::uint64_t size = 0, sum = 0;
+  std::memcpy(&version, &text[8], 4);
+  std::memcpy(&size, &text[12], 8);
+  std::memcpy(&sum, &text[20], 8);
+  if (version != kCheckpointVersion)
+    throw InputError(path + ": checkpoint format version " + std::to_string(version) + ", this fdem reads version " +
+                     std::to_string(kCheckpointVersion) + ". Fix: continue with the fdem that wrote it");
+  if (size != text.size() - kHeader)
+    bad("payload of " + std::to_string(text.size() - kHeader) + " bytes, the header says " + std::to_string(size) +
+        ": truncated?");
+  if (fnv1a64(text.data() + kHeader, size) != sum) bad("checksum mismatch: the file was altered or damaged");
+  return CheckpointIn(text.substr(kHeader), path);
+}
+
+}  // namespace fdem

@@ -1,0 +1,123 @@
+#pragma once
+// Checkpoint files: a binary payload behind a header that names the format, its version, the
+// payload size and a checksum, so that a truncated or altered file is refused rather than read.
+//
+//   bytes 0-7   "FDEMCKPT"
+//         8-11  format version (uint32)
+//        12-19  payload size in bytes (uint64)
+//        20-27  FNV-1a 64 of the payload (uint64)
+//        28-    payload: the values in the order they were put, native byte order
+//
+// A file is written to <path>.tmp, flushed to disk and renamed (io/atomic_file), so a crash
+// while writing leaves the earlier checkpoints untouched.
+#include <cstdint>
+#include <cstring>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+#include "core/error.hpp"
+
+namespace fdem {
+
+constexpr std::uint32_t kCheckpointVersion = 1;
+
+/// Collects values for a checkpoint payload.
+class CheckpointOut {
+ public:
+  template <class T>
+  void put(const T& value) {
+    static_assert(std::is_trivially_copyable_v<T>, "only plain values go into a checkpoint");
+    buf_.append(reinterpret_cast<const char*>(&value), sizeof(T));
+  }
+  template <class T>
+  void put(const std::vector<T>& values) {
+    static_assert(std::is_trivially_copyable_v<T>, "only plain values go into a checkpoint");
+    put(std::uint64_t(values.size()));
+    buf_.append(reinterpret_cast<const char*>(values.data()), values.size() * sizeof(T));
+  }
+  void put(const std::string& s) {
+    put(std::uint64_t(s.size()));
+    buf_.append(s);
+  }
+  void put(const std::vector<std::string>& v) {
+    put(std::uint64_t(v.size()));
+    for (const std::string& s : v) put(s);
+  }
+  const std::string& payload() const { return buf_; }
+
+ private:
+  std::string buf_;
+};
+
+/// Reads values back in the order they were put; a short or inconsistent payload throws
+/// InputError naming the file.
+class CheckpointIn {
+ public:
+  CheckpointIn(std::string payload, std::string file) : buf_(std::move(payload)), file_(std::move(file)) {}
+  template <class T>
+  void get(T& value) {
+    static_assert(std::is_trivially_copyable_v<T>, "only plain values come from a checkpoint");
+    need(sizeof(T), "a value");
+    std::memcpy(&value, buf_.data() + pos_, sizeof(T));
+    pos_ += sizeof(T);
+  }
+  template <class T>
+  void get(std::vector<T>& values) {
+    static_assert(std::is_trivially_copyable_v<T>, "only plain values come from a checkpoint");
+    std::uint64_t n = 0;
+    get(n);
+    if (n > (buf_.size() - pos_) / (sizeof(T) ? sizeof(T) : 1)) fail("an array longer than the file");
+    values.resize(n);
+    std::memcpy(static_cast<void*>(values.data()), buf_.data() + pos_, n * sizeof(T));
+    pos_ += n * sizeof(T);
+  }
+  void get(std::string& s) {
+    std::uint64_t n = 0;
+    get(n);
+    need(n, "a string");
+    s.assign(buf_.data() + pos_, n);
+    pos_ += n;
+  }
+  void get(std::vector<std::string>& v) {
+    std::uint64_t n = 0;
+    get(n);
+    if (n > buf_.size() - pos_) fail("a list longer than the file");
+    v.resize(n);
+    for (std::string& s : v) get(s);
+  }
+  /// Throws unless every byte was read (a payload from another layout).
+  void finish() const {
+    if (pos_ != buf_.size()) fail(std::to_string(buf_.size() - pos_) + " bytes left over");
+  }
+  /// A value read that contradicts the run being continued.
+  [[noreturn]] void mismatch(const std::string& what) const {
+    throw InputError(file_ + ": this checkpoint belongs to another model or scene (" + what +
+                     "). Fix: restart with the scene and mesh of the interrupted run, unchanged except for "
+                     "solver.end and output");
+  }
+  const std::string& file() const { return file_; }
+
+ private:
+  void need(std::uint64_t n, const char* what) const {
+    if (n > buf_.size() - pos_) fail(std::string("ends inside ") + what);
+  }
+  [[noreturn]] void fail(const std::string& what) const {
+    throw InputError(file_ + ": checkpoint payload does not match this version of fdem (" + what +
+                     "). Fix: restart with the fdem that wrote it, or from an older checkpoint");
+  }
+  std::string buf_;
+  std::string file_;
+  std::size_t pos_ = 0;
+};
+
+/// FNV-1a 64 of bytes (used for the payload checksum and run fingerprints).
+std::uint64_t fnv1a64(const void* data, std::size_t size, std::uint64_t seed = 1469598103934665603ull);
+
+/// Writes header and payload to path atomically; throws OutputError.
+void write_checkpoint(const std::string& path, const CheckpointOut& out);
+/// Reads and verifies a checkpoint file; throws InputError naming the file, what is wrong with
+/// it and the fix.
+CheckpointIn read_checkpoint(const std::string& path);
+
+}  // namespace fdem

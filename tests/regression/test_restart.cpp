@@ -1,0 +1,234 @@
+// Checkpoint and restart through the real executable: a run continued from a checkpoint (taken
+// every N steps, by wall time, or on SIGTERM) writes the same files as an uninterrupted run,
+// bit for bit (monitors.csv, broken_ce6.csv, the XDMF index and every dataset of every frame in
+// fields.h5); a damaged newest checkpoint falls back to the one before; a checkpoint of another
+// scene is refused with exit 2.
+#include <hdf5.h>
+
+#include <regex>
+
+#include "cli_support.hpp"
+
+namespace fs = std::filesystem;
+using namespace cli_test;
+
+namespace {
+
+const fs::path kScene = kData / "cli" / "restart_box.yaml";
+
+/// The test scene with each `from` replaced by its `to` (one occurrence, which must exist).
+fs::path scene_variant(const fs::path& dir, const std::string& name,
+                       const std::vector<std::pair<std::string, std::string>>& edits) {
+  std::string text = slurp(kScene);
+  for (const auto& [from, to] : edits) {
+    const std::size_t at = text.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    if (at != std::string::npos) text.replace(at, from.size(), to);
+  }
+  const fs::path p = dir / (name + ".yaml");
+  std::ofstream(p) << text;
+  return p;
+}
+
+std::string run_args(const fs::path& scene, const fs::path& out) {
+  return "run " + quote(scene.string()) + " -o " + quote(out.string());
+}
+
+/// Raw bytes of a dataset (read in its own type), or "" if absent.
+std::string dataset_bytes(hid_t file, const std::string& path) {
+  if (H5Lexists(file, path.c_str(), H5P_DEFAULT) <= 0) return "";
+  const hid_t ds = H5Dopen2(file, path.c_str(), H5P_DEFAULT);
+  const hid_t type = H5Dget_type(ds);
+  const hid_t space = H5Dget_space(ds);
+  const hssize_t n = H5Sget_simple_extent_npoints(space);
+  std::string bytes(std::size_t(n) * H5Tget_size(type), '\0');
+  if (n > 0) H5Dread(ds, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, bytes.data());
+  H5Sclose(space);
+  H5Tclose(type);
+  H5Dclose(ds);
+  return bytes;
+}
+
+std::string attribute_text(hid_t group, const char* name) {
+  if (H5Aexists(group, name) <= 0) return "";
+  const hid_t a = H5Aopen(group, name, H5P_DEFAULT);
+  const hid_t type = H5Aget_type(a);
+  std::string out(H5Tget_size(type), '\0');
+  H5Aread(a, type, out.data());
+  H5Tclose(type);
+  H5Aclose(a);
+  return out;
+}
+
+/// Every frame of two fields.h5 files: the same groups, attributes and dataset bytes. Returns
+/// "" or the first difference.
+std::string compare_fields(const fs::path& a, const fs::path& b) {
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  const hid_t fa = H5Fopen(a.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  const hid_t fb = H5Fopen(b.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  std::string diff;
+  if (fa < 0 || fb < 0) diff = "cannot open " + a.string() + " or " + b.string();
+  int frames = 0;
+  for (int i = 0; diff.empty(); ++i) {
+    char g[32];
+    std::snprintf(g, sizeof g, "/frame_%06d", i);
+    const bool in_a = H5Lexists(fa, g + 1, H5P_DEFAULT) > 0, in_b = H5Lexists(fb, g + 1, H5P_DEFAULT) > 0;
+    if (in_a != in_b) diff = std::string(g) + " exists in one file only";
+    if (!in_a || !in_b) break;
+    ++frames;
+    const hid_t ga = H5Gopen2(fa, g, H5P_DEFAULT), gb = H5Gopen2(fb, g, H5P_DEFAULT);
+    for (const char* attr : {"time", "step", "label"})
+      if (attribute_text(ga, attr) != attribute_text(gb, attr)) diff = std::string(g) + " attribute " + attr;
+    H5Gclose(ga);
+    H5Gclose(gb);
+    for (const char* d : {"x", "u", "v", "stress", "von_mises", "crack_faces", "crack_damage", "crack_mode", "active"})
+      if (diff.empty() && dataset_bytes(fa, std::string(g) + "/" + d) != dataset_bytes(fb, std::string(g) + "/" + d))
+        diff = std::string(g) + "/" + d + " differs";
+  }
+  if (diff.empty() && frames < 5) diff = "only " + std::to_string(frames) + " frames";
+  if (fa >= 0) H5Fclose(fa);
+  if (fb >= 0) H5Fclose(fb);
+  return diff;
+}
+
+/// summary.csv without its wall-time column.
+std::string summary_without_wall(const fs::path& folder) {
+  const Csv c = read_csv(folder / "summary.csv");
+  const int wall = column(c, "wall_s");
+  std::string out;
+  for (const auto& row : c.rows)
+    for (std::size_t i = 0; i < row.size(); ++i)
+      if (int(i) != wall) out += std::to_string(row[i]) + ",";
+  return out;
+}
+
+/// "" if two text files are equal, else the first line that differs in each.
+std::string first_difference(const fs::path& a, const fs::path& b) {
+  std::ifstream fa(a), fb(b);
+  std::string la, lb;
+  for (int line = 1;; ++line) {
+    const bool ga = bool(std::getline(fa, la)), gb = bool(std::getline(fb, lb));
+    if (!ga && !gb) return "";
+    if (ga != gb || la != lb)
+      return a.filename().string() + " line " + std::to_string(line) + ":\n  " + (ga ? la : "(end)") + "\n  " +
+             (gb ? lb : "(end)");
+  }
+}
+
+void expect_same_run(const fs::path& a, const fs::path& b) {
+  ASSERT_TRUE(fs::exists(b / "summary.csv")) << b;
+  for (const char* file : {"monitors.csv", "broken_ce6.csv", "fields.xdmf"}) {
+    EXPECT_TRUE(fs::exists(a / file)) << file;
+    EXPECT_EQ(first_difference(a / file, b / file), "");
+  }
+  EXPECT_EQ(compare_fields(a / "fields.h5", b / "fields.h5"), "");
+  EXPECT_EQ(summary_without_wall(a), summary_without_wall(b));
+}
+
+std::vector<std::string> checkpoint_names(const fs::path& folder) {
+  std::vector<std::string> names;
+  if (fs::is_directory(folder / "checkpoints"))
+    for (const auto& e : fs::directory_iterator(folder / "checkpoints")) names.push_back(e.path().filename().string());
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+/// The uninterrupted reference run, made once for all tests of this file.
+const fs::path& reference_run() {
+  static TempDir dir("restart_reference");
+  static const fs::path out = dir.path / "a";
+  static bool done = false;
+  if (!done) {
+    const Outcome o = fdem(run_args(kScene, out));
+    EXPECT_EQ(o.code, 0) << o.text;
+    done = true;
+    // The run fractures and the peak frames exist: the restart must carry all of that state.
+    const Csv c = read_csv(out / "monitors.csv");
+    EXPECT_GT(c.rows.back()[column(c, "broken_ce6")], 30);
+    EXPECT_GT(c.rows.back()[column(c, "contact_pairs")], 100);
+    EXPECT_TRUE(has(slurp(out / "fields.xdmf"), "post-peak"));
+    EXPECT_TRUE(checkpoint_names(out).empty());
+  }
+  return out;
+}
+
+}  // namespace
+
+TEST(Restart, FromAStepCheckpointBeforeThePeakEqualsTheUninterruptedRun) {
+  const fs::path& a = reference_run();
+  TempDir tmp("restart_steps");
+  // A first run of 1000 steps checkpointing every 500: one checkpoint, at step 500 (none at the end).
+  const fs::path first = scene_variant(
+      tmp.path, "first",
+      {{"end: {steps: 3000}", "end: {steps: 1000}"}, {"checkpoint_wall_interval: 0", "checkpoint_interval: 500"}});
+  const fs::path b = tmp.path / "b";
+  Outcome o = fdem(run_args(first, b));
+  ASSERT_EQ(o.code, 0) << o.text;
+  EXPECT_TRUE(has(o.text, "checkpoint (every 500 steps)")) << o.text;
+  ASSERT_EQ(checkpoint_names(b), std::vector<std::string>{"step_000000000500.ckpt"});
+  // Continued to the reference's 3000 steps (solver.end may change on a restart).
+  o = fdem(run_args(kScene, b) + " --restart " + quote((b / "checkpoints" / "step_000000000500.ckpt").string()));
+  ASSERT_EQ(o.code, 0) << o.text;
+  EXPECT_TRUE(has(o.text, "restart: continuing from")) << o.text;
+  expect_same_run(a, b);
+}
+
+TEST(Restart, AfterSigtermWithADamagedNewestCheckpointEqualsTheUninterruptedRun) {
+  const fs::path& a = reference_run();
+  TempDir tmp("restart_signal");
+  const fs::path scene =
+      scene_variant(tmp.path, "wall", {{"checkpoint_wall_interval: 0", "checkpoint_wall_interval: 0.1"}});
+  const fs::path c = tmp.path / "c";
+  // Started in the background, stopped with SIGTERM once 25 monitor rows (step 1200) and two
+  // wall-time checkpoints are written.
+  const std::string script = kEnv + quote(kExe) + " " + run_args(scene, c) + " & pid=$!; for i in $(seq 1500); do " +
+                             "[ \"$(cat " + quote((c / "monitors.csv").string()) +
+                             " 2>/dev/null | wc -l)\" -ge 26 ] && [ \"$(ls " + quote((c / "checkpoints").string()) +
+                             " 2>/dev/null | grep -c 'ckpt$')\" -ge 2 ] && break; sleep 0.02; done; kill -TERM $pid; "
+                             "wait $pid";
+  Outcome o = run_cmd("bash -c " + quote(script));
+  ASSERT_EQ(o.code, 5) << o.text;
+  EXPECT_TRUE(has(o.text, "checkpoint (signal)")) << o.text;
+  EXPECT_TRUE(has(o.text, "--restart")) << o.text;
+  EXPECT_FALSE(fs::exists(c / "summary.csv"));
+  const std::vector<std::string> names = checkpoint_names(c);
+  ASSERT_EQ(names.size(), 2u) << "the last two are kept\n" << o.text;
+  for (const std::string& n : names) EXPECT_TRUE(std::regex_match(n, std::regex("step_[0-9]{12}\\.ckpt"))) << n;
+  // Damage the newest: its checksum no longer matches, and the restart takes the one before.
+  {
+    const fs::path newest = c / "checkpoints" / names.back();
+    std::fstream f(newest, std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(-5, std::ios::end);
+    f.put('\x7f');
+  }
+  o = fdem(run_args(scene, c) + " --restart " + quote(c.string()));
+  ASSERT_EQ(o.code, 0) << o.text;
+  EXPECT_TRUE(has(o.text, "checksum mismatch")) << o.text;
+  EXPECT_TRUE(has(o.text, "continuing from " + (c / "checkpoints" / names.front()).string())) << o.text;
+  expect_same_run(a, c);
+}
+
+TEST(Restart, ACheckpointOfAnotherSceneOrNoneIsRefusedWithExitTwo) {
+  TempDir tmp("restart_refused");
+  const fs::path scene = scene_variant(
+      tmp.path, "short",
+      {{"end: {steps: 3000}", "end: {steps: 120}"}, {"checkpoint_wall_interval: 0", "checkpoint_interval: 100"}});
+  const fs::path d = tmp.path / "d";
+  ASSERT_EQ(fdem(run_args(scene, d)).code, 0);
+  ASSERT_EQ(checkpoint_names(d).size(), 1u);
+  const std::string before = slurp(d / "monitors.csv");
+  // Another loading rate: refused, and the folder is left as it was.
+  const fs::path faster = scene_variant(tmp.path, "faster",
+                                        {{"end: {steps: 3000}", "end: {steps: 120}"},
+                                         {"checkpoint_wall_interval: 0", "checkpoint_interval: 100"},
+                                         {"velocity: 1.0", "velocity: 1.5"}});
+  Outcome o = fdem(run_args(faster, d) + " --restart " + quote(d.string()));
+  EXPECT_EQ(o.code, 2) << o.text;
+  EXPECT_TRUE(has(o.text, "step_000000000100.ckpt")) << o.text;
+  EXPECT_TRUE(has(o.text, "another model or scene")) << o.text;
+  EXPECT_EQ(slurp(d / "monitors.csv"), before);
+  // A folder without checkpoints.
+  o = fdem(run_args(scene, tmp.path / "e") + " --restart " + quote(tmp.path.string()));
+  EXPECT_EQ(o.code, 2) << o.text;
+  EXPECT_TRUE(has(o.text, "no checkpoint there")) << o.text;
+}

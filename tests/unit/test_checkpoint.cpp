@@ -1,0 +1,129 @@
+// The checkpoint file format: values come back exactly, and a truncated, altered, foreign or
+// future-version file is refused with an InputError naming the file and what is wrong.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "core/vec.hpp"
+#include "io/checkpoint.hpp"
+
+namespace fs = std::filesystem;
+using namespace fdem;
+
+namespace {
+
+fs::path temp_file(const std::string& name) {
+  return fs::temp_directory_path() / ("fdem_ckpt_" + name + "_" + std::to_string(::getpid()) + ".ckpt");
+}
+
+std::string bytes_of(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+void write_bytes(const fs::path& p, const std::string& b) {
+  std::ofstream(p, std::ios::binary) << b;
+}
+
+std::string refusal(const fs::path& p) {
+  try {
+    read_checkpoint(p.string());
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+}  // namespace
+
+TEST(Checkpoint, ValuesComeBackBitForBit) {
+  const fs::path p = temp_file("roundtrip");
+  CheckpointOut out;
+  const std::vector<Vec3> xs = {{1.0 / 3, -0.0, 1e-300}, {std::nextafter(1.0, 2.0), 2, 3}};
+  out.put(long(123456789012));
+  out.put(xs);
+  out.put(std::string("peak"));
+  out.put(std::vector<std::string>{"", "pre-peak", "post-peak"});
+  out.put(true);
+  write_checkpoint(p.string(), out);
+  EXPECT_FALSE(fs::exists(p.string() + ".tmp"));
+  CheckpointIn in = read_checkpoint(p.string());
+  long n = 0;
+  std::vector<Vec3> ys;
+  std::string s;
+  std::vector<std::string> labels;
+  bool flag = false;
+  in.get(n);
+  in.get(ys);
+  in.get(s);
+  in.get(labels);
+  in.get(flag);
+  in.finish();
+  EXPECT_EQ(n, 123456789012);
+  ASSERT_EQ(ys.size(), xs.size());
+  EXPECT_EQ(std::memcmp(ys.data(), xs.data(), xs.size() * sizeof(Vec3)), 0);
+  EXPECT_TRUE(std::signbit(ys[0].y));
+  EXPECT_EQ(s, "peak");
+  EXPECT_EQ(labels, (std::vector<std::string>{"", "pre-peak", "post-peak"}));
+  EXPECT_TRUE(flag);
+  fs::remove(p);
+}
+
+TEST(Checkpoint, DamagedOrForeignFilesAreRefusedNamingTheFile) {
+  const fs::path p = temp_file("damaged");
+  CheckpointOut out;
+  out.put(std::vector<double>(1000, 2.5));
+  write_checkpoint(p.string(), out);
+  const std::string good = bytes_of(p);
+
+  write_bytes(p, good.substr(0, good.size() - 100));  // truncated
+  std::string why = refusal(p);
+  EXPECT_NE(why.find(p.string()), std::string::npos) << why;
+  EXPECT_NE(why.find("truncated"), std::string::npos) << why;
+
+  std::string flipped = good;
+  flipped[good.size() / 2] ^= 1;  // one bit of the payload
+  write_bytes(p, flipped);
+  why = refusal(p);
+  EXPECT_NE(why.find("checksum mismatch"), std::string::npos) << why;
+
+  std::string future = good;
+  future[8] = 99;  // format version 99
+  write_bytes(p, future);
+  why = refusal(p);
+  EXPECT_NE(why.find("version 99"), std::string::npos) << why;
+
+  write_bytes(p, "name: not a checkpoint\n");
+  why = refusal(p);
+  EXPECT_NE(why.find("no FDEMCKPT header"), std::string::npos) << why;
+
+  write_bytes(p, good);
+  EXPECT_EQ(refusal(p), "");
+  fs::remove(p);
+}
+
+TEST(Checkpoint, ReadingPastTheEndOrLeavingBytesIsAnError) {
+  const fs::path p = temp_file("layout");
+  CheckpointOut out;
+  out.put(int(7));
+  write_checkpoint(p.string(), out);
+  {
+    CheckpointIn in = read_checkpoint(p.string());
+    double d = 0;
+    EXPECT_THROW(in.get(d), InputError);  // 8 bytes asked, 4 there
+  }
+  {
+    CheckpointIn in = read_checkpoint(p.string());
+    std::vector<double> v;
+    EXPECT_THROW(in.get(v), InputError);  // a length read from the int's bytes and beyond
+  }
+  {
+    CheckpointIn in = read_checkpoint(p.string());
+    short s = 0;
+    in.get(s);
+    EXPECT_THROW(in.finish(), InputError);
+  }
+  fs::remove(p);
+}
