@@ -322,8 +322,8 @@ std::string Solver::instability_advice() const {
   else if (contacts.enabled() && touching_ > 0)
     cause = "tet-tet contact (" + std::to_string(touching_) + " pairs touching, penalty " +
             fmt(mat.contact_penalty, 3) + " Pa = " + fmt(mat.contact_penalty / E, 3) +
-            " E): the potential contact force is not exactly conservative, and overlaps of fragments, or of tets "
-            "that share only an edge or a corner, can feed energy in whatever the time step (docs/stability.md)";
+            " E): the potential contact force is not exactly conservative, and overlapping fragments can feed "
+            "energy in whatever the time step (docs/stability.md)";
   else if (p_ce6 > 1000 * E)
     cause = "the cohesive penalty " + fmt(p_ce6, 3) + " Pa (" + fmt(p_ce6 / E, 3) + " E)";
   else

@@ -2,7 +2,7 @@
 // every N steps, by wall time, or on SIGTERM) writes the same files as an uninterrupted run,
 // bit for bit (monitors.csv, broken_ce6.csv, the XDMF index and every dataset of every frame in
 // fields.h5); a damaged newest checkpoint falls back to the one before; a checkpoint of another
-// scene is refused with exit 2.
+// scene is refused with exit 2; an interrupted `fdem series` continues its run from its checkpoint.
 #include <hdf5.h>
 
 #include <regex>
@@ -231,4 +231,31 @@ TEST(Restart, ACheckpointOfAnotherSceneOrNoneIsRefusedWithExitTwo) {
   o = fdem(run_args(scene, tmp.path / "e") + " --restart " + quote(tmp.path.string()));
   EXPECT_EQ(o.code, 2) << o.text;
   EXPECT_TRUE(has(o.text, "no checkpoint there")) << o.text;
+}
+
+TEST(Restart, AnInterruptedSeriesContinuesFromItsCheckpoint) {
+  TempDir tmp("restart_series");
+  const fs::path scene =
+      scene_variant(tmp.path, "series", {{"checkpoint_wall_interval: 0", "checkpoint_wall_interval: 0.1"}});
+  const std::string vary = " --vary platen_velocity=1.0 -t 1 -o ";
+  const fs::path s1 = tmp.path / "s1", s2 = tmp.path / "s2";
+  Outcome o = fdem("series " + quote(scene.string()) + vary + quote(s1.string()));
+  ASSERT_EQ(o.code, 0) << o.text;
+  std::vector<fs::path> variants;
+  for (const auto& e : fs::directory_iterator(s1))
+    if (e.is_directory()) variants.push_back(e.path().filename());
+  ASSERT_EQ(variants.size(), 1u);
+  const fs::path run = s2 / variants[0];
+  const std::string script = kEnv + quote(kExe) + " series " + quote(scene.string()) + vary + quote(s2.string()) +
+                             " & pid=$!; for i in $(seq 1500); do [ \"$(cat " + quote((run / "monitors.csv").string()) +
+                             " 2>/dev/null | wc -l)\" -ge 26 ] && [ \"$(ls " + quote((run / "checkpoints").string()) +
+                             " 2>/dev/null | grep -c 'ckpt$')\" -ge 2 ] && break; sleep 0.02; done; kill -TERM $pid; "
+                             "wait $pid";
+  o = run_cmd("bash -c " + quote(script));
+  ASSERT_EQ(o.code, 5) << o.text;
+  EXPECT_TRUE(has(o.text, "run the same command again")) << o.text;
+  o = fdem("series " + quote(scene.string()) + vary + quote(s2.string()));
+  ASSERT_EQ(o.code, 0) << o.text;
+  EXPECT_TRUE(has(o.text, "continuing from the checkpoint in")) << o.text;
+  expect_same_run(s1 / variants[0], run);
 }
