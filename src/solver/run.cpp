@@ -40,7 +40,11 @@ const char* kCsvHeader =
     "contact_J,contact_friction_J,active_tets,contact_pairs,contacts,confining_pressure_Pa,"
     "indirect_tensile_Pa,lateral_stress_Pa";
 
-void write_row(std::ostream& o, const Monitors& m) {
+/// Writes one monitor row; a row with a non-finite value throws RunError instead (no output
+/// file holds NaN or inf), naming the step and the column.
+void write_row(std::ostream& out, const Monitors& m) {
+  std::ostringstream o;
+  o << std::setprecision(int(out.precision()));
   o << m.step << ',' << m.time << ',' << m.axial_strain << ',' << m.axial_stress << ',' << m.lateral_strain << ','
     << m.volumetric_strain << ',' << m.force_top << ',' << m.force_bottom << ',' << m.damaged << ',' << m.broken << ','
     << m.broken_I << ',' << m.broken_II << ',' << m.broken_mixed << ',' << m.kinetic << ',' << m.strain << ','
@@ -48,6 +52,16 @@ void write_row(std::ostream& o, const Monitors& m) {
     << m.platen_stored << ',' << m.platen_friction << ',' << m.external_work << ',' << m.energy_error << ','
     << m.contact << ',' << m.contact_friction << ',' << m.active_tets << ',' << m.contact_pairs << ',' << m.contacts
     << ',' << m.confining_pressure << ',' << m.indirect_tensile << ',' << m.lateral_stress << '\n';
+  const std::string row = o.str();
+  if (row.find("nan") != std::string::npos || row.find("inf") != std::string::npos) {
+    std::stringstream names(kCsvHeader), cells(row);
+    std::string name, cell;
+    while (std::getline(names, name, ',') && std::getline(cells, cell, ','))
+      if (cell.find("nan") != std::string::npos || cell.find("inf") != std::string::npos) break;
+    throw RunError("step " + std::to_string(m.step) + ": the monitor " + name + " is " + cell +
+                   ": the run is unstable. Fix: lower solver.time_step_safety or the penalties");
+  }
+  out << row;
 }
 
 /// One row under kSummaryHeader, written atomically: its presence marks a finished run.
