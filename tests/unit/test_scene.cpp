@@ -130,6 +130,21 @@ TEST(Scene, MinimalSceneGetsTable2Defaults) {
   EXPECT_EQ(s.output.folder, "out/minimal");  // default: out/<name>
   EXPECT_EQ(s.output.monitor_interval, 100);
   EXPECT_TRUE(s.output.plot);
+  // Stability watch and checkpoints: on by default (10 % energy error; every 30 min of wall time).
+  EXPECT_DOUBLE_EQ(s.solver.max_energy_error, 0.1);
+  EXPECT_EQ(s.output.checkpoint_interval, 0);
+  EXPECT_DOUBLE_EQ(s.output.checkpoint_wall_interval, 1800);
+}
+
+TEST(Scene, CheckpointAndEnergyWatchKeysAreRead) {
+  const Scene s = parse_scene(
+      "mesh: {generate: {shape: box, size: [0.01, 0.01, 0.02], element_size: 0.005}}\n"
+      "solver: {max_energy_error: 0, end: {steps: 10}}\n"
+      "output: {checkpoint_interval: 500, checkpoint_wall_interval: 0}\n",
+      "mem.yaml");
+  EXPECT_DOUBLE_EQ(s.solver.max_energy_error, 0);
+  EXPECT_EQ(s.output.checkpoint_interval, 500);
+  EXPECT_DOUBLE_EQ(s.output.checkpoint_wall_interval, 0);
 }
 
 TEST(Scene, MeshFileRelativeToSceneFolderWithRegions) {
@@ -255,6 +270,8 @@ INSTANTIATE_TEST_SUITE_P(
         BadScene{"unknown_end_key.yaml", "solver.end.strain: unknown key"},
         BadScene{"monitor_interval_zero.yaml", "output.monitor_interval"},
         BadScene{"plot_not_bool.yaml", "output.plot"},
+        BadScene{"checkpoint_interval_fraction.yaml", "output.checkpoint_interval: 2.5 is not a whole number"},
+        BadScene{"negative_max_energy_error.yaml", "solver.max_energy_error: -0.1 is out of range"},
         BadScene{"duplicate_key.yaml", "material.density: key given twice"},
         BadScene{"bad_activation.yaml",
                  "contact.activation: 'everywhere' is not recognised; allowed: adaptive | full | none"},
