@@ -111,8 +111,11 @@ class CheckpointIn {
   std::size_t pos_ = 0;
 };
 
-/// FNV-1a 64 of bytes (used for the payload checksum and run fingerprints).
-std::uint64_t fnv1a64(const void* data, std::size_t size, std::uint64_t seed = 1469598103934665603ull);
+constexpr std::uint64_t kFnvSeed = 1469598103934665603ull;
+
+/// FNV-1a 64 of bytes (used for the payload checksum and run fingerprints); pass the previous
+/// result as seed to hash a stream piece by piece.
+std::uint64_t fnv1a64(const void* data, std::size_t size, std::uint64_t seed = kFnvSeed);
 
 /// Writes header and payload to path atomically; throws OutputError.
 void write_checkpoint(const std::string& path, const CheckpointOut& out);

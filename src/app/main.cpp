@@ -193,8 +193,13 @@ int run_main(int argc, char** argv) {
   try {
     s = fdem::run_scene(solver, std::cout, run_options);
   } catch (const fdem::Interrupted& e) {
-    throw fdem::Interrupted(std::string(e.what()) + "; continue with: fdem run " + scene_path +
-                            (output.empty() ? "" : " -o " + output) + " --restart " + scene.output.folder);
+    // Every option that changes the run, so that the checkpoint matches (and, with -t, bit for bit).
+    auto q = [](const std::string& a) { return "'" + a + "'"; };
+    std::string cmd = "fdem run " + q(scene_path);
+    if (!output.empty()) cmd += " -o " + q(output);
+    if (threads > 0) cmd += " -t " + std::to_string(threads);
+    if (!activation.empty()) cmd += " --contact " + activation;
+    throw fdem::Interrupted(std::string(e.what()) + "; continue with: " + cmd + " --restart " + q(scene.output.folder));
   }
   std::cout << "finished: " << s.end_reason << " after " << s.steps << " steps, t = " << s.time << " s, "
             << s.wall_seconds << " s wall\n"

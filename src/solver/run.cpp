@@ -3,8 +3,10 @@
 #include <fcntl.h>
 #include <spawn.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <csignal>
@@ -40,11 +42,11 @@ const char* kCsvHeader =
     "contact_J,contact_friction_J,active_tets,contact_pairs,contacts,confining_pressure_Pa,"
     "indirect_tensile_Pa,lateral_stress_Pa";
 
-/// Writes one monitor row; a row with a non-finite value throws RunError instead (no output
-/// file holds NaN or inf), naming the step and the column.
-void write_row(std::ostream& out, const Monitors& m) {
+/// One monitor row (10 significant digits); a row with a non-finite value throws RunError
+/// instead (no output file holds NaN or inf), naming the step and the column.
+std::string monitor_row(const Monitors& m) {
   std::ostringstream o;
-  o << std::setprecision(int(out.precision()));
+  o << std::setprecision(10);
   o << m.step << ',' << m.time << ',' << m.axial_strain << ',' << m.axial_stress << ',' << m.lateral_strain << ','
     << m.volumetric_strain << ',' << m.force_top << ',' << m.force_bottom << ',' << m.damaged << ',' << m.broken << ','
     << m.broken_I << ',' << m.broken_II << ',' << m.broken_mixed << ',' << m.kinetic << ',' << m.strain << ','
@@ -61,7 +63,7 @@ void write_row(std::ostream& out, const Monitors& m) {
     throw RunError("step " + std::to_string(m.step) + ": the monitor " + name + " is " + cell +
                    ": the run is unstable. Fix: lower solver.time_step_safety or the penalties");
   }
-  out << row;
+  return row;
 }
 
 /// One row under kSummaryHeader, written atomically: its presence marks a finished run.
@@ -195,7 +197,7 @@ void write_diagnostic(FieldWriter& w, const Solver& s) {
       const auto& q = m.tet_nodes[t];
       for (int n : q) non_finite[t] = std::max(non_finite[t], real(bad[n]));
       const real vol = dot(cross(x[q[1]] - x[q[0]], x[q[2]] - x[q[0]]), x[q[3]] - x[q[0]]) / 6;
-      inverted[t] = !(vol / m.tet_V0[t] > 0);
+      inverted[t] = non_finite[t] == 0 && !(vol / m.tet_V0[t] > 0);
     }
     std::vector<Vec3> u(x.size());
     for (std::size_t n = 0; n < u.size(); ++n) u[n] = x[n] - m.X[n];
@@ -299,43 +301,82 @@ class PeakFrames {
   std::vector<std::pair<int, std::string>> written_;  // frame index and label of the last set
 };
 
-// Checkpoint requests from signals: 1 = SIGUSR1 (write one, go on), 2 = SIGTERM or SIGINT (write
-// one, stop). Only the flag is set in the handler; the time loop looks at it after every step.
-volatile std::sig_atomic_t g_signal_request = 0;
-
-extern "C" void on_checkpoint_signal(int sig) {
-  if (sig != SIGUSR1)
-    g_signal_request = 2;
-  else if (g_signal_request == 0)
-    g_signal_request = 1;
-}
-
-/// Installs the handlers for the duration of a run and puts the earlier ones back.
-class SignalGuard {
- public:
-  SignalGuard() {
-    g_signal_request = 0;
-    struct sigaction sa {};
-    sa.sa_handler = on_checkpoint_signal;
-    sigemptyset(&sa.sa_mask);
-    for (int i = 0; i < 3; ++i) sigaction(kSignals[i], &sa, &old_[i]);
-  }
-  ~SignalGuard() {
-    for (int i = 0; i < 3; ++i) sigaction(kSignals[i], &old_[i], nullptr);
-  }
-
- private:
-  static constexpr int kSignals[3] = {SIGTERM, SIGINT, SIGUSR1};
-  struct sigaction old_[3];
-};
-
 /// Keeps the newest `keep` checkpoints of a folder and removes the rest.
 void prune_checkpoints(const std::string& folder, std::size_t keep) {
   std::vector<std::string> all = find_checkpoints(folder);
   for (std::size_t i = keep; i < all.size(); ++i) std::filesystem::remove(all[i]);
 }
 
+/// Flushes a file (or folder) to disk; best effort (a checkpoint must not end a run).
+void sync_path(const std::string& path) {
+  const int fd = ::open(path.c_str(), O_RDONLY);
+  if (fd < 0) return;
+  ::fsync(fd);
+  ::close(fd);
+}
+
+/// FNV-1a of the first `bytes` bytes of a file, or false if it is shorter.
+bool hash_prefix(const std::string& path, std::uint64_t bytes, std::uint64_t& hash) {
+  std::ifstream in(path, std::ios::binary);
+  hash = kFnvSeed;
+  std::vector<char> buf(1 << 20);
+  while (bytes > 0 && in) {
+    in.read(buf.data(), std::streamsize(std::min<std::uint64_t>(bytes, buf.size())));
+    const std::uint64_t got = std::uint64_t(in.gcount());
+    hash = fnv1a64(buf.data(), got, hash);
+    bytes -= got;
+    if (got == 0) break;
+  }
+  return bytes == 0;
+}
+
+/// monitors.csv with the length and FNV-1a of all it holds, so that a restart can check that
+/// the file it cuts back is the one its checkpoint was taken with.
+struct MonitorFile {
+  std::ofstream f;
+  std::uint64_t bytes = 0, hash = kFnvSeed;
+  void put(const std::string& text) {
+    f << text;
+    bytes += text.size();
+    hash = fnv1a64(text.data(), text.size(), hash);
+  }
+};
+
 }  // namespace
+
+// Checkpoint requests from signals: 1 = SIGUSR1 (write one, go on), 2 = SIGTERM or SIGINT (write
+// one, stop). The handler only raises the value (lock-free atomics are async-signal-safe); the
+// time loop takes it after every step, and a series looks at it between runs.
+namespace {
+std::atomic<int> g_signal_request{0};
+static_assert(std::atomic<int>::is_always_lock_free, "the signal flag must be lock-free");
+
+extern "C" void on_checkpoint_signal(int sig) {
+  if (sig != SIGUSR1) {
+    g_signal_request.store(2);
+  } else {
+    int none = 0;
+    g_signal_request.compare_exchange_strong(none, 1);
+  }
+}
+}  // namespace
+
+SignalGuard::SignalGuard() {
+  struct sigaction sa {};
+  sa.sa_handler = on_checkpoint_signal;
+  sigemptyset(&sa.sa_mask);
+  for (int sig : kSignals) sigaddset(&sa.sa_mask, sig);
+  sa.sa_flags = SA_RESTART;
+  for (int i = 0; i < 3; ++i) sigaction(kSignals[i], &sa, &old_[i]);
+}
+
+SignalGuard::~SignalGuard() {
+  for (int i = 0; i < 3; ++i) sigaction(kSignals[i], &old_[i], nullptr);
+}
+
+bool stop_requested() {
+  return g_signal_request.load() == 2;
+}
 
 std::vector<std::string> find_checkpoints(const std::string& path) {
   namespace fs = std::filesystem;
@@ -402,24 +443,29 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
   bool peak_written = false;
   PeakFrames peak_frames;
   real wall_before = 0;  // s, spent by the run before the checkpoint it continues from
-  std::ofstream csv;
+  MonitorFile csv;
   std::unique_ptr<FieldWriter> fields;
 
   if (!options.restart.empty()) {
-    // The newest checkpoint that reads; a damaged newest one falls back to the one before.
+    // The newest checkpoint that reads and matches the files here; a damaged one, or one whose
+    // monitors.csv is not the one in this folder, falls back to the one before.
     const std::vector<std::string> found = find_checkpoints(options.restart);
     if (found.empty())
       throw InputError("--restart " + options.restart +
                        ": no checkpoint there (files checkpoints/step_<n>.ckpt). Fix: give the output folder of the "
                        "interrupted run or one of its .ckpt files");
     std::string problems;
-    for (const std::string& file : found) {
+    for (std::size_t k = 0; k < found.size(); ++k) {
+      const std::string& file = found[k];
+      auto skip = [&](const std::string& why) {
+        log << "warning: " << why << std::endl;
+        problems += "\n  " + why;
+      };
       std::optional<CheckpointIn> in;
       try {
         in.emplace(read_checkpoint(file));
       } catch (const InputError& e) {
-        log << "warning: " << e.what() << std::endl;
-        problems += std::string("\n  ") + e.what();
+        skip(e.what());
         continue;
       }
       solver.load(*in);
@@ -430,34 +476,45 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
       in->get(peak_written);
       peak_frames.load(*in);
       in->get(wall_before);
-      std::uint64_t csv_bytes = 0;
-      in->get(csv_bytes);
+      in->get(csv.bytes);
+      in->get(csv.hash);
       FieldWriterState fs_state;
       in->get(fs_state.grids);
       in->get(fs_state.labels);
       in->get(fs_state.mesh_tets);
       in->get(fs_state.have_mesh);
       in->finish();
+      std::uint64_t hash = 0;
+      if (!hash_prefix(csv_path, csv.bytes, hash) || hash != csv.hash) {
+        skip(file + ": " + csv_path + " is missing, shorter than, or different from the monitors.csv of this " +
+             "checkpoint. Fix: restart with output.folder (or -o) set to the folder of the interrupted run");
+        continue;
+      }
+      if (!fs::is_regular_file(fs::path(out.folder) / "fields.h5", ec)) {
+        skip(file + ": " + (fs::path(out.folder) / "fields.h5").string() + " is missing");
+        continue;
+      }
       // Rows and frames written after the checkpoint are dropped; the loop writes them again.
-      if (!fs::is_regular_file(csv_path, ec) || fs::file_size(csv_path, ec) < csv_bytes)
-        throw InputError(file + ": " + csv_path + " is missing or shorter than at the checkpoint. Fix: restart with " +
-                         "output.folder (or -o) set to the folder of the interrupted run");
-      fs::resize_file(csv_path, csv_bytes, ec);
-      if (ec) throw OutputError("cannot truncate " + csv_path + ": " + ec.message());
-      csv.open(csv_path, std::ios::app);
+      // Newer checkpoints (damaged, or of the history being replaced) go too.
       fields = std::make_unique<FieldWriter>(out.folder, "fields", fs_state);
+      fs::resize_file(csv_path, csv.bytes, ec);
+      if (ec) throw OutputError("cannot truncate " + csv_path + ": " + ec.message());
+      csv.f.open(csv_path, std::ios::app);
+      for (std::size_t j = 0; j < k; ++j)
+        if (fs::path(found[j]).parent_path() == fs::path(file).parent_path()) fs::remove(found[j], ec);
       log << "restart: continuing from " << file << " at step " << solver.step_count() << ", t = " << solver.time()
           << " s" << std::endl;
       break;
     }
-    if (!csv.is_open()) throw InputError("--restart " + options.restart + ": no readable checkpoint:" + problems);
+    if (!csv.f.is_open()) throw InputError("--restart " + options.restart + ": no usable checkpoint:" + problems);
   } else {
-    csv.open(csv_path);
+    // A fresh run: checkpoints of an earlier run in this folder belong to files it replaces.
+    fs::remove_all(ckpt_dir, ec);
+    csv.f.open(csv_path);
   }
-  if (!csv) throw InputError(scene.file + ": output.folder: cannot write '" + csv_path + "'");
-  csv << std::setprecision(10);
+  if (!csv.f) throw InputError(scene.file + ": output.folder: cannot write '" + csv_path + "'");
   if (!fields) {
-    csv << kCsvHeader << '\n';
+    csv.put(std::string(kCsvHeader) + "\n");
     fields = std::make_unique<FieldWriter>(out.folder, "fields");
   }
 
@@ -478,8 +535,11 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
   real last_checkpoint_wall = 0;
   const long first_step = solver.step_count();
   auto checkpoint = [&](const std::string& why) {
-    csv.flush();
-    if (!csv) throw OutputError("cannot write " + csv_path + " (disk full or file removed?)");
+    csv.f.flush();
+    if (!csv.f) throw OutputError("cannot write " + csv_path + " (disk full or file removed?)");
+    // The files the checkpoint refers to reach the disk before it does.
+    sync_path(csv_path);
+    sync_path(fields->h5_path());
     fs::create_directories(ckpt_dir, ec);
     CheckpointOut o;
     solver.save(o);
@@ -490,7 +550,8 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
     o.put(peak_written);
     peak_frames.save(o);
     o.put(wall_before + elapsed());
-    o.put(std::uint64_t(fs::file_size(csv_path)));
+    o.put(csv.bytes);
+    o.put(csv.hash);
     const FieldWriterState st = fields->state();
     o.put(st.grids);
     o.put(st.labels);
@@ -500,6 +561,7 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
     std::snprintf(name, sizeof name, "step_%012ld.ckpt", solver.step_count());
     const std::string path = (fs::path(ckpt_dir) / name).string();
     write_checkpoint(path, o);
+    sync_path(ckpt_dir);
     prune_checkpoints(ckpt_dir, 2);
     last_checkpoint_wall = elapsed();
     log << "checkpoint (" << why << "): " << path << std::endl;
@@ -508,7 +570,7 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
   SignalGuard signals;
   if (options.restart.empty()) {
     mon = solver.measure();
-    write_row(csv, mon);
+    csv.put(monitor_row(mon));
     write_frame(*fields, solver, "initial");
   }
   try {
@@ -518,9 +580,9 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
       const bool monitor_now = n % out.monitor_interval == 0;
       if (monitor_now) {
         mon = solver.measure();
-        write_row(csv, mon);
-        csv.flush();
-        if (!csv) throw OutputError("cannot write " + csv_path + " (disk full or file removed?)");
+        csv.put(monitor_row(mon));
+        csv.f.flush();
+        if (!csv.f) throw OutputError("cannot write " + csv_path + " (disk full or file removed?)");
         if (mon.axial_stress > sum.peak_stress) {
           sum.peak_stress = mon.axial_stress;
           sum.strain_at_peak = mon.axial_strain;
@@ -564,8 +626,7 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
         break;
       }
       // Checkpoints: by steps, by wall time, or asked for by a signal.
-      const int request = g_signal_request;
-      if (request > 0) g_signal_request = 0;
+      const int request = g_signal_request.exchange(0);
       if (request == 2) {
         const std::string path = checkpoint("signal");
         throw Interrupted("stopped by a signal at step " + std::to_string(n) + " after writing " + path);
@@ -577,14 +638,14 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
       else if (out.checkpoint_wall_interval > 0 && wall - last_checkpoint_wall >= out.checkpoint_wall_interval)
         checkpoint("wall-time interval");
     }
+    mon = solver.measure();
+    if (solver.step_count() % out.monitor_interval != 0) csv.put(monitor_row(mon));
   } catch (const RunError&) {
     write_diagnostic(*fields, solver);
     throw;
   }
-  mon = solver.measure();
-  if (solver.step_count() % out.monitor_interval != 0) write_row(csv, mon);
-  csv.close();
-  if (!csv) throw OutputError("cannot write " + csv_path + " (disk full or file removed?)");
+  csv.f.close();
+  if (!csv.f) throw OutputError("cannot write " + csv_path + " (disk full or file removed?)");
   write_frame(*fields, solver, "final");
   sum.steps = solver.step_count();
   sum.time = solver.time();

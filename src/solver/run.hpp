@@ -1,6 +1,7 @@
 #pragma once
 // A whole run from a scene: build, time loop, monitors to CSV, ParaView frames,
 // progress lines, the end condition and the final plot.
+#include <csignal>
 #include <iosfwd>
 #include <string>
 #include <vector>
@@ -45,6 +46,24 @@ void report_model(const Solver& solver, std::ostream& out);
 /// continued run's files equal an uninterrupted run's (bit for bit on the CPU backend with the
 /// same thread count).
 RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& options = {});
+
+/// Installs fdem's handlers of SIGTERM, SIGINT (checkpoint, then stop) and SIGUSR1 (checkpoint,
+/// go on) for its lifetime and puts the earlier ones back; run_scene and series hold one.
+class SignalGuard {
+ public:
+  SignalGuard();
+  ~SignalGuard();
+  SignalGuard(const SignalGuard&) = delete;
+  SignalGuard& operator=(const SignalGuard&) = delete;
+
+ private:
+  static constexpr int kSignals[3] = {SIGTERM, SIGINT, SIGUSR1};
+  struct sigaction old_[3];
+};
+
+/// True once SIGTERM or SIGINT asked to stop and no run has taken the request yet (a series
+/// checks it before starting the next run).
+bool stop_requested();
 
 /// The checkpoints under path (a checkpoint file, a run folder or its checkpoints/ folder),
 /// newest first; InputError if there is none.

@@ -201,6 +201,7 @@ std::vector<SeriesRow> run_series(const std::string& scene_path, const std::vect
     for (const auto& [k, v] : c) apply_series_value(s, k, v);
   }
   std::vector<SeriesRow> rows;
+  const SignalGuard signals;  // a SIGTERM between runs stops the series before the next one
   for (std::size_t i = 0; i < combos.size(); ++i) {
     SeriesRow row;
     row.values = combos[i];
@@ -212,6 +213,9 @@ std::vector<SeriesRow> run_series(const std::string& scene_path, const std::vect
     const std::string fp_path = (fs::path(row.folder) / "run.txt").string();
     const std::string summary_path = (fs::path(row.folder) / "summary.csv").string();
     const std::string label = folder_name(combos[i]);
+    if (stop_requested())
+      throw Interrupted("stopped by a signal before " + label +
+                        "; run the same command again to continue: finished runs are skipped");
     log << "[" << i + 1 << "/" << combos.size() << "] " << label << ": ";
     const bool same_run = read_text(fp_path) == fp.str();
     if (fs::exists(summary_path) && same_run && !read_summary(summary_path).empty()) {

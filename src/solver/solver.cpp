@@ -286,9 +286,12 @@ real Solver::pressure_power(const std::vector<Vec3>& vel) const {
 
 void Solver::check_finite(long bad_nodes) const {
   if (bad_nodes == 0) return;
-  int first = -1;
-  for (std::size_t n = 0; n < v.size() && first < 0; ++n)
-    if (!std::isfinite(v[n].x + v[n].y + v[n].z)) first = int(n);
+  int first = 0;  // (a prescribed node counted as bad has had its velocity reset: then node 1)
+  for (std::size_t n = 0; n < v.size(); ++n)
+    if (!std::isfinite(v[n].x + v[n].y + v[n].z)) {
+      first = int(n);
+      break;
+    }
   throw RunError("step " + std::to_string(step_) + " (t = " + fmt(time_, 3) + " s): the velocity of " +
                  std::to_string(bad_nodes) + " node(s) is no longer finite (first: node " + std::to_string(first + 1) +
                  " at reference position " + fmt(model_.X[first].x, 3) + ", " + fmt(model_.X[first].y, 3) + ", " +
@@ -319,9 +322,10 @@ std::string Solver::instability_advice() const {
   else if (s.mass_scaling >= 100)
     cause = "mass scaling m = " + fmt(s.mass_scaling, 3) +
             ": the loading is no longer quasi-static and the inertia of the fragments dominates";
-  else if (contacts.enabled() && touching_ > 0)
-    cause = "tet-tet contact (" + std::to_string(touching_) + " pairs touching, penalty " +
-            fmt(mat.contact_penalty, 3) + " Pa = " + fmt(mat.contact_penalty / E, 3) +
+  else if (contacts.enabled() && touching_ > 0 &&
+           w_contact_ < -0.01 * std::max(std::fabs(w_external_ + initial_kinetic_), energy_floor_))
+    cause = "tet-tet contact has put " + fmt(-w_contact_, 3) + " J in (" + std::to_string(touching_) +
+            " pairs touching, penalty " + fmt(mat.contact_penalty, 3) + " Pa = " + fmt(mat.contact_penalty / E, 3) +
             " E): the potential contact force is not exactly conservative, and overlapping fragments can feed "
             "energy in whatever the time step (docs/stability.md)";
   else if (p_ce6 > 1000 * E)
@@ -369,7 +373,6 @@ void Solver::step() {
       }
   }
   check_finite(bad);
-  check_runaway(0.5 * ke);
   // Contact forces are stiff and act over few steps: their work over the step is taken with
   // the mean of the velocities before and after it, which is exact for central differences.
   if (contacts.enabled()) w_contact_ += 0.5 * dt * (p_contact_ + contacts.power(model_, v));
@@ -382,6 +385,8 @@ void Solver::step() {
     for (int n = 0; n < nn; ++n) p_new += model_.mass[n] * dot(g, v[n]);
     w_external_ += 0.5 * dt * (p_gravity_ + p_new);
   }
+  // After every work of this step is counted (pressure and gravity just above).
+  check_runaway(0.5 * ke);
   top_offset += speed * dt;
   time_ += dt;
   ++step_;

@@ -259,3 +259,32 @@ TEST(Restart, AnInterruptedSeriesContinuesFromItsCheckpoint) {
   EXPECT_TRUE(has(o.text, "continuing from the checkpoint in")) << o.text;
   expect_same_run(s1 / variants[0], run);
 }
+
+TEST(Restart, AFreshRunDropsOldCheckpointsAndARestartChecksItsMonitorFile) {
+  TempDir tmp("restart_fresh");
+  const fs::path every100 = scene_variant(
+      tmp.path, "every100",
+      {{"end: {steps: 3000}", "end: {steps: 250}"}, {"checkpoint_wall_interval: 0", "checkpoint_interval: 100"}});
+  const fs::path every50 = scene_variant(
+      tmp.path, "every50",
+      {{"end: {steps: 3000}", "end: {steps: 60}"}, {"checkpoint_wall_interval: 0", "checkpoint_interval: 50"}});
+  const fs::path d = tmp.path / "d", e = tmp.path / "e";
+  ASSERT_EQ(fdem(run_args(every100, d)).code, 0);
+  ASSERT_EQ(checkpoint_names(d), (std::vector<std::string>{"step_000000000100.ckpt", "step_000000000200.ckpt"}));
+  // A fresh run in the same folder: the old checkpoints belong to files it replaces.
+  ASSERT_EQ(fdem(run_args(every50, d)).code, 0);
+  EXPECT_EQ(checkpoint_names(d), std::vector<std::string>{"step_000000000050.ckpt"});
+  // A checkpoint restarted into another run's folder (same physics, other monitor rows): refused
+  // before anything there changes.
+  const fs::path rows25 = scene_variant(tmp.path, "rows25",
+                                        {{"end: {steps: 3000}", "end: {steps: 250}"},
+                                         {"checkpoint_wall_interval: 0", "checkpoint_interval: 100"},
+                                         {"monitor_interval: 50", "monitor_interval: 25"}});
+  ASSERT_EQ(fdem(run_args(rows25, e)).code, 0);
+  const std::string before = slurp(e / "monitors.csv");
+  const Outcome o =
+      fdem(run_args(every50, e) + " --restart " + quote((d / "checkpoints" / "step_000000000050.ckpt").string()));
+  EXPECT_EQ(o.code, 2) << o.text;
+  EXPECT_TRUE(has(o.text, "different from the monitors.csv of this checkpoint")) << o.text;
+  EXPECT_EQ(slurp(e / "monitors.csv"), before);
+}
