@@ -87,6 +87,16 @@ Scene box_scene() {
   return s;
 }
 
+/// box_scene() in a constant confining pressure (Pa) reached after ramp (s).
+Scene confined_box_scene(real pressure, real ramp) {
+  Scene s = box_scene();
+  s.confinement.enabled = true;
+  s.confinement.pressure = pressure;
+  s.confinement.path = "constant";
+  s.confinement.ramp_time = ramp;
+  return s;
+}
+
 Mesh box_mesh(int cells = 2) {
   return structured_box_mesh({0.01, 0.01, 0.02}, cells, cells, 2 * cells);
 }
@@ -377,11 +387,7 @@ TEST(Stability, OneMetrePerSecondWithHeavyFragmentation) {
 // Confining pressure 15 MPa: the measured lateral stress in the rock holds sigma_3, and the
 // peak rises above the unconfined one by more than sigma_3.
 TEST(Stability, ConfiningPressureFifteenMPa) {
-  Scene s = box_scene();
-  s.confinement.enabled = true;
-  s.confinement.pressure = 15e6;
-  s.confinement.path = "constant";
-  s.confinement.ramp_time = 2e-5;
+  const Scene s = confined_box_scene(15e6, 2e-5);
   Solver solver(s, build_model(box_mesh(), s));
   Scene u = box_scene();
   Solver unconfined(u, build_model(box_mesh(), u));
@@ -421,11 +427,7 @@ TEST(Stability, ConfiningPressureFifteenMPa) {
 // Confining pressure applied within a few steps (ramp 0.1 us): the kinetic energy it gives is
 // matched by its work in the same step, so the watch does not mistake it for instability.
 TEST(Stability, ConfiningPressureAppliedAtOnceIsNotCaught) {
-  Scene s = box_scene();
-  s.confinement.enabled = true;
-  s.confinement.pressure = 15e6;
-  s.confinement.path = "constant";
-  s.confinement.ramp_time = 1e-7;
+  const Scene s = confined_box_scene(15e6, 1e-7);
   Solver solver(s, build_model(box_mesh(), s));
   const Outcome o = run(solver, 0, 400, 10);
   report("sigma_3 = 15 MPa within 0.1 us", o);
