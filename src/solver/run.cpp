@@ -631,12 +631,23 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
         const std::string path = checkpoint("signal");
         throw Interrupted("stopped by a signal at step " + std::to_string(n) + " after writing " + path);
       }
+      std::string why;
       if (request == 1)
-        checkpoint("SIGUSR1");
+        why = "SIGUSR1";
       else if (out.checkpoint_interval > 0 && n % out.checkpoint_interval == 0)
-        checkpoint("every " + std::to_string(out.checkpoint_interval) + " steps");
+        why = "every " + std::to_string(out.checkpoint_interval) + " steps";
       else if (out.checkpoint_wall_interval > 0 && wall - last_checkpoint_wall >= out.checkpoint_wall_interval)
-        checkpoint("wall-time interval");
+        why = "wall-time interval";
+      if (!why.empty()) {
+        // A checkpoint that cannot be written (disk full, folder gone) does not end the run:
+        // the run goes on and tries again at the next one.
+        try {
+          checkpoint(why);
+        } catch (const OutputError& e) {
+          last_checkpoint_wall = elapsed();
+          log << "warning: checkpoint (" << why << ") not written, the run goes on: " << e.what() << std::endl;
+        }
+      }
     }
     mon = solver.measure();
     if (solver.step_count() % out.monitor_interval != 0) csv.put(monitor_row(mon));

@@ -2,7 +2,8 @@
 // every N steps, by wall time, or on SIGTERM) writes the same files as an uninterrupted run,
 // bit for bit (monitors.csv, broken_ce6.csv, the XDMF index and every dataset of every frame in
 // fields.h5); a damaged newest checkpoint falls back to the one before; a checkpoint of another
-// scene is refused with exit 2; an interrupted `fdem series` continues its run from its checkpoint.
+// scene is refused with exit 2; an interrupted `fdem series` continues its run from its checkpoint;
+// a checkpoint that cannot be written is a warning, not the end of the run.
 #include <hdf5.h>
 
 #include <regex>
@@ -287,4 +288,21 @@ TEST(Restart, AFreshRunDropsOldCheckpointsAndARestartChecksItsMonitorFile) {
   EXPECT_EQ(o.code, 2) << o.text;
   EXPECT_TRUE(has(o.text, "different from the monitors.csv of this checkpoint")) << o.text;
   EXPECT_EQ(slurp(e / "monitors.csv"), before);
+}
+
+TEST(Restart, ACheckpointThatCannotBeWrittenWarnsAndTheRunGoesOn) {
+  TempDir tmp("restart_unwritable");
+  const fs::path scene =
+      scene_variant(tmp.path, "every500", {{"checkpoint_wall_interval: 0", "checkpoint_interval: 500"}});
+  const fs::path f = tmp.path / "f";
+  // Once the run has started, a plain file takes the place of its checkpoints folder.
+  const std::string script = kEnv + quote(kExe) + " " + run_args(scene, f) + " & pid=$!; for i in $(seq 1500); do " +
+                             "[ -s " + quote((f / "monitors.csv").string()) + " ] && break; sleep 0.01; done; rm -rf " +
+                             quote((f / "checkpoints").string()) + "; touch " + quote((f / "checkpoints").string()) +
+                             "; wait $pid";
+  const Outcome o = run_cmd("bash -c " + quote(script));
+  EXPECT_EQ(o.code, 0) << o.text;
+  EXPECT_TRUE(has(o.text, "warning: checkpoint (every 500 steps) not written, the run goes on")) << o.text;
+  EXPECT_TRUE(fs::exists(f / "summary.csv"));
+  EXPECT_EQ(first_difference(reference_run() / "monitors.csv", f / "monitors.csv"), "");
 }
