@@ -13,27 +13,9 @@ if ! [[ "$seconds" =~ ^[0-9]+$ ]] || ((seconds < 1)); then
   exit 2
 fi
 
-bash "$root/scripts/setup.sh"
 # clang, its libFuzzer and sanitizer runtimes (only recommended by clang, so not installed with
 # --no-install-recommends), OpenMP for clang, and llvm-symbolizer for readable stack traces.
-packages=(clang-14 libclang-rt-14-dev libomp-14-dev llvm-14)
-missing=()
-for p in "${packages[@]}"; do
-  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
-done
-if ((${#missing[@]})); then
-  echo "fdem fuzz: installing ${missing[*]}"
-  sudo=""
-  if [ "$(id -u)" -ne 0 ]; then
-    if ! command -v sudo >/dev/null; then
-      echo "fdem fuzz: missing packages: ${missing[*]}; run as root or install them with apt-get" >&2
-      exit 1
-    fi
-    sudo="sudo"
-  fi
-  $sudo apt-get update -qq
-  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
-fi
+bash "$root/scripts/setup.sh" clang-14 libclang-rt-14-dev libomp-14-dev llvm-14
 
 build="$root/build-fuzz"
 jobs="$(nproc 2>/dev/null || echo 2)"
