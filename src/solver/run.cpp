@@ -134,14 +134,20 @@ void load_frame_state(CheckpointIn& in, FrameState& f) {
   in.get(f.active);
 }
 
+/// One ParaView frame of the state (x, v, ce6, activation flags). `more` adds per-tet fields; a
+/// diagnostic frame shows a stress that is not finite (an inverted tet) as zero instead of
+/// refusing the frame.
 void write_frame(FieldWriter& w, const Solver& s, real time, long step, const std::vector<Vec3>& x,
                  const std::vector<Vec3>& v, const std::vector<Ce6State>& ce6, const std::vector<std::uint8_t>* flags,
-                 const std::string& label) {
+                 const std::string& label, const std::vector<TetField>& more = {}, bool diagnostic = false) {
   std::vector<Vec3> u(x.size());
   for (std::size_t n = 0; n < u.size(); ++n) u[n] = x[n] - s.model().X[n];
   std::vector<Sym3> stress;
   std::vector<real> vm;
   s.tet_stress(x, v, stress, vm);
+  if (diagnostic)
+    for (std::size_t t = 0; t < vm.size(); ++t)
+      if (!std::isfinite(vm[t])) stress[t] = Sym3{}, vm[t] = 0;
   std::vector<std::array<int, 3>> faces;
   std::vector<real> damage;
   std::vector<int> mode;
@@ -164,6 +170,7 @@ void write_frame(FieldWriter& w, const Solver& s, real time, long step, const st
     active.assign(flags->begin(), flags->end());
     fr.extra.push_back({"active", &active});
   }
+  fr.extra.insert(fr.extra.end(), more.begin(), more.end());
   w.write(fr);
 }
 
@@ -199,33 +206,8 @@ void write_diagnostic(FieldWriter& w, const Solver& s) {
       const real vol = dot(cross(x[q[1]] - x[q[0]], x[q[2]] - x[q[0]]), x[q[3]] - x[q[0]]) / 6;
       inverted[t] = non_finite[t] == 0 && !(vol / m.tet_V0[t] > 0);
     }
-    std::vector<Vec3> u(x.size());
-    for (std::size_t n = 0; n < u.size(); ++n) u[n] = x[n] - m.X[n];
-    std::vector<Sym3> stress;
-    std::vector<real> vm;
-    s.tet_stress(x, v, stress, vm);
-    for (std::size_t t = 0; t < nt; ++t)
-      if (!std::isfinite(vm[t]) || non_finite[t] > 0) stress[t] = Sym3{}, vm[t] = 0;
-    std::vector<std::array<int, 3>> faces;
-    std::vector<real> damage;
-    std::vector<int> mode;
-    s.crack_faces(s.ce6, faces, damage, mode);
-    FieldFrame fr;
-    fr.time = s.time();
-    fr.step = s.step_count();
-    fr.label = "diagnostic";
-    fr.x = &x;
-    fr.u = &u;
-    fr.v = &v;
-    fr.tets = &m.tet_nodes;
-    fr.stress = &stress;
-    fr.von_mises = &vm;
-    fr.crack_faces = &faces;
-    fr.crack_damage = &damage;
-    fr.crack_mode = &mode;
-    fr.extra.push_back({"non_finite", &non_finite});
-    fr.extra.push_back({"inverted", &inverted});
-    w.write(fr);
+    write_frame(w, s, s.time(), s.step_count(), x, v, s.ce6, s.contacts.enabled() ? &s.contacts.active() : nullptr,
+                "diagnostic", {{"non_finite", &non_finite}, {"inverted", &inverted}}, true);
   } catch (const std::exception&) {
     // Nothing more to show; the frames written before remain valid.
   }
