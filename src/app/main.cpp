@@ -13,8 +13,10 @@
 #include "core/error.hpp"
 #include "core/format.hpp"
 #include "io/atomic_file.hpp"
+#include "io/checkpoint.hpp"
 #include "io/mesh_io.hpp"
 #include "model/model.hpp"
+#include "partition/partition.hpp"
 #include "scene/scene.hpp"
 #include "solver/run.hpp"
 #include "solver/series.hpp"
@@ -71,6 +73,36 @@ int run_series_command(const std::string& scene_path, const std::vector<fdem::Se
   return 0;
 }
 
+/// Discards what is written to it (the progress of ranks other than 0).
+struct NullBuffer : std::streambuf {
+  int overflow(int c) override { return c; }
+};
+
+int world_rank() {
+  int r = 0;
+  MPI_Comm_rank(MPI_COMM_WORLD, &r);
+  return r;
+}
+int world_size() {
+  int n = 1;
+  MPI_Comm_size(MPI_COMM_WORLD, &n);
+  return n;
+}
+
+/// The mesh and model of a scene, InputError naming the scene and the mesh.
+fdem::Model build_scene_model(const fdem::Scene& scene) {
+  try {
+    return fdem::build_model(fdem::load_mesh(scene.mesh), scene);
+  } catch (const fdem::InputError& e) {
+    // Name the scene too: the mesh message names the mesh file and the element.
+    throw fdem::InputError(scene.file + ": mesh: " + e.what());
+  }
+}
+
+std::string rank_file(const std::string& folder, int rank) {
+  return (std::filesystem::path(folder) / ("rank_" + std::to_string(rank) + ".fdp")).string();
+}
+
 int run_main(int argc, char** argv) {
   CLI::App app{"fdem " FDEM_VERSION
                ": 3D combined finite-discrete element modelling of rock fracture (TET4 + CE6 cohesive elements). "
@@ -89,6 +121,11 @@ int run_main(int argc, char** argv) {
   std::string activation;
   run->add_option("--contact", activation, "Contact activation (overrides contact.activation)")
       ->check(CLI::IsMember({"adaptive", "full", "none"}));
+  std::string partitioned;
+  double contact_reach = 0;
+  run->add_option("--partitioned", partitioned,
+                  "Folder of rank files written by fdem partition (one per MPI rank): no mesh reading, model build "
+                  "or METIS at start");
   fdem::RunOptions run_options;
   run->add_option("--restart", run_options.restart,
                   "Continue an interrupted run from its newest checkpoint: the run's output folder, its "
@@ -96,6 +133,21 @@ int run_main(int argc, char** argv) {
 
   auto* check = app.add_subcommand("check", "Validate a scene, build its model and report counts and the time step");
   check->add_option("scene", scene_path, "Scene file (YAML)")->required();
+
+  int parts = 0;
+  auto* partition = app.add_subcommand(
+      "partition",
+      "Partition a scene's model for N MPI ranks (METIS) and write one rank file per rank, for fdem run "
+      "--partitioned on machines without METIS or to skip the build at start");
+  partition->add_option("scene", scene_path, "Scene file (YAML)")->required();
+  partition->add_option("-n,--ranks", parts, "Number of MPI ranks")->required()->check(CLI::PositiveNumber);
+  partition->add_option("-o,--output", output, "Folder for rank_<r>.fdp (default: <output.folder>/partition_<N>)");
+  for (auto* sub : {run, partition})
+    sub->add_option("--contact-reach", contact_reach,
+                    "m: each rank also holds the tets within this distance of its own (reference positions), "
+                    "for contact across ranks; the run stops if a node moves half of it (default: two mean edge "
+                    "lengths with contact)")
+        ->check(CLI::PositiveNumber);
 
   std::string sigma3;
   auto* triaxial = app.add_subcommand(
@@ -143,6 +195,34 @@ int run_main(int argc, char** argv) {
     return code == 0 ? 0 : 2;
   }
 
+  const int size = world_size(), rank = world_rank();
+  if (size > 1 && !run->parsed())
+    throw fdem::InputError("fdem " + app.get_subcommands().front()->get_name() + " runs on one MPI rank (got " +
+                           std::to_string(size) + "); only fdem run uses several. Fix: run it without mpiexec");
+  if (partition->parsed()) {
+    fdem::Scene scene = fdem::load_scene(scene_path);
+    const fdem::Model model = build_scene_model(scene);
+    const double reach = !scene.contact.enabled() ? 0
+                         : contact_reach > 0      ? contact_reach
+                                                  : fdem::default_reach(model, scene);
+    const std::vector<int> part = fdem::partition_tets(model, parts);
+    if (output.empty()) output = scene.output.folder + "/partition_" + std::to_string(parts);
+    std::filesystem::create_directories(output);
+    std::cout << "partition of " << model.tet_nodes.size() << " tets, " << model.ce6_nodes.size() << " CE6, "
+              << model.X.size() << " nodes for " << parts << " ranks, contact reach " << reach << " m:\n";
+    for (int r = 0; r < parts; ++r) {
+      const fdem::RankModel rm = fdem::extract_rank(model, part, r, 1, reach);
+      const std::string path = rank_file(output, r);
+      fdem::write_rank_file(path, rm, fdem::model_key(scene));
+      long own = 0, ghost_nodes = 0;
+      for (auto o : rm.dd.tet_owned) own += o;
+      for (const auto& nb : rm.dd.neighbours) ghost_nodes += long(nb.recv_nodes.size());
+      std::cout << "  rank " << r << ": " << own << " tets own, " << rm.model.tet_nodes.size() - own << " ghost, "
+                << rm.dd.neighbours.size() << " neighbour(s), " << ghost_nodes << " ghost nodes -> " << path << "\n";
+    }
+    std::cout << "run with: mpiexec -n " << parts << " fdem run " << scene_path << " --partitioned " << output << "\n";
+    return 0;
+  }
   if (triaxial->parsed())
     return run_series_command(scene_path, {fdem::parse_series_axis("sigma3=" + sigma3)}, output, threads, quiet, true);
   if (study->parsed()) {
@@ -176,22 +256,63 @@ int run_main(int argc, char** argv) {
   if (threads > 0) scene.solver.threads = threads;
   if (quiet) scene.output.progress_interval = 0;
   if (!activation.empty()) scene.contact.activation = activation;
-  fdem::Mesh mesh;
   fdem::Model model;
-  try {
-    mesh = fdem::load_mesh(scene.mesh);
-    model = fdem::build_model(mesh, scene);
-  } catch (const fdem::InputError& e) {
-    // Name the scene too: the mesh message names the mesh file and the element.
-    throw fdem::InputError(scene.file + ": mesh: " + e.what());
+  fdem::Decomposition dd;
+  if (!partitioned.empty()) {
+    fdem::RankModel rm = fdem::read_rank_file(rank_file(partitioned, rank), fdem::model_key(scene));
+    if (rm.dd.size != size || rm.dd.rank != rank)
+      throw fdem::InputError(rank_file(partitioned, rank) + ": written for rank " + std::to_string(rm.dd.rank) +
+                             " of " + std::to_string(rm.dd.size) + ", run as rank " + std::to_string(rank) + " of " +
+                             std::to_string(size) + ". Fix: mpiexec -n " + std::to_string(rm.dd.size) +
+                             ", or fdem partition -n " + std::to_string(size));
+    model = std::move(rm.model);
+    dd = std::move(rm.dd);
+  } else {
+    model = build_scene_model(scene);
+    if (size > 1) {
+      // Every rank built the model; they must agree before rank 0's partition is used.
+      std::uint64_t h = fdem::fnv1a64(model.X.data(), model.X.size() * sizeof(fdem::Vec3));
+      h = fdem::fnv1a64(model.tet_nodes.data(), model.tet_nodes.size() * sizeof(model.tet_nodes[0]), h);
+      std::uint64_t lo = h, hi = h;
+      MPI_Allreduce(MPI_IN_PLACE, &lo, 1, MPI_UINT64_T, MPI_MIN, MPI_COMM_WORLD);
+      MPI_Allreduce(MPI_IN_PLACE, &hi, 1, MPI_UINT64_T, MPI_MAX, MPI_COMM_WORLD);
+      if (lo != hi)
+        throw fdem::InputError(scene.file + ": the ranks built different models from mesh " + scene.mesh.file +
+                               scene.mesh.shape +
+                               ". Fix: write rank files with fdem partition and run with "
+                               "--partitioned");
+      std::vector<int> part(model.tet_nodes.size());
+      int ok = 1;
+      std::string why;
+      if (rank == 0) try {
+          part = fdem::partition_tets(model, size);
+        } catch (const fdem::InputError& e) {
+          ok = 0, why = e.what();
+        }
+      MPI_Bcast(&ok, 1, MPI_INT, 0, MPI_COMM_WORLD);
+      if (!ok) {
+        if (rank == 0) throw fdem::InputError(scene.file + ": " + why);
+        MPI_Barrier(MPI_COMM_WORLD);  // rank 0 reports and ends the job
+      }
+      MPI_Bcast(part.data(), int(part.size()), MPI_INT, 0, MPI_COMM_WORLD);
+      const double reach = !scene.contact.enabled() ? 0
+                           : contact_reach > 0      ? contact_reach
+                                                    : fdem::default_reach(model, scene);
+      fdem::RankModel rm = fdem::extract_rank(model, part, rank, 1, reach);
+      model = std::move(rm.model);
+      dd = std::move(rm.dd);
+    }
   }
-  fdem::Solver solver(scene, std::move(model));
-  fdem::report_model(solver, std::cout);
+  NullBuffer null_buffer;
+  std::ostream null_stream(&null_buffer);
+  std::ostream& log = rank == 0 ? std::cout : null_stream;
+  fdem::Solver solver(scene, std::move(model), std::move(dd), MPI_COMM_WORLD);
+  fdem::report_model(solver, log);
   if (check->parsed()) return 0;
 
   fdem::RunSummary s;
   try {
-    s = fdem::run_scene(solver, std::cout, run_options);
+    s = fdem::run_scene(solver, log, run_options);
   } catch (const fdem::Interrupted& e) {
     // Every option that changes the run, so that the checkpoint matches (and, with -t, bit for bit).
     auto q = [](const std::string& a) { return "'" + a + "'"; };
@@ -201,6 +322,7 @@ int run_main(int argc, char** argv) {
     if (!activation.empty()) cmd += " --contact " + activation;
     throw fdem::Interrupted(std::string(e.what()) + "; continue with: " + cmd + " --restart " + q(scene.output.folder));
   }
+  if (rank != 0) return 0;
   std::cout << "finished: " << s.end_reason << " after " << s.steps << " steps, t = " << s.time << " s, "
             << s.wall_seconds << " s wall\n"
             << "  peak axial stress " << s.peak_stress / 1e6 << " MPa at axial strain " << s.strain_at_peak
@@ -214,9 +336,11 @@ int run_main(int argc, char** argv) {
   std::cout << "  contact " << scene.contact.activation;
   if (solver.contacts.enabled()) {
     const fdem::ContactTimes& ct = solver.contacts.times;
-    std::cout << ": " << s.last.active_tets << " of " << solver.model().tet_nodes.size() << " tets active, "
-              << s.last.contact_pairs << " candidate pairs, " << ct.rebuilds << " broad-phase builds; wall time broad "
-              << ct.broad << " s, narrow " << ct.narrow << " s, friction " << ct.friction << " s";
+    const long tets = solver.distributed() ? solver.decomposition().global_tets : long(solver.model().tet_nodes.size());
+    std::cout << ": " << s.last.active_tets << " of " << tets << " tets active, " << s.last.contact_pairs
+              << " candidate pairs, " << ct.rebuilds << " broad-phase builds; wall time broad " << ct.broad
+              << " s, narrow " << ct.narrow << " s, friction " << ct.friction << " s"
+              << (solver.distributed() ? " (rank 0)" : "");
   }
   std::cout << "\n  outputs in " << s.folder
             << ": monitors.csv, summary.csv, stress_strain.png, fields.xdmf (open in ParaView; frames labelled "
@@ -228,28 +352,28 @@ int run_main(int argc, char** argv) {
 
 int main(int argc, char** argv) {
   MPI_Init(&argc, &argv);
-  int size = 1, code = 0;
-  MPI_Comm_size(MPI_COMM_WORLD, &size);
+  const int size = world_size();
+  // Several ranks: a message names its rank, and a rank that fails ends the whole job at once
+  // (MPI_Abort), since the others would wait for it in the next exchange.
+  const std::string who = size > 1 ? "rank " + std::to_string(world_rank()) + ": " : "";
+  int code = 0;
+  std::string message;
   try {
-    if (size > 1)
-      throw fdem::InputError("fdem runs on one MPI rank for now (got " + std::to_string(size) +
-                             "); multi-rank distribution is not built yet: run without mpiexec or with -n 1");
     code = run_main(argc, argv);
   } catch (const fdem::InputError& e) {
-    std::cerr << "error: " << e.what() << std::endl;
-    code = 2;
+    message = "error: " + std::string(e.what()), code = 2;
   } catch (const fdem::OutputError& e) {
-    std::cerr << "output failed: " << e.what() << std::endl;
-    code = 4;
+    message = "output failed: " + std::string(e.what()), code = 4;
   } catch (const fdem::RunError& e) {
-    std::cerr << "run stopped: " << e.what() << std::endl;
-    code = 3;
+    message = "run stopped: " + std::string(e.what()), code = 3;
   } catch (const fdem::Interrupted& e) {
-    std::cerr << "interrupted: " << e.what() << std::endl;
-    code = 5;
+    message = "interrupted: " + std::string(e.what()), code = 5;
   } catch (const std::exception& e) {
-    std::cerr << "error: " << e.what() << std::endl;
-    code = 1;
+    message = "error: " + std::string(e.what()), code = 1;
+  }
+  if (!message.empty()) {
+    std::cerr << who << message << std::endl;
+    if (size > 1) MPI_Abort(MPI_COMM_WORLD, code);
   }
   MPI_Finalize();
   return code;

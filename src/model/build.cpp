@@ -70,6 +70,26 @@ Colouring colour_elements(const std::vector<std::array<int, K>>& elems, std::siz
 
 }  // namespace
 
+VertexTets::VertexTets(const Model& m) {
+  int nv = 0;
+  for (int v : m.node_vertex) nv = std::max(nv, v + 1);
+  ptr.assign(nv + 1, 0);
+  for (const auto& q : m.tet_nodes)
+    for (int n : q) ++ptr[m.node_vertex[n] + 1];
+  for (int i = 0; i < nv; ++i) ptr[i + 1] += ptr[i];
+  tets.resize(ptr[nv]);
+  std::vector<int> fill(ptr.begin(), ptr.end() - 1);
+  for (int t = 0; t < int(m.tet_nodes.size()); ++t)
+    for (int n : m.tet_nodes[t]) tets[fill[m.node_vertex[n]]++] = t;
+}
+
+Colouring colour_tets(const std::vector<std::array<int, 4>>& tets, std::size_t n_nodes) {
+  return colour_elements(tets, n_nodes, "TET4");
+}
+Colouring colour_ce6(const std::vector<std::array<int, 6>>& ce6, std::size_t n_nodes) {
+  return colour_elements(ce6, n_nodes, "CE6");
+}
+
 Model build_model(const Mesh& mesh, const Scene& scene) {
   const Material& mat = scene.material;
   const SolverSettings& sol = scene.solver;
@@ -295,8 +315,8 @@ Model build_model(const Mesh& mesh, const Scene& scene) {
       m.lateral_nodes.push_back(int(n));
   }
 
-  m.tet_colours = colour_elements(m.tet_nodes, nn, "TET4");
-  m.ce6_colours = colour_elements(m.ce6_nodes, nn, "CE6");
+  m.tet_colours = colour_tets(m.tet_nodes, nn);
+  m.ce6_colours = colour_ce6(m.ce6_nodes, nn);
   return m;
 }
 

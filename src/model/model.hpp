@@ -69,4 +69,15 @@ struct Model {
 /// Throws InputError for inverted or degenerate tets and non-manifold faces.
 Model build_model(const Mesh& mesh, const Scene& scene);
 
+/// Mesh vertex -> the tets touching it (CSR): tets ptr[v] .. ptr[v+1]-1 of `tets`.
+struct VertexTets {
+  std::vector<int> ptr, tets;
+  explicit VertexTets(const Model& m);
+};
+
+/// Greedy colourings of tets and CE6s over n_nodes nodes (used by the build and by the
+/// per-rank models of partition/); InputError past 64 colours.
+Colouring colour_tets(const std::vector<std::array<int, 4>>& tets, std::size_t n_nodes);
+Colouring colour_ce6(const std::vector<std::array<int, 6>>& ce6, std::size_t n_nodes);
+
 }  // namespace fdem

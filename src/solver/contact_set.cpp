@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/error.hpp"
 #include "core/gather.hpp"
 #include "io/checkpoint.hpp"
 
@@ -29,16 +30,9 @@ ContactSet::ContactSet(const Model& m, const Scene& s) {
   const int nt = int(m.tet_nodes.size());
 
   // Mesh vertex -> tets (CSR), for the vicinity of a broken CE6.
-  int nv = 0;
-  for (int vtx : m.node_vertex) nv = std::max(nv, vtx + 1);
-  vertex_tet_ptr_.assign(nv + 1, 0);
-  for (const auto& q : m.tet_nodes)
-    for (int n : q) ++vertex_tet_ptr_[m.node_vertex[n] + 1];
-  for (int i = 0; i < nv; ++i) vertex_tet_ptr_[i + 1] += vertex_tet_ptr_[i];
-  vertex_tets_.resize(vertex_tet_ptr_[nv]);
-  std::vector<int> fill(vertex_tet_ptr_.begin(), vertex_tet_ptr_.end() - 1);
-  for (int t = 0; t < nt; ++t)
-    for (int n : m.tet_nodes[t]) vertex_tets_[fill[m.node_vertex[n]]++] = t;
+  VertexTets vt(m);
+  vertex_tet_ptr_ = std::move(vt.ptr);
+  vertex_tets_ = std::move(vt.tets);
 
   tet_ce6_.assign(nt, {-1, -1, -1, -1});
   for (int c = 0; c < int(m.ce6_tets.size()); ++c)
@@ -64,6 +58,32 @@ ContactSet::ContactSet(const Model& m, const Scene& s) {
         if (loaded[n]) active_[t] = 1;
   }
   active_count_ = std::count(active_.begin(), active_.end(), 1);
+}
+
+void ContactSet::set_ownership(const std::vector<std::uint8_t>* node_owned, const std::vector<std::uint8_t>* tet_owned,
+                               real reach) {
+  node_owned_ = node_owned;
+  tet_owned_ = tet_owned;
+  reach_ = reach;
+}
+
+void ContactSet::flags_changed() {
+  active_count_ = std::count(active_.begin(), active_.end(), 1);
+  dirty_ = true;
+}
+
+long ContactSet::owned_active_count() const {
+  if (!tet_owned_) return active_count_;
+  long k = 0;
+  for (std::size_t t = 0; t < active_.size(); ++t) k += active_[t] && (*tet_owned_)[t];
+  return k;
+}
+
+long ContactSet::owned_pair_count() const {
+  if (!tet_owned_) return long(pairs_.size());
+  long k = 0;
+  for (const ContactPair& p : pairs_) k += pair_counts(p);
+  return k;
 }
 
 long ContactSet::activate_ce6(const Model& m, int c) {
@@ -101,6 +121,26 @@ void ContactSet::rebuild(const Model& m, const std::vector<Vec3>& x) {
   ids.reserve(active_count_);
   for (int t = 0; t < nt; ++t)
     if (active_[t]) ids.push_back(t);
+  if (tet_owned_) {
+    // A rank holds the tets within reach_ of its own (reference configuration): a tet it lacks
+    // can touch one of its own only after some node has moved reach_/2.
+    const real lim2 = 0.25 * reach_ * reach_;
+    for (int t : ids) {
+      if (!(*tet_owned_)[t]) continue;
+      for (int n : m.tet_nodes[t]) {
+        const Vec3 d = x[n] - m.X[n];
+        if (dot(d, d) >= lim2)
+          throw RunError("tet-tet contact across ranks: a node of tet #" + std::to_string(m.tet_input[t] + 1) +
+                         " has moved " + std::to_string(std::sqrt(dot(d, d))) +
+                         " m from its reference position, "
+                         "half the contact reach " +
+                         std::to_string(reach_) +
+                         " m of the partition: partners "
+                         "beyond the reach, which this rank does not hold, could touch it. Fix: partition with a "
+                         "larger reach (--contact-reach of fdem run or fdem partition) or run on fewer ranks");
+      }
+    }
+  }
   std::vector<Aabb> boxes(nt);
   const real half = 0.5 * buffer_;
   const int na = int(ids.size());
@@ -185,8 +225,11 @@ real ContactSet::power(const Model& m, const std::vector<Vec3>& v) const {
 #pragma omp parallel for schedule(static) reduction(+ : p)
   for (int k = 0; k < np; ++k) {
     const Vec3* fp = &pair_force_[8 * k];
-    for (int i = 0; i < 4; ++i)
-      p -= dot(fp[i], v[m.tet_nodes[pairs_[k].a][i]]) + dot(fp[4 + i], v[m.tet_nodes[pairs_[k].b][i]]);
+    for (int i = 0; i < 4; ++i) {
+      const int na = m.tet_nodes[pairs_[k].a][i], nb = m.tet_nodes[pairs_[k].b][i];
+      if (node_counts(na)) p -= dot(fp[i], v[na]);
+      if (node_counts(nb)) p -= dot(fp[4 + i], v[nb]);
+    }
   }
   return p;
 }
@@ -215,7 +258,7 @@ ContactPower ContactSet::add_forces(const Model& m, const std::vector<Vec3>& x, 
     gather(x, m.tet_nodes[cp.a], xa);
     gather(x, m.tet_nodes[cp.b], xb);
     eval_[p] = contact_tet_pair(xa, xb, penalty_, fa, fb);
-    touching += eval_[p].weight > 0;
+    touching += eval_[p].weight > 0 && pair_counts(cp);
     for (int i = 0; i < 4; ++i) fp[i] = fa[i], fp[4 + i] = fb[i];
   }
   double t2 = omp_get_wtime();
@@ -236,8 +279,11 @@ ContactPower ContactSet::add_forces(const Model& m, const std::vector<Vec3>& x, 
     gather(v, m.tet_nodes[cp.b], vb);
     for (int i = 0; i < 4; ++i) fa[i] = fb[i] = Vec3{0, 0, 0};
     const real k_t = contact_tangential_stiffness(xa, xb, penalty_);
-    dissipated += contact_friction(xa, xb, va, vb, eval_[p], mu_, k_t, dt, spring[p], fa, fb);
-    stored += 0.5 * k_t * dot(spring[p], spring[p]);
+    const real d = contact_friction(xa, xb, va, vb, eval_[p], mu_, k_t, dt, spring[p], fa, fb);
+    if (pair_counts(cp)) {
+      dissipated += d;
+      stored += 0.5 * k_t * dot(spring[p], spring[p]);
+    }
     Vec3* fp = &pair_force_[8 * p];
     for (int i = 0; i < 4; ++i) {
       fp[i] += fa[i];

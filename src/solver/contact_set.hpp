@@ -59,6 +59,20 @@ class ContactSet {
   /// Rebuild the candidate list at the next evaluation (as after an activation change).
   void request_rebuild() { dirty_ = true; }
 
+  /// A rank's part of a decomposed model (partition/): energies, powers and counts then take
+  /// node terms of owned nodes and pairs whose first tet is owned. The rank holds every tet
+  /// within `reach` (m, reference configuration) of its own; each build checks that no node of
+  /// an owned active tet has moved reach/2 or more, so no partner it lacks can touch. The
+  /// vectors must outlive the set.
+  void set_ownership(const std::vector<std::uint8_t>* node_owned, const std::vector<std::uint8_t>* tet_owned,
+                     real reach);
+  /// The activation flags, for the exchange between ranks; call flags_changed() after raising any.
+  std::vector<std::uint8_t>& active_flags() { return active_; }
+  void flags_changed();
+  /// Owned active tets and owned candidate pairs (all of them on one rank).
+  long owned_active_count() const;
+  long owned_pair_count() const;
+
   const std::vector<std::uint8_t>& active() const { return active_; }
   long active_count() const { return active_count_; }
   long pair_count() const { return long(pairs_.size()); }
@@ -78,6 +92,12 @@ class ContactSet {
  private:
   void rebuild(const Model& m, const std::vector<Vec3>& x);
   bool moved_too_far(const std::vector<Vec3>& x) const;
+
+  const std::vector<std::uint8_t>* node_owned_ = nullptr;
+  const std::vector<std::uint8_t>* tet_owned_ = nullptr;
+  real reach_ = 0;
+  bool node_counts(int n) const { return !node_owned_ || (*node_owned_)[n]; }
+  bool pair_counts(const ContactPair& p) const { return !tet_owned_ || (*tet_owned_)[p.a]; }
 
   bool enabled_ = false;
   real penalty_ = 0, mu_ = 0, buffer_ = 0;

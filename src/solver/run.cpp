@@ -171,6 +171,30 @@ void write_frame(FieldWriter& w, const Solver& s, real time, long step, const st
     fr.extra.push_back({"active", &active});
   }
   fr.extra.insert(fr.extra.end(), more.begin(), more.end());
+  if (!s.distributed()) {
+    w.write(fr);
+    return;
+  }
+  // Several ranks: this rank's own tets only (ghosts are written by their owners), and the
+  // rank of each tet as a field.
+  const std::vector<std::uint8_t>& own = s.owned_tets();
+  std::vector<std::array<int, 4>> tets;
+  std::vector<Sym3> st;
+  std::vector<real> vm_own, rank;
+  std::vector<std::vector<real>> extra(fr.extra.size());
+  for (std::size_t t = 0; t < own.size(); ++t) {
+    if (!own[t]) continue;
+    tets.push_back(s.model().tet_nodes[t]);
+    st.push_back(stress[t]);
+    vm_own.push_back(vm[t]);
+    for (std::size_t k = 0; k < extra.size(); ++k) extra[k].push_back((*fr.extra[k].values)[t]);
+  }
+  rank.assign(tets.size(), real(s.rank()));
+  fr.tets = &tets;
+  fr.stress = &st;
+  fr.von_mises = &vm_own;
+  for (std::size_t k = 0; k < extra.size(); ++k) fr.extra[k].values = &extra[k];
+  fr.extra.push_back({"rank", &rank});
   w.write(fr);
 }
 
@@ -211,6 +235,60 @@ void write_diagnostic(FieldWriter& w, const Solver& s) {
   } catch (const std::exception&) {
     // Nothing more to show; the frames written before remain valid.
   }
+}
+
+/// Several ranks: each writes its own tets to fields_rank<r>.{h5,xdmf}; rank 0 writes fields.xdmf,
+/// which shows every rank's grids in each frame (the per-rank "rock" and "cracks" grids of a
+/// frame side by side, renamed rock_rank<r> and cracks_rank<r>). Collective; the frames must be
+/// the same on every rank (they are: their labels and steps follow the global monitors).
+void write_merged_index(const FieldWriter& w, const Solver& s, const std::string& folder) {
+  std::string mine;
+  for (const std::string& g : w.state().grids) mine += g + '\x1e';
+  int len = int(mine.size());
+  const int size = s.decomposition().size, root = s.rank() == 0;
+  std::vector<int> lens(size), offs(size + 1, 0);
+  MPI_Gather(&len, 1, MPI_INT, lens.data(), 1, MPI_INT, 0, s.comm());
+  for (int r = 0; r < size; ++r) offs[r + 1] = offs[r] + lens[r];
+  std::string all(root ? offs[size] : 0, '\0');
+  MPI_Gatherv(mine.data(), len, MPI_CHAR, all.data(), lens.data(), offs.data(), MPI_CHAR, 0, s.comm());
+  if (!root) return;
+  std::vector<std::vector<std::string>> grids(size);  // [rank][frame]
+  for (int r = 0; r < size; ++r) {
+    std::stringstream in(all.substr(offs[r], lens[r]));
+    for (std::string g; std::getline(in, g, '\x1e');) grids[r].push_back(g);
+  }
+  std::string text =
+      "<?xml version=\"1.0\" encoding=\"utf-8\"?>\n"
+      "<Xdmf xmlns:xi=\"http://www.w3.org/2001/XInclude\" Version=\"3.0\">\n"
+      "  <Domain>\n"
+      "  <Grid Name=\"fdem\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
+  for (std::size_t i = 0; i < grids[0].size(); ++i) {
+    // Head (the frame's collection, time, step, label) from rank 0; the inner grids of all.
+    const std::string& g0 = grids[0][i];
+    std::size_t head = 0;
+    for (int l = 0; l < 4; ++l) head = g0.find('\n', head) + 1;
+    text += g0.substr(0, head);
+    for (int r = 0; r < size; ++r) {
+      if (i >= grids[r].size())
+        throw OutputError("field output: rank " + std::to_string(r) + " lacks frame " + std::to_string(i) +
+                          " of the merged index");
+      const std::string& g = grids[r][i];
+      std::size_t b = 0;
+      for (int l = 0; l < 4; ++l) b = g.find('\n', b) + 1;
+      const std::size_t e = g.rfind("    </Grid>");
+      std::string inner = g.substr(b, e - b);
+      for (const char* name : {"rock", "cracks"}) {
+        const std::string from = std::string("<Grid Name=\"") + name + "\"";
+        const std::size_t at = inner.find(from);
+        if (at != std::string::npos)
+          inner.replace(at, from.size(), std::string("<Grid Name=\"") + name + "_rank" + std::to_string(r) + "\"");
+      }
+      text += inner;
+    }
+    text += "    </Grid>\n";
+  }
+  text += "  </Grid>\n  </Domain>\n</Xdmf>\n";
+  write_file_atomically((std::filesystem::path(folder) / "fields.xdmf").string(), text);
 }
 
 /// Keeps what the pre-peak and peak frames need: the state at the running maximum of the axial
@@ -395,10 +473,20 @@ bool run_python_script(const std::string& script, std::vector<std::string> args)
 void report_model(const Solver& solver, std::ostream& out) {
   const Model& m = solver.model();
   const StableStep& st = solver.stable_step();
-  out << "model " << m.source << "\n"
-      << "  tets " << m.tet_nodes.size() << ", CE6 " << m.ce6_nodes.size() << ", nodes " << m.X.size()
-      << ", surface faces " << m.surface_faces.size() << "\n"
-      << "  height " << m.height0 << " m, loaded area " << m.area0 << " m^2, mean edge " << m.mean_edge
+  const Decomposition& dd = solver.decomposition();
+  if (dd.distributed()) {
+    long own = 0;
+    for (auto o : dd.tet_owned) own += o;
+    out << "model " << m.source << "\n"
+        << "  tets " << dd.global_tets << ", CE6 " << dd.global_ce6 << ", nodes " << dd.global_nodes << " on "
+        << dd.size << " MPI ranks (contact reach " << dd.reach << " m); rank " << dd.rank << " holds " << own
+        << " own and " << m.tet_nodes.size() - own << " ghost tets, " << m.X.size() << " nodes\n";
+  } else {
+    out << "model " << m.source << "\n"
+        << "  tets " << m.tet_nodes.size() << ", CE6 " << m.ce6_nodes.size() << ", nodes " << m.X.size()
+        << ", surface faces " << m.surface_faces.size() << "\n";
+  }
+  out << "  height " << m.height0 << " m, loaded area " << m.area0 << " m^2, mean edge " << m.mean_edge
       << " m, minimum altitude " << m.min_altitude << " m\n"
       << "  stable step " << st.dt / solver.scene().solver.time_step_safety << " s limited by " << st.limit << " (TET4 "
       << st.dt_tet << " s, CE6 " << st.dt_ce6 << " s, platens " << st.dt_platen << " s, contact " << st.dt_contact
@@ -417,8 +505,15 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
   std::error_code ec;
   fs::create_directories(out.folder, ec);
   if (ec) throw InputError(scene.file + ": output.folder: cannot create '" + out.folder + "': " + ec.message());
-  const std::string csv_path = (fs::path(out.folder) / "monitors.csv").string();
+  // Several ranks: rank 0 writes the monitors and the summary, every rank its own field files.
+  const bool dist = solver.distributed(), root = solver.rank() == 0;
+  const std::string csv_path = root ? (fs::path(out.folder) / "monitors.csv").string() : "/dev/null";
   const std::string ckpt_dir = (fs::path(out.folder) / "checkpoints").string();
+  const std::string fields_name = dist ? "fields_rank" + std::to_string(solver.rank()) : "fields";
+  if (dist && !options.restart.empty())
+    throw InputError(
+        "--restart: continuing a run of several MPI ranks is not built yet. Fix: rerun it, or run it "
+        "on one rank");
 
   // Everything the loop below carries from step to step, besides the solver.
   Monitors mon;
@@ -472,7 +567,7 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
              "checkpoint. Fix: restart with output.folder (or -o) set to the folder of the interrupted run");
         continue;
       }
-      if (!fs::is_regular_file(fs::path(out.folder) / "fields.h5", ec)) {
+      if (!fs::is_regular_file(fs::path(out.folder) / "fields.h5", ec)) {  // (one rank only here)
         skip(file + ": " + (fs::path(out.folder) / "fields.h5").string() + " is missing");
         continue;
       }
@@ -491,14 +586,23 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
     if (!csv.f.is_open()) throw InputError("--restart " + options.restart + ": no usable checkpoint:" + problems);
   } else {
     // A fresh run: checkpoints of an earlier run in this folder belong to files it replaces.
-    fs::remove_all(ckpt_dir, ec);
+    if (root) fs::remove_all(ckpt_dir, ec);
     csv.f.open(csv_path);
   }
   if (!csv.f) throw InputError(scene.file + ": output.folder: cannot write '" + csv_path + "'");
   if (!fields) {
     csv.put(std::string(kCsvHeader) + "\n");
-    fields = std::make_unique<FieldWriter>(out.folder, "fields");
+    fields = std::make_unique<FieldWriter>(out.folder, fields_name);
   }
+  // Several ranks: the merged index after every change of the frames (collective).
+  int merged_frames = 0;
+  auto merge_index = [&] {
+    if (!dist || fields->frames() == merged_frames) return;
+    write_merged_index(*fields, solver, out.folder);
+    merged_frames = fields->frames();
+  };
+  if (dist && root && (out.checkpoint_interval > 0 || out.checkpoint_wall_interval > 0))
+    log << "note: checkpoints are not written in runs of several MPI ranks yet (output.checkpoint_*)" << std::endl;
 
   // Expected number of steps, for the ETA and the automatic field interval.
   const real dt = solver.dt();
@@ -549,11 +653,14 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
     log << "checkpoint (" << why << "): " << path << std::endl;
     return path;
   };
-  SignalGuard signals;
+  // One rank: SIGTERM writes a checkpoint first. Several: the default action ends the job.
+  std::optional<SignalGuard> signals;
+  if (!dist) signals.emplace();
   if (options.restart.empty()) {
     mon = solver.measure();
     csv.put(monitor_row(mon));
     write_frame(*fields, solver, "initial");
+    merge_index();
   }
   try {
     for (;;) {
@@ -581,6 +688,7 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
         }
       }
       if (n % field_interval == 0) write_frame(*fields, solver, "");
+      merge_index();
       const real strain = solver.top_offset / solver.model().height0;
       std::string reason;
       if (end.steps > 0 && n >= end.steps) reason = "step count " + std::to_string(end.steps) + " reached";
@@ -607,7 +715,8 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
         sum.end_reason = reason;
         break;
       }
-      // Checkpoints: by steps, by wall time, or asked for by a signal.
+      // Checkpoints: by steps, by wall time, or asked for by a signal (one rank only).
+      if (dist) continue;
       const int request = g_signal_request.exchange(0);
       if (request == 2) {
         const std::string path = checkpoint("signal");
@@ -640,6 +749,7 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
   csv.f.close();
   if (!csv.f) throw OutputError("cannot write " + csv_path + " (disk full or file removed?)");
   write_frame(*fields, solver, "final");
+  merge_index();
   sum.steps = solver.step_count();
   sum.time = solver.time();
   sum.wall_seconds = wall_before + elapsed();
@@ -650,7 +760,7 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
     solver.broken_faces(faces, mode);
     sum.fracture = fracture_pattern(faces, mode, {0, 0, 1});
   }
-  if (out.plot) {
+  if (out.plot && root) {
     const std::string png = (fs::path(out.folder) / "stress_strain.png").string();
     if (!run_python_script("plot_curves.py", {csv_path, png, "--title", scene.name}))
       log << "warning: could not plot " << png << " (needs python3-matplotlib); the curves are in " << csv_path
@@ -658,14 +768,34 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
   }
   {
     // The broken CE6s by id (the fracture pattern, for comparisons such as `fdem study`).
-    const std::string path = (fs::path(out.folder) / "broken_ce6.csv").string();
-    std::ofstream o(path);
-    o << "ce6,mode\n";
+    // Global CE6 ids; several ranks send theirs (owned ones) to rank 0.
+    std::vector<long> broken;  // id, mode
     for (std::size_t i = 0; i < solver.ce6.size(); ++i)
-      if (solver.ce6[i].mode != 0) o << i << ',' << solver.ce6[i].mode << '\n';
-    if (!o) throw OutputError("cannot write " + path);
+      if (solver.ce6[i].mode != 0 && solver.owned_ce6()[i])
+        broken.insert(broken.end(), {dist ? solver.decomposition().ce6_global[i] : long(i), long(solver.ce6[i].mode)});
+    if (dist) {
+      const int size = solver.decomposition().size;
+      int len = int(broken.size());
+      std::vector<int> lens(size), offs(size + 1, 0);
+      MPI_Gather(&len, 1, MPI_INT, lens.data(), 1, MPI_INT, 0, solver.comm());
+      for (int r = 0; r < size; ++r) offs[r + 1] = offs[r] + lens[r];
+      std::vector<long> all(root ? offs[size] : 0);
+      MPI_Gatherv(broken.data(), len, MPI_LONG, all.data(), lens.data(), offs.data(), MPI_LONG, 0, solver.comm());
+      std::vector<std::array<long, 2>> rows;
+      for (std::size_t k = 0; k + 1 < all.size(); k += 2) rows.push_back({all[k], all[k + 1]});
+      std::sort(rows.begin(), rows.end());
+      broken.clear();
+      for (const auto& r : rows) broken.insert(broken.end(), {r[0], r[1]});
+    }
+    if (root) {
+      const std::string path = (fs::path(out.folder) / "broken_ce6.csv").string();
+      std::ofstream o(path);
+      o << "ce6,mode\n";
+      for (std::size_t k = 0; k + 1 < broken.size(); k += 2) o << broken[k] << ',' << broken[k + 1] << '\n';
+      if (!o) throw OutputError("cannot write " + path);
+    }
   }
-  write_summary((fs::path(out.folder) / "summary.csv").string(), scene, sum);
+  if (root) write_summary((fs::path(out.folder) / "summary.csv").string(), scene, sum);
   return sum;
 }
 

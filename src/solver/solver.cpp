@@ -18,7 +18,8 @@
 
 namespace fdem {
 
-Solver::Solver(const Scene& scene, Model model) : scene_(scene), model_(std::move(model)) {
+Solver::Solver(const Scene& scene, Model model, Decomposition dd, MPI_Comm comm)
+    : scene_(scene), model_(std::move(model)), dd_(std::move(dd)), comm_(comm) {
   const Material& mat = scene_.material;
   const SolverSettings& sol = scene_.solver;
   if (sol.threads > 0) omp_set_num_threads(sol.threads);
@@ -36,7 +37,25 @@ Solver::Solver(const Scene& scene, Model model) : scene_(scene), model_(std::mov
     const Vec3 p = model_.X[model_.platen_nodes[i]];
     platen_anchor[i] = {p.x, p.y, 0};
   }
+  if (dd_.distributed()) {
+    int size = 1;
+    MPI_Comm_size(comm_, &size);
+    if (size != dd_.size || dd_.node_owned.size() != nn || dd_.tet_owned.size() != model_.tet_nodes.size() ||
+        dd_.ce6_owned.size() != model_.ce6_nodes.size())
+      throw InputError("the model is partitioned for " + std::to_string(dd_.size) + " ranks but runs on " +
+                       std::to_string(size) + " (or its decomposition does not match it). Fix: run with mpiexec -n " +
+                       std::to_string(dd_.size) + ", or partition again for " + std::to_string(size) + " ranks");
+    own_node_ = dd_.node_owned;
+    own_tet_ = dd_.tet_owned;
+    own_ce6_ = dd_.ce6_owned;
+    halo_ = std::make_unique<Halo>(comm_, dd_);
+  } else {
+    own_node_.assign(nn, 1);
+    own_tet_.assign(model_.tet_nodes.size(), 1);
+    own_ce6_.assign(model_.ce6_nodes.size(), 1);
+  }
   contacts = ContactSet(model_, scene_);
+  if (dd_.distributed()) contacts.set_ownership(&own_node_, &own_tet_, dd_.reach);
   ce6_broke_.assign(model_.ce6_nodes.size(), 0);
   inv_mass_.resize(nn);
   for (std::size_t n = 0; n < nn; ++n) inv_mass_[n] = 1 / model_.mass[n];
@@ -69,7 +88,8 @@ Solver::Solver(const Scene& scene, Model model) : scene_(scene), model_(std::mov
     lateral_force_.assign(lateral_faces_.size(), Vec3{0, 0, 0});
   }
   real volume = 0;
-  for (real V : model_.tet_V0) volume += V;
+  for (std::size_t t = 0; t < model_.tet_V0.size(); ++t) volume += own_tet_[t] * model_.tet_V0[t];
+  sum(&volume, 1);
   energy_floor_ = 1e-3 * mat.tensile_strength * mat.tensile_strength / (2 * mat.youngs_modulus) * volume;
   compute_forces();
 }
@@ -126,6 +146,7 @@ StableStep Solver::stable_step_bound() const {
   st.dt = st.dt_tet = st.dt_ce6 = st.dt_platen = st.dt_contact = 1e300;
   std::size_t lim = 0;
   for (std::size_t n = 0; n < nn; ++n) {
+    if (!own_node_[n]) continue;  // a ghost's row lacks the elements beyond this rank
     const real dt = damped_stable_step(w2_tet[n] + g_ce6[n] + g_platen[n] + g_con[n], c_tet[n]);
     if (dt < st.dt) st.dt = dt, lim = n;
     st.dt_tet = std::min(st.dt_tet, damped_stable_step(w2_tet[n], c_tet[n]));
@@ -135,9 +156,25 @@ StableStep Solver::stable_step_bound() const {
   }
   const real w2 = w2_tet[lim] + g_ce6[lim] + g_platen[lim] + g_con[lim];
   auto pct = [&](real part) { return std::to_string(int(std::lround(100 * part / w2))) + " %"; };
-  st.limit = "node " + std::to_string(lim + 1) + " (its squared frequency: TET4 " + pct(w2_tet[lim]) +
+  const long lim_id = dd_.distributed() ? dd_.node_global[lim] : long(lim);
+  st.limit = "node " + std::to_string(lim_id + 1) + " (its squared frequency: TET4 " + pct(w2_tet[lim]) +
              ", CE6 penalty " + fmt(P, 3) + " Pa " + pct(g_ce6[lim]) + ", platen " + pct(g_platen[lim]) + ", contact " +
              pct(g_con[lim]) + ")";
+  if (dd_.distributed()) {  // the smallest over the ranks, and the limit named by the rank that has it
+    struct {
+      double dt;
+      int rank;
+    } mine{st.dt, dd_.rank}, best{};
+    MPI_Allreduce(&mine, &best, 1, MPI_DOUBLE_INT, MPI_MINLOC, comm_);
+    real parts[4] = {st.dt_tet, st.dt_ce6, st.dt_platen, st.dt_contact};
+    MPI_Allreduce(MPI_IN_PLACE, parts, 4, MPI_DOUBLE, MPI_MIN, comm_);
+    st.dt = best.dt;
+    st.dt_tet = parts[0], st.dt_ce6 = parts[1], st.dt_platen = parts[2], st.dt_contact = parts[3];
+    int len = int(st.limit.size());
+    MPI_Bcast(&len, 1, MPI_INT, best.rank, comm_);
+    st.limit.resize(len);
+    MPI_Bcast(st.limit.data(), len, MPI_CHAR, best.rank, comm_);
+  }
   return st;
 }
 
@@ -161,7 +198,7 @@ void Solver::compute_forces() {
 #pragma omp parallel for schedule(static) reduction(+ : p_grav)
     for (int n = 0; n < n_nodes; ++n) {
       f[n] = m.mass[n] * g;
-      p_grav += dot(f[n], v[n]);
+      if (own_node_[n]) p_grav += dot(f[n], v[n]);
     }
   }
   p_gravity_ = p_grav;
@@ -183,7 +220,7 @@ void Solver::compute_forces() {
         if (jmin_tet < 0 || t < jmin_tet) jmin_tet = t, jmin = r.J;
       }
       for (int i = 0; i < 4; ++i) f[q[i]] += fe[i];
-      p_visc += r.viscous_power;
+      if (own_tet_[t]) p_visc += r.viscous_power;
     }
   }
   if (jmin_tet >= 0)
@@ -205,7 +242,7 @@ void Solver::compute_forces() {
       const bool was_broken = ce6_broken(ce6[i]);
       const Ce6Eval r = cohesive6_forces(ce6p_, xe, ve, m.ce6_h[i], ce6[i], fe);
       for (int j = 0; j < 6; ++j) f[q[j]] += fe[j];
-      (was_broken ? p_fric : p_coh) += r.power;
+      if (own_ce6_[i]) (was_broken ? p_fric : p_coh) += r.power;
       if (!was_broken && ce6_broken(ce6[i])) ce6_broke_[i] = 1, ++breaks;
     }
   }
@@ -219,6 +256,9 @@ void Solver::compute_forces() {
         contacts.activate_ce6(m, i);
       }
   }
+  // A flag raised on any rank holding a tet reaches every other rank holding it, before the
+  // broad phase looks at the flags.
+  if (halo_ && contacts.enabled() && halo_->merge_flags(contacts.active_flags())) contacts.flags_changed();
   const ContactPower cp = contacts.add_forces(m, x, v, ce6, dt_, f);
   p_contact_ = cp.power;
   w_contact_slip_ += cp.dissipated;
@@ -244,6 +284,13 @@ void Solver::compute_forces() {
       dfric += r.dissipated;
     }
   }
+  // The whole model's sums (one reduction per step for all of them).
+  real sums[] = {ftop, fbot, dfric, p_visc, p_coh, p_fric, cp.dissipated, cp.spring_energy, real(cp.touching)};
+  sum(sums, 9);
+  ftop = sums[0], fbot = sums[1], dfric = sums[2], p_visc = sums[3], p_coh = sums[4], p_fric = sums[5];
+  w_contact_slip_ += sums[6] - cp.dissipated;
+  contact_spring_ = sums[7];
+  touching_ = long(sums[8]);
   force_top_ = ftop;
   force_bottom_ = fbot;
 
@@ -278,22 +325,32 @@ real Solver::axial_stress() const {
 }
 
 real Solver::pressure_power(const std::vector<Vec3>& vel) const {
-  real p = 0;
+  real p = 0;  // this rank's owned nodes (summed over the ranks by the caller)
   for (std::size_t i = 0; i < lateral_faces_.size(); ++i)
-    for (int n : lateral_faces_[i]) p += dot(lateral_force_[i], vel[n]);
+    for (int n : lateral_faces_[i])
+      if (own_node_[n]) p += dot(lateral_force_[i], vel[n]);
   return p;
+}
+
+void Solver::sum(real* values, int n) const {
+  if (dd_.distributed()) sum_over_ranks(comm_, values, n);
 }
 
 void Solver::check_finite(long bad_nodes) const {
   if (bad_nodes == 0) return;
-  int first = 0;  // (a prescribed node counted as bad has had its velocity reset: then node 1)
+  int first = -1;  // (a prescribed node counted as bad has had its velocity reset: then none here)
   for (std::size_t n = 0; n < v.size(); ++n)
-    if (!std::isfinite(v[n].x + v[n].y + v[n].z)) {
+    if (own_node_[n] && !std::isfinite(v[n].x + v[n].y + v[n].z)) {
       first = int(n);
       break;
     }
+  if (first < 0)
+    throw RunError("step " + std::to_string(step_) + " (t = " + fmt(time_, 3) + " s): the velocity of " +
+                   std::to_string(bad_nodes) + " node(s) is no longer finite" +
+                   (dd_.distributed() ? " (on another rank)" : "") + ". The run is unstable. " + instability_advice());
   throw RunError("step " + std::to_string(step_) + " (t = " + fmt(time_, 3) + " s): the velocity of " +
-                 std::to_string(bad_nodes) + " node(s) is no longer finite (first: node " + std::to_string(first + 1) +
+                 std::to_string(bad_nodes) + " node(s) is no longer finite (first: node " +
+                 std::to_string((dd_.distributed() ? dd_.node_global[first] : long(first)) + 1) +
                  " at reference position " + fmt(model_.X[first].x, 3) + ", " + fmt(model_.X[first].y, 3) + ", " +
                  fmt(model_.X[first].z, 3) + " m). The run is unstable. " + instability_advice());
 }
@@ -345,7 +402,8 @@ void Solver::step() {
     real ke = 0;
     const int n_nodes = int(x.size());
 #pragma omp parallel for reduction(+ : ke)
-    for (int n = 0; n < n_nodes; ++n) ke += 0.5 * model_.mass[n] * dot(v[n], v[n]);
+    for (int n = 0; n < n_nodes; ++n) ke += own_node_[n] * 0.5 * model_.mass[n] * dot(v[n], v[n]);
+    sum(&ke, 1);
     initial_kinetic_ = ke;
   }
   // Energies of the interval [t, t+dt] from the forces at t.
@@ -360,7 +418,8 @@ void Solver::step() {
   const int nn = int(x.size());
 #pragma omp parallel for schedule(static) reduction(+ : bad, ke)
   for (int n = 0; n < nn; ++n) {
-    central_difference(x[n], v[n], f[n], inv_mass_[n], dt);
+    central_difference(x[n], v[n], f[n], inv_mass_[n], dt);  // ghosts too: overwritten below
+    if (!own_node_[n]) continue;
     bad += !std::isfinite(v[n].x + v[n].y + v[n].z);
     ke += model_.mass[n] * dot(v[n], v[n]);
   }
@@ -372,19 +431,31 @@ void Solver::step() {
         v[n][d] = fixed_velocity_[i][d];
       }
   }
-  check_finite(bad);
+  if (halo_) {  // ghosts take their owners' new positions and velocities
+    const double t0 = MPI_Wtime();
+    halo_->update_nodes(x, v);
+    halo_seconds_ += MPI_Wtime() - t0;
+  }
   // Contact forces are stiff and act over few steps: their work over the step is taken with
   // the mean of the velocities before and after it, which is exact for central differences.
-  if (contacts.enabled()) w_contact_ += 0.5 * dt * (p_contact_ + contacts.power(model_, v));
-  if (scene_.confinement.enabled) w_external_ += 0.5 * dt * (p_pressure_ + pressure_power(v));
-  // Gravity's work, the same way: its force at t with the mean of the two velocities.
+  // Pressure and gravity the same way: their force at t with the mean of the two velocities.
+  real w_con = 0, w_pre = 0, w_grav = 0;
+  if (contacts.enabled()) w_con = 0.5 * dt * (p_contact_ + contacts.power(model_, v));
+  if (scene_.confinement.enabled) w_pre = 0.5 * dt * (p_pressure_ + pressure_power(v));
   const Vec3 g = scene_.gravity;
   if (g.x != 0 || g.y != 0 || g.z != 0) {
     real p_new = 0;
 #pragma omp parallel for schedule(static) reduction(+ : p_new)
-    for (int n = 0; n < nn; ++n) p_new += model_.mass[n] * dot(g, v[n]);
-    w_external_ += 0.5 * dt * (p_gravity_ + p_new);
+    for (int n = 0; n < nn; ++n)
+      if (own_node_[n]) p_new += model_.mass[n] * dot(g, v[n]);
+    w_grav = 0.5 * dt * (p_gravity_ + p_new);
   }
+  real sums[] = {real(bad), ke, w_con, w_pre, w_grav};
+  sum(sums, 5);
+  check_finite(long(sums[0]));
+  ke = sums[1];
+  w_contact_ += sums[2];
+  w_external_ += sums[3] + sums[4];
   // After every work of this step is counted (pressure and gravity just above).
   check_runaway(0.5 * ke);
   top_offset += speed * dt;
@@ -407,26 +478,27 @@ Monitors Solver::measure() {
 #pragma omp parallel for reduction(+ : lat)
   for (int i = 0; i < nl; ++i) {
     const int n = m.lateral_nodes[i];
+    if (!own_node_[n]) continue;
     Vec3 rr = m.X[n] - m.axis_point;
     rr.z = 0;
     if (m.line_loaded) rr.y = 0;  // a disc: along its horizontal diameter
     const real r2 = dot(rr, rr);
     if (r2 > 0) lat += dot(x[n] - m.X[n], rr) / r2;
   }
-  r.lateral_strain = nl > 0 ? -lat / nl : 0;
-  r.volumetric_strain = r.axial_strain + 2 * r.lateral_strain;
+  real n_lateral = 0;
+  for (int n : m.lateral_nodes) n_lateral += own_node_[n];
 
   real ke = 0;
   const int nn = int(x.size());
 #pragma omp parallel for reduction(+ : ke)
-  for (int n = 0; n < nn; ++n) ke += 0.5 * m.mass[n] * dot(v[n], v[n]);
-  if (step_ == 0) initial_kinetic_ = ke;
+  for (int n = 0; n < nn; ++n) ke += own_node_[n] * 0.5 * m.mass[n] * dot(v[n], v[n]);
   real se = 0, lat_sv = 0, lat_v = 0;
   const int nt = int(m.tet_nodes.size());
   // Lateral stress in the middle third of the height (reference centroid), away from the ends.
   const real z_lo = m.box_min.z + (m.box_max.z - m.box_min.z) / 3, z_hi = m.box_max.z - (m.box_max.z - m.box_min.z) / 3;
 #pragma omp parallel for reduction(+ : se, lat_sv, lat_v)
   for (int t = 0; t < nt; ++t) {
+    if (!own_tet_[t]) continue;
     Vec3 xe[4], ve[4], fe[4];
     gather(x, m.tet_nodes[t], xe);
     gather(v, m.tet_nodes[t], ve);
@@ -440,12 +512,12 @@ Monitors Solver::measure() {
       lat_v += vol;
     }
   }
-  r.lateral_stress = lat_v > 0 ? lat_sv / lat_v : 0;
   real coh_stored = 0, fric_stored = 0;
   long damaged = 0, broken = 0, b1 = 0, b2 = 0, b3 = 0;
   const int nc = int(ce6.size());
 #pragma omp parallel for reduction(+ : coh_stored, fric_stored, damaged, broken, b1, b2, b3)
   for (int i = 0; i < nc; ++i) {
+    if (!own_ce6_[i]) continue;
     Vec3 xe[6], ve[6], fe[6];
     gather(x, m.ce6_nodes[i], xe);
     gather(v, m.ce6_nodes[i], ve);
@@ -477,6 +549,31 @@ Monitors Solver::measure() {
                        .stored;
     }
   }
+  // The whole model's sums (one reduction per monitor row).
+  real sums[] = {lat,
+                 n_lateral,
+                 ke,
+                 se,
+                 lat_sv,
+                 lat_v,
+                 coh_stored,
+                 fric_stored,
+                 real(damaged),
+                 real(broken),
+                 real(b1),
+                 real(b2),
+                 real(b3),
+                 pl_stored,
+                 real(contacts.owned_active_count()),
+                 real(contacts.owned_pair_count())};
+  sum(sums, 16);
+  lat = sums[0], n_lateral = sums[1], ke = sums[2], se = sums[3], lat_sv = sums[4], lat_v = sums[5];
+  coh_stored = sums[6], fric_stored = sums[7], pl_stored = sums[13];
+  damaged = long(sums[8]), broken = long(sums[9]), b1 = long(sums[10]), b2 = long(sums[11]), b3 = long(sums[12]);
+  r.lateral_strain = n_lateral > 0 ? -lat / n_lateral : 0;
+  r.volumetric_strain = r.axial_strain + 2 * r.lateral_strain;
+  if (step_ == 0) initial_kinetic_ = ke;
+  r.lateral_stress = lat_v > 0 ? lat_sv / lat_v : 0;
   r.damaged = damaged;
   r.broken = broken;
   r.broken_I = b1;
@@ -493,8 +590,8 @@ Monitors Solver::measure() {
   r.external_work = w_external_;
   r.contact_friction = w_contact_slip_ + contact_spring_;
   r.contact = w_contact_ - r.contact_friction;
-  r.active_tets = contacts.active_count();
-  r.contact_pairs = contacts.pair_count();
+  r.active_tets = long(sums[14]);
+  r.contact_pairs = long(sums[15]);
   r.contacts = touching_;
   r.confining_pressure = pressure_;
   // Brazilian test: axial_stress is P / (D t) for a line-loaded disc.
@@ -540,6 +637,7 @@ void Solver::crack_faces(const std::vector<Ce6State>& cs, std::vector<std::array
   damage.clear();
   mode.clear();
   for (std::size_t i = 0; i < cs.size(); ++i) {
+    if (!own_ce6_[i]) continue;
     const real d = ce6_broken(cs[i]) ? 1 : ce6_max_damage(cs[i]);
     if (d <= 0) continue;
     const auto& q = model_.ce6_nodes[i];
@@ -553,10 +651,30 @@ void Solver::broken_faces(std::vector<std::array<Vec3, 3>>& corners, std::vector
   corners.clear();
   mode.clear();
   for (std::size_t i = 0; i < ce6.size(); ++i) {
-    if (!ce6_broken(ce6[i])) continue;
+    if (!own_ce6_[i] || !ce6_broken(ce6[i])) continue;
     const auto& q = model_.ce6_nodes[i];
     corners.push_back({model_.X[q[0]], model_.X[q[1]], model_.X[q[2]]});
     mode.push_back(ce6[i].mode);
+  }
+  if (!dd_.distributed()) return;
+  // Every rank's faces, in rank order (9 coordinates and the mode per face).
+  std::vector<double> mine;
+  for (std::size_t k = 0; k < corners.size(); ++k) {
+    for (const Vec3& c : corners[k]) mine.insert(mine.end(), {c.x, c.y, c.z});
+    mine.push_back(mode[k]);
+  }
+  int count = int(mine.size());
+  std::vector<int> counts(dd_.size), offsets(dd_.size + 1, 0);
+  MPI_Allgather(&count, 1, MPI_INT, counts.data(), 1, MPI_INT, comm_);
+  for (int r = 0; r < dd_.size; ++r) offsets[r + 1] = offsets[r] + counts[r];
+  std::vector<double> all(offsets[dd_.size]);
+  MPI_Allgatherv(mine.data(), count, MPI_DOUBLE, all.data(), counts.data(), offsets.data(), MPI_DOUBLE, comm_);
+  corners.clear();
+  mode.clear();
+  for (std::size_t k = 0; k + 10 <= all.size(); k += 10) {
+    corners.push_back({Vec3{all[k], all[k + 1], all[k + 2]}, Vec3{all[k + 3], all[k + 4], all[k + 5]},
+                       Vec3{all[k + 6], all[k + 7], all[k + 8]}});
+    mode.push_back(int(all[k + 9]));
   }
 }
 

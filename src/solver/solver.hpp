@@ -1,10 +1,15 @@
 #pragma once
 // The CPU backend's time loop: forces (TET4, CE6, platens), central-difference
 // integration, loading, measured outputs and the energy balance.
+#include <mpi.h>
+
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "model/model.hpp"
+#include "partition/halo.hpp"
+#include "partition/partition.hpp"
 #include "physics/cohesive6.hpp"
 #include "scene/scene.hpp"
 #include "solver/contact_set.hpp"
@@ -40,7 +45,24 @@ struct StableStep {
 
 class Solver {
  public:
-  Solver(const Scene& scene, Model model);
+  /// One rank: the whole model. Several: this rank's model and decomposition (partition/), and
+  /// the communicator of the ranks running it together (every rank calls step() and measure()
+  /// together; their results are the whole model's on every rank).
+  Solver(const Scene& scene, Model model, Decomposition dd = {}, MPI_Comm comm = MPI_COMM_SELF);
+  Solver(const Solver&) = delete;
+  Solver& operator=(const Solver&) = delete;
+
+  const Decomposition& decomposition() const { return dd_; }
+  bool distributed() const { return dd_.distributed(); }
+  int rank() const { return dd_.rank; }
+  MPI_Comm comm() const { return comm_; }
+  /// Per local node / tet / CE6: 1 where this rank owns it (all 1 on one rank).
+  const std::vector<std::uint8_t>& owned_nodes() const { return own_node_; }
+  const std::vector<std::uint8_t>& owned_tets() const { return own_tet_; }
+  const std::vector<std::uint8_t>& owned_ce6() const { return own_ce6_; }
+  /// Bytes and wall time of the node halo exchanges so far (0 on one rank).
+  std::size_t halo_bytes_per_step() const { return halo_ ? halo_->node_bytes_sent() : 0; }
+  double halo_seconds() const { return halo_seconds_; }
 
   const Model& model() const { return model_; }
   const Scene& scene() const { return scene_; }
@@ -94,6 +116,13 @@ class Solver {
 
   Scene scene_;
   Model model_;
+  Decomposition dd_;
+  MPI_Comm comm_ = MPI_COMM_SELF;
+  std::unique_ptr<Halo> halo_;
+  double halo_seconds_ = 0;
+  std::vector<std::uint8_t> own_node_, own_tet_, own_ce6_;
+  /// Sums values over the ranks in place (nothing on one rank).
+  void sum(real* values, int n) const;
   StableStep stable_;
   Ce6Params ce6p_{};
   real lambda_ = 0, mu_ = 0, dt_ = 0, time_ = 0;

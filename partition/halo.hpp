@@ -1,0 +1,37 @@
+#pragma once
+// Halo exchanges of a decomposed model (partition.hpp), non-blocking point to point with each
+// neighbour, host buffers. Every rank of the communicator must call each exchange together.
+#include <mpi.h>
+
+#include <cstdint>
+#include <vector>
+
+#include "core/vec.hpp"
+#include "partition/partition.hpp"
+
+namespace fdem {
+
+class Halo {
+ public:
+  Halo(MPI_Comm comm, const Decomposition& dd);
+  /// Owners send positions and velocities of their nodes to the ranks holding them as ghosts.
+  void update_nodes(std::vector<Vec3>& x, std::vector<Vec3>& v);
+  /// Activation flags: a tet flagged on any rank holding it is flagged on all of them.
+  /// Returns true when a flag was raised here.
+  bool merge_flags(std::vector<std::uint8_t>& flags);
+  /// Bytes this rank sends per node update (positions and velocities), for the benchmark.
+  std::size_t node_bytes_sent() const;
+  MPI_Comm comm() const { return comm_; }
+
+ private:
+  MPI_Comm comm_;
+  const Decomposition* dd_;
+  std::vector<std::vector<Vec3>> send_, recv_;
+  std::vector<std::vector<std::uint8_t>> fsend_, frecv_;
+  std::vector<MPI_Request> req_;
+};
+
+/// Sums n values over the ranks of comm in place (nothing to do on one rank).
+void sum_over_ranks(MPI_Comm comm, double* values, int n);
+
+}  // namespace fdem

@@ -1,0 +1,406 @@
+#include "partition/partition.hpp"
+
+#include <metis.h>
+
+#include <algorithm>
+#include <numeric>
+#include <unordered_map>
+
+#include "contact/broad_phase.hpp"
+#include "core/error.hpp"
+#include "io/checkpoint.hpp"
+
+namespace fdem {
+namespace {
+
+template <class T>
+std::vector<T> pick(const std::vector<T>& all, const std::vector<int>& ids) {
+  std::vector<T> out(ids.size());
+  for (std::size_t i = 0; i < ids.size(); ++i) out[i] = all[ids[i]];
+  return out;
+}
+
+}  // namespace
+
+std::vector<int> partition_tets(const Model& m, int parts) {
+  idx_t ne = idx_t(m.tet_nodes.size());
+  if (parts < 1 || idx_t(parts) > ne)
+    throw InputError("partition: " + std::to_string(parts) + " ranks for a model of " + std::to_string(ne) +
+                     " tets: every rank needs tets. Fix: run with at most " + std::to_string(ne) +
+                     " ranks (a few thousand tets per rank or more is sensible)");
+  std::vector<int> part(ne, 0);
+  if (parts == 1) return part;
+  // Mesh vertices (not split nodes): tets sharing a face are neighbours even across a CE6.
+  std::vector<idx_t> eptr(ne + 1), eind(4 * std::size_t(ne));
+  idx_t nv = 0;
+  for (idx_t t = 0; t < ne; ++t) {
+    eptr[t] = 4 * t;
+    for (int i = 0; i < 4; ++i) {
+      eind[4 * t + i] = m.node_vertex[m.tet_nodes[t][i]];
+      nv = std::max(nv, eind[4 * t + i] + 1);
+    }
+  }
+  eptr[ne] = 4 * ne;
+  idx_t ncommon = 3, nparts = parts, objval = 0;
+  idx_t options[METIS_NOPTIONS];
+  METIS_SetDefaultOptions(options);
+  options[METIS_OPTION_SEED] = 1;
+  options[METIS_OPTION_NUMBERING] = 0;
+  options[METIS_OPTION_CONTIG] = 1;
+  std::vector<idx_t> epart(ne), npart(nv);
+  int rc = METIS_PartMeshDual(&ne, &nv, eptr.data(), eind.data(), nullptr, nullptr, &ncommon, &nparts, nullptr, options,
+                              &objval, epart.data(), npart.data());
+  if (rc != METIS_OK) {  // contiguous parts are impossible for a mesh in pieces: try without
+    options[METIS_OPTION_CONTIG] = 0;
+    rc = METIS_PartMeshDual(&ne, &nv, eptr.data(), eind.data(), nullptr, nullptr, &ncommon, &nparts, nullptr, options,
+                            &objval, epart.data(), npart.data());
+  }
+  if (rc != METIS_OK)
+    throw InputError("partition: METIS failed (code " + std::to_string(rc) + ") for " + std::to_string(parts) +
+                     " parts of " + std::to_string(ne) + " tets");
+  std::vector<long> count(parts, 0);
+  for (idx_t t = 0; t < ne; ++t) part[t] = int(epart[t]), ++count[epart[t]];
+  for (int r = 0; r < parts; ++r)
+    if (count[r] == 0)
+      throw InputError("partition: rank " + std::to_string(r) + " of " + std::to_string(parts) +
+                       " received no tets (the model has " + std::to_string(ne) + "). Fix: run with fewer ranks");
+  return part;
+}
+
+real default_reach(const Model& m, const Scene& s) {
+  return s.contact.enabled() ? 2 * m.mean_edge : 0;
+}
+
+RankModel extract_rank(const Model& g, const std::vector<int>& part, int rank, int layers, real reach) {
+  const int nt = int(g.tet_nodes.size()), nn = int(g.X.size()), nc = int(g.ce6_nodes.size());
+  int size = 0;
+  for (int p : part) size = std::max(size, p + 1);
+  if (int(part.size()) != nt || rank < 0 || rank >= size)
+    throw InputError("partition: the partition does not match the model (" + std::to_string(part.size()) +
+                     " entries for " + std::to_string(nt) + " tets, rank " + std::to_string(rank) + ")");
+  const VertexTets vt(g);
+
+  // Node owner: the rank of the lowest-numbered tet holding the node.
+  std::vector<int> node_owner(nn, -1);
+  for (int t = 0; t < nt; ++t)
+    for (int n : g.tet_nodes[t])
+      if (node_owner[n] < 0) node_owner[n] = part[t];
+
+  // Tets each rank holds, with the ghost layer (0 = owned): breadth first over shared vertices.
+  // Ranks are visited one after another; a tet is held by few ranks, so keep (rank, layer) lists.
+  std::vector<std::vector<std::array<int, 2>>> held(nt);
+  {
+    std::vector<int> layer(nt, -1), frontier, next, touched;
+    for (int r = 0; r < size; ++r) {
+      frontier.clear();
+      touched.clear();
+      for (int t = 0; t < nt; ++t)
+        if (part[t] == r) layer[t] = 0, frontier.push_back(t), touched.push_back(t);
+      for (int k = 1; k <= layers; ++k) {
+        next.clear();
+        for (int t : frontier)
+          for (int n : g.tet_nodes[t]) {
+            const int vtx = g.node_vertex[n];
+            for (int j = vt.ptr[vtx]; j < vt.ptr[vtx + 1]; ++j) {
+              const int u = vt.tets[j];
+              if (layer[u] < 0) layer[u] = k, next.push_back(u), touched.push_back(u);
+            }
+          }
+        frontier.swap(next);
+      }
+      for (int t : touched) held[t].push_back({r, layer[t]}), layer[t] = -1;
+    }
+  }
+  // Contact ghosts: tets of another rank whose reference boxes come within reach.
+  if (reach > 0) {
+    std::vector<Aabb> boxes(nt);
+    std::vector<int> ids(nt);
+    for (int t = 0; t < nt; ++t) {
+      ids[t] = t;
+      Aabb b{g.X[g.tet_nodes[t][0]], g.X[g.tet_nodes[t][0]]};
+      for (int n : g.tet_nodes[t])
+        for (int d = 0; d < 3; ++d) b.lo[d] = std::min(b.lo[d], g.X[n][d]), b.hi[d] = std::max(b.hi[d], g.X[n][d]);
+      for (int d = 0; d < 3; ++d) b.lo[d] -= 0.5 * reach, b.hi[d] += 0.5 * reach;
+      boxes[t] = b;
+    }
+    std::vector<std::array<int, 2>> near;
+    find_box_pairs(boxes, ids, 0, near);
+    auto add = [&](int t, int r) {
+      for (const auto& h : held[t])
+        if (h[0] == r) return;
+      held[t].push_back({r, layers + 1});
+    };
+    for (const auto& p : near)
+      if (part[p[0]] != part[p[1]]) add(p[0], part[p[1]]), add(p[1], part[p[0]]);
+    for (auto& h : held) std::sort(h.begin(), h.end());  // by rank, as the lists below assume
+  }
+
+  RankModel out;
+  Decomposition& dd = out.dd;
+  dd.rank = rank;
+  dd.size = size;
+  dd.layers = layers;
+  dd.reach = reach;
+  dd.global_nodes = nn;
+  dd.global_tets = nt;
+  dd.global_ce6 = nc;
+
+  std::vector<int> tets, tet_local(nt, -1);
+  for (int t = 0; t < nt; ++t)
+    for (const auto& h : held[t])
+      if (h[0] == rank) {
+        tet_local[t] = int(tets.size());
+        tets.push_back(t);
+        dd.tet_layer.push_back(std::uint8_t(h[1]));
+      }
+  std::vector<char> node_in(nn, 0);
+  for (int t : tets)
+    for (int n : g.tet_nodes[t]) node_in[n] = 1;
+  std::vector<int> nodes, node_local(nn, -1);
+  for (int n = 0; n < nn; ++n)
+    if (node_in[n]) node_local[n] = int(nodes.size()), nodes.push_back(n);
+  std::vector<int> ce6s;
+  for (int c = 0; c < nc; ++c)
+    if (tet_local[g.ce6_tets[c][0]] >= 0 && tet_local[g.ce6_tets[c][1]] >= 0) ce6s.push_back(c);
+
+  Model& m = out.model;
+  m.X = pick(g.X, nodes);
+  m.mass = pick(g.mass, nodes);
+  // Mesh vertices renumbered densely (the contact vicinity indexes by vertex).
+  {
+    std::unordered_map<int, int> vmap;
+    m.node_vertex.resize(nodes.size());
+    for (std::size_t i = 0; i < nodes.size(); ++i) {
+      const int v = g.node_vertex[nodes[i]];
+      auto it = vmap.emplace(v, int(vmap.size())).first;
+      m.node_vertex[i] = it->second;
+    }
+  }
+  m.tet_nodes.resize(tets.size());
+  for (std::size_t i = 0; i < tets.size(); ++i)
+    for (int k = 0; k < 4; ++k) m.tet_nodes[i][k] = node_local[g.tet_nodes[tets[i]][k]];
+  m.tet_input = pick(g.tet_input, tets);
+  m.tet_Xinv = pick(g.tet_Xinv, tets);
+  m.tet_V0 = pick(g.tet_V0, tets);
+  m.tet_eta = pick(g.tet_eta, tets);
+  m.ce6_nodes.resize(ce6s.size());
+  m.ce6_tets.resize(ce6s.size());
+  for (std::size_t i = 0; i < ce6s.size(); ++i) {
+    for (int k = 0; k < 6; ++k) m.ce6_nodes[i][k] = node_local[g.ce6_nodes[ce6s[i]][k]];
+    for (int k = 0; k < 2; ++k) m.ce6_tets[i][k] = tet_local[g.ce6_tets[ce6s[i]][k]];
+  }
+  m.ce6_h = pick(g.ce6_h, ce6s);
+  for (std::size_t i = 0; i < g.surface_faces.size(); ++i)
+    if (tet_local[g.surface_tet[i]] >= 0) {
+      const auto& q = g.surface_faces[i];
+      m.surface_faces.push_back({node_local[q[0]], node_local[q[1]], node_local[q[2]]});
+      m.surface_tet.push_back(tet_local[g.surface_tet[i]]);
+    }
+  for (std::size_t i = 0; i < g.platen_nodes.size(); ++i) {
+    const int n = g.platen_nodes[i];
+    if (node_owner[n] != rank) continue;  // a platen acts on one node: its owner computes it
+    m.platen_nodes.push_back(node_local[n]);
+    m.platen_node_area.push_back(g.platen_node_area[i]);
+    m.platen_node_h.push_back(g.platen_node_h[i]);
+  }
+  auto group = [&](const std::vector<int>& all, std::vector<int>& mine) {
+    for (int n : all)
+      if (node_local[n] >= 0) mine.push_back(node_local[n]);
+  };
+  group(g.top_nodes, m.top_nodes);
+  group(g.bottom_nodes, m.bottom_nodes);
+  group(g.lateral_nodes, m.lateral_nodes);
+  m.box_min = g.box_min;
+  m.box_max = g.box_max;
+  m.axis_point = g.axis_point;
+  m.height0 = g.height0;
+  m.area0 = g.area0;
+  m.line_loaded = g.line_loaded;
+  m.min_altitude = g.min_altitude;
+  m.mean_edge = g.mean_edge;
+  m.source = g.source + " (rank " + std::to_string(rank) + " of " + std::to_string(size) + ")";
+  m.tet_colours = colour_tets(m.tet_nodes, nodes.size());
+  m.ce6_colours = colour_ce6(m.ce6_nodes, nodes.size());
+
+  dd.node_global.assign(nodes.begin(), nodes.end());
+  dd.tet_global.assign(tets.begin(), tets.end());
+  dd.ce6_global.assign(ce6s.begin(), ce6s.end());
+  dd.node_owned.resize(nodes.size());
+  for (std::size_t i = 0; i < nodes.size(); ++i) dd.node_owned[i] = node_owner[nodes[i]] == rank;
+  dd.tet_owned.resize(tets.size());
+  for (std::size_t i = 0; i < tets.size(); ++i) dd.tet_owned[i] = part[tets[i]] == rank;
+  dd.ce6_owned.resize(ce6s.size());
+  for (std::size_t i = 0; i < ce6s.size(); ++i) {
+    const auto& ab = g.ce6_tets[ce6s[i]];
+    dd.ce6_owned[i] = part[std::min(ab[0], ab[1])] == rank;
+  }
+
+  // The halo plan. Ranks holding each node: those holding a tet of it.
+  std::vector<std::vector<int>> node_ranks(nn);
+  for (int t = 0; t < nt; ++t)
+    for (const auto& h : held[t])
+      for (int n : g.tet_nodes[t]) {
+        auto& rs = node_ranks[n];
+        if (std::find(rs.begin(), rs.end(), h[0]) == rs.end()) rs.push_back(h[0]);
+      }
+  std::vector<Neighbour> nb(size);
+  for (int r = 0; r < size; ++r) nb[r].rank = r;
+  for (std::size_t i = 0; i < nodes.size(); ++i) {
+    const int n = nodes[i];
+    if (node_owner[n] == rank) {
+      for (int r : node_ranks[n])
+        if (r != rank) nb[r].send_nodes.push_back(int(i));
+    } else {
+      nb[node_owner[n]].recv_nodes.push_back(int(i));
+    }
+  }
+  for (std::size_t i = 0; i < tets.size(); ++i)
+    for (const auto& h : held[tets[i]])
+      if (h[0] != rank) nb[h[0]].shared_tets.push_back(int(i));
+  for (int r = 0; r < size; ++r)
+    if (r != rank && (!nb[r].send_nodes.empty() || !nb[r].recv_nodes.empty() || !nb[r].shared_tets.empty()))
+      dd.neighbours.push_back(std::move(nb[r]));
+  return out;
+}
+
+namespace {
+
+/// Every field of a decomposition and of a model, in file order, for one visitor: f(value)
+/// writes or reads it (so the writer and the reader cannot disagree on the layout).
+template <class F, class D>
+void decomposition_fields(F&& f, D& d) {
+  f(d.rank), f(d.size), f(d.layers), f(d.reach), f(d.global_nodes), f(d.global_tets), f(d.global_ce6);
+  f(d.node_global), f(d.tet_global), f(d.ce6_global), f(d.node_owned), f(d.tet_owned), f(d.ce6_owned);
+  f(d.tet_layer);
+}
+template <class F, class M>
+void model_fields(F&& f, M& m) {
+  f(m.X), f(m.mass), f(m.node_vertex), f(m.tet_nodes), f(m.tet_input), f(m.tet_Xinv), f(m.tet_V0), f(m.tet_eta);
+  f(m.tet_colours.order), f(m.tet_colours.offsets);
+  f(m.ce6_nodes), f(m.ce6_tets), f(m.ce6_h), f(m.ce6_colours.order), f(m.ce6_colours.offsets);
+  f(m.surface_faces), f(m.surface_tet), f(m.platen_nodes), f(m.platen_node_area), f(m.platen_node_h);
+  f(m.top_nodes), f(m.bottom_nodes), f(m.lateral_nodes);
+  f(m.box_min), f(m.box_max), f(m.axis_point), f(m.height0), f(m.area0), f(m.line_loaded), f(m.min_altitude);
+  f(m.mean_edge), f(m.source);
+}
+
+constexpr std::uint64_t kRankFileMagic = 0x4644454d52414e4bull;  // "FDEMRANK"
+
+}  // namespace
+
+void Decomposition::save(CheckpointOut& o) const {
+  decomposition_fields([&](const auto& v) { o.put(v); }, *this);
+  o.put(std::uint64_t(neighbours.size()));
+  for (const Neighbour& n : neighbours) {
+    o.put(n.rank);
+    o.put(n.send_nodes);
+    o.put(n.recv_nodes);
+    o.put(n.shared_tets);
+  }
+}
+
+void Decomposition::load(CheckpointIn& in) {
+  decomposition_fields([&](auto& v) { in.get(v); }, *this);
+  std::uint64_t k = 0;
+  in.get(k);
+  if (k > std::uint64_t(size)) in.mismatch("more neighbours than ranks");
+  neighbours.resize(k);
+  for (Neighbour& n : neighbours) {
+    in.get(n.rank);
+    in.get(n.send_nodes);
+    in.get(n.recv_nodes);
+    in.get(n.shared_tets);
+  }
+}
+
+std::uint64_t model_key(const Scene& s) {
+  const MeshSpec& g = s.mesh;
+  const Material& a = s.material;
+  const real v[] = {g.diameter,
+                    g.height,
+                    g.size.x,
+                    g.size.y,
+                    g.size.z,
+                    g.element_size,
+                    g.scale,
+                    a.density,
+                    a.youngs_modulus,
+                    a.poisson_ratio,
+                    s.solver.mass_scaling,
+                    s.solver.damping_scale,
+                    real(s.fracture.everywhere)};
+  std::uint64_t h = fnv1a64(v, sizeof v);
+  for (const auto& b : s.fracture.boxes) {
+    const real c[] = {b.min.x, b.min.y, b.min.z, b.max.x, b.max.y, b.max.z};
+    h = fnv1a64(c, sizeof c, h);
+  }
+  const std::string words = g.shape + "|" + g.file;
+  return fnv1a64(words.data(), words.size(), h);
+}
+
+void write_rank_file(const std::string& path, const RankModel& rm, std::uint64_t key) {
+  CheckpointOut o;
+  o.put(kRankFileMagic);
+  o.put(key);
+  model_fields([&](const auto& v) { o.put(v); }, rm.model);
+  rm.dd.save(o);
+  write_checkpoint(path, o);
+}
+
+RankModel read_rank_file(const std::string& path, std::uint64_t key) {
+  CheckpointIn in = read_checkpoint(path);
+  std::uint64_t magic = 0, file_key = 0;
+  in.get(magic);
+  if (magic != kRankFileMagic)
+    throw InputError(path + ": not a rank file of fdem partition. Fix: write the rank files with fdem partition");
+  in.get(file_key);
+  if (file_key != key)
+    throw InputError(path +
+                     ": partitioned from another mesh, material, mass scaling, damping or fracture regions "
+                     "than this scene's. Fix: run fdem partition again with this scene");
+  RankModel rm;
+  Model& m = rm.model;
+  model_fields([&](auto& v) { in.get(v); }, m);
+  rm.dd.load(in);
+  in.finish();
+  // Indices must stay inside their arrays (a damaged or hand-edited file must not crash the run).
+  const std::size_t nn = m.X.size(), nt = m.tet_nodes.size();
+  auto bad = [&](const char* what) {
+    throw InputError(path + ": inconsistent rank file (" + std::string(what) +
+                     "). Fix: write the rank files again with fdem partition");
+  };
+  if (m.mass.size() != nn || m.node_vertex.size() != nn || rm.dd.node_global.size() != nn ||
+      rm.dd.node_owned.size() != nn || rm.dd.tet_global.size() != nt || rm.dd.tet_owned.size() != nt ||
+      rm.dd.tet_layer.size() != nt || m.tet_Xinv.size() != nt || m.tet_V0.size() != nt || m.tet_eta.size() != nt ||
+      m.ce6_tets.size() != m.ce6_nodes.size() || m.ce6_h.size() != m.ce6_nodes.size() ||
+      rm.dd.ce6_owned.size() != m.ce6_nodes.size())
+    bad("array sizes differ");
+  for (const auto& q : m.tet_nodes)
+    for (int n : q)
+      if (n < 0 || std::size_t(n) >= nn) bad("a tet node out of range");
+  for (const auto& q : m.ce6_nodes)
+    for (int n : q)
+      if (n < 0 || std::size_t(n) >= nn) bad("a CE6 node out of range");
+  for (const auto& ab : m.ce6_tets)
+    for (int t : ab)
+      if (t < 0 || std::size_t(t) >= nt) bad("a CE6 tet out of range");
+  for (const auto& q : m.surface_faces)
+    for (int n : q)
+      if (n < 0 || std::size_t(n) >= nn) bad("a surface node out of range");
+  for (const auto* list : {&m.platen_nodes, &m.top_nodes, &m.bottom_nodes, &m.lateral_nodes})
+    for (int n : *list)
+      if (n < 0 || std::size_t(n) >= nn) bad("a node group entry out of range");
+  for (const auto* c : {&m.tet_colours, &m.ce6_colours})
+    for (int e : c->order)
+      if (e < 0 || std::size_t(e) >= (c == &m.tet_colours ? nt : m.ce6_nodes.size())) bad("a colouring out of range");
+  for (const Neighbour& nb : rm.dd.neighbours) {
+    for (const auto* list : {&nb.send_nodes, &nb.recv_nodes})
+      for (int n : *list)
+        if (n < 0 || std::size_t(n) >= nn) bad("a halo node out of range");
+    for (int t : nb.shared_tets)
+      if (t < 0 || std::size_t(t) >= nt) bad("a shared tet out of range");
+  }
+  return rm;
+}
+
+}  // namespace fdem

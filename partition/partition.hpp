@@ -1,0 +1,81 @@
+#pragma once
+// Distributed memory: the tet partition (METIS on the dual graph), the per-rank model with its
+// ghost layers, and the halo plan. See docs/architecture.md, "Multi-rank runs".
+//
+// Scheme: every tet belongs to one rank (Lagrangian partition); a node belongs to the rank of
+// the lowest-numbered tet holding it. A rank keeps its own tets plus `layers` layers of ghost
+// tets (tets sharing a mesh vertex with the layer before), and, with contact, every tet whose
+// reference box comes within `reach` of one of its own (contact ghosts: a separate body
+// across the boundary too); their nodes; and every CE6 whose two tets it keeps. Contact is
+// exact while no node has moved more than reach/2 from its reference position (two tets
+// further apart than reach cannot touch before); the contact set checks that at each build. With at least one layer,
+// every element acting on an owned node is present, so a rank computes the complete force on each node it owns: no
+// force is sent back. After each step the owners send the positions and velocities of their nodes to the ranks that
+// hold them as ghosts. Energies and counts take each element once: a tet on its owner, a CE6 and a contact pair on the
+// owner of their lower-numbered tet, a node term on the node's owner.
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "model/model.hpp"
+
+namespace fdem {
+
+class CheckpointOut;
+class CheckpointIn;
+
+/// What a rank exchanges with one other rank; every list is in global-id order, so both sides
+/// agree on it without sending ids.
+struct Neighbour {
+  int rank = 0;
+  std::vector<int> send_nodes;   // local ids of owned nodes the other rank holds as ghosts
+  std::vector<int> recv_nodes;   // local ids of ghost nodes the other rank owns
+  std::vector<int> shared_tets;  // local ids of tets both ranks hold (activation flags)
+};
+
+/// A rank's part of the model: local -> global ids, what it owns, and its neighbours.
+/// Default-constructed: one rank that owns everything.
+struct Decomposition {
+  int rank = 0, size = 1, layers = 0;
+  real reach = 0;  // m, contact ghosts: tets within this distance of an owned tet (0 without contact)
+  long global_nodes = 0, global_tets = 0, global_ce6 = 0;
+  std::vector<long> node_global, tet_global, ce6_global;
+  std::vector<std::uint8_t> node_owned, tet_owned, ce6_owned;
+  std::vector<std::uint8_t> tet_layer;  // 0 owned, k = k-th ghost layer (contact ghosts: layers + 1)
+  std::vector<Neighbour> neighbours;
+  bool distributed() const { return size > 1; }
+
+  void save(CheckpointOut& out) const;
+  void load(CheckpointIn& in);
+};
+
+/// The rank (0 .. parts-1) of every tet: METIS k-way on the dual graph (tets sharing a face),
+/// seeded so that the result is reproducible. InputError if parts exceeds the tet count or a
+/// part comes out empty, naming the counts and the fix.
+std::vector<int> partition_tets(const Model& m, int parts);
+
+/// Rank `rank`'s model (its tets, `layers` ghost layers and the contact ghosts within `reach`
+/// m, nodes, CE6s, surfaces and node groups, renumbered in global order; platen nodes only
+/// where owned) and its decomposition. part[t] is the rank of global tet t.
+struct RankModel {
+  Model model;
+  Decomposition dd;
+};
+RankModel extract_rank(const Model& global, const std::vector<int>& part, int rank, int layers, real reach = 0);
+
+/// The default contact reach: two mean edge lengths (0 without contact).
+real default_reach(const Model& m, const Scene& s);
+
+/// A hash of every scene value the model build uses (mesh, material density and elasticity,
+/// mass scaling, damping, fracture regions): a rank file is used only with a scene that
+/// builds the same model.
+std::uint64_t model_key(const Scene& s);
+
+/// Writes and reads a pre-partitioned rank file (fdem partition): the rank model and its
+/// decomposition in the checkpoint container (versioned, checksummed, written atomically).
+void write_rank_file(const std::string& path, const RankModel& rm, std::uint64_t key);
+/// InputError naming the file when it is damaged, not a rank file, or made for another scene (key).
+RankModel read_rank_file(const std::string& path, std::uint64_t key);
+
+}  // namespace fdem

@@ -1,0 +1,290 @@
+// Multi-rank runs against one rank. Launched by ctest through mpiexec at 1 and at 2 ranks
+// (label mpi). Every rank also runs the whole model on its own (MPI_COMM_SELF) as the one-rank
+// reference and compares the nodes and CE6s it owns with it, by global id; sums go through
+// MPI. With one rank the decomposed path is the plain one and the comparisons are exact.
+#include <gtest/gtest.h>
+#include <mpi.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <memory>
+
+#include "core/error.hpp"
+#include "model/structured.hpp"
+#include "partition/partition.hpp"
+#include "support.hpp"
+
+using namespace fdem;
+
+namespace {
+
+int world_rank() {
+  int r = 0;
+  MPI_Comm_rank(MPI_COMM_WORLD, &r);
+  return r;
+}
+int world_size() {
+  int n = 1;
+  MPI_Comm_size(MPI_COMM_WORLD, &n);
+  return n;
+}
+double max_over_ranks(double v) {
+  MPI_Allreduce(MPI_IN_PLACE, &v, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+  return v;
+}
+double sum_over_ranks(double v) {
+  MPI_Allreduce(MPI_IN_PLACE, &v, 1, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
+  return v;
+}
+
+/// This rank's solver of the model: METIS (or the given partition) over the world's ranks.
+std::unique_ptr<Solver> decomposed(const Scene& scene, const Model& global, std::vector<int> part = {}) {
+  if (part.empty()) part = partition_tets(global, world_size());
+  RankModel rm = extract_rank(global, part, world_rank(), 1, default_reach(global, scene));
+  return std::make_unique<Solver>(scene, std::move(rm.model), std::move(rm.dd), MPI_COMM_WORLD);
+}
+
+/// Largest difference of owned node vectors (by global id) over the ranks, relative to the
+/// largest reference value.
+double node_error(const Solver& d, const std::vector<Vec3>& a, const std::vector<Vec3>& ref,
+                  const std::vector<Vec3>& ref_origin, const std::vector<Vec3>& origin) {
+  const Decomposition& dd = d.decomposition();
+  double diff = 0, scale = 0;
+  for (std::size_t n = 0; n < a.size(); ++n) {
+    if (!d.owned_nodes()[n]) continue;
+    const long g = dd.distributed() ? dd.node_global[n] : long(n);
+    const Vec3 u = a[n] - origin[n], ur = ref[g] - ref_origin[g];
+    diff = std::max(diff, norm(u - ur));
+    scale = std::max(scale, norm(ur));
+  }
+  return max_over_ranks(diff) / max_over_ranks(scale);
+}
+
+/// A UCS box of structured tets (nx x nx x 2nx cells).
+Scene box_scene() {
+  Scene s = test::test_scene();
+  s.solver.mass_scaling = 10;
+  s.platens.velocity = 0.5;
+  return s;
+}
+
+}  // namespace
+
+TEST(Ranks, ElasticCurveAndNodesMatchOneRank) {
+  // Before any CE6 is damaged: the same curve and node positions to round-off.
+  const Scene scene = box_scene();
+  const Model global = build_model(structured_box_mesh({0.01, 0.01, 0.02}, 3, 3, 6), scene);
+  Solver ref(scene, global);
+  auto d = decomposed(scene, global);
+  double worst_curve = 0;
+  Monitors mr, md;
+  for (int i = 1; i <= 2000; ++i) {
+    ref.step();
+    d->step();
+    if (i % 100) continue;
+    mr = ref.measure();
+    md = d->measure();
+    const double pairs[][2] = {{mr.axial_stress, md.axial_stress},
+                               {mr.lateral_strain, md.lateral_strain},
+                               {mr.strain, md.strain},
+                               {mr.kinetic, md.kinetic},
+                               {mr.external_work, md.external_work},
+                               {mr.cohesive_stored, md.cohesive_stored},
+                               {mr.lateral_stress, md.lateral_stress},
+                               {mr.force_bottom, md.force_bottom}};
+    for (const auto& p : pairs) worst_curve = std::max(worst_curve, std::fabs(p[0] - p[1]) / std::fabs(p[0]));
+  }
+  EXPECT_EQ(md.damaged, 0) << "still elastic";
+  EXPECT_GT(md.axial_stress, 1e6) << "loaded";
+  EXPECT_EQ(md.step, mr.step);
+  EXPECT_LT(worst_curve, 1e-10);
+  const double ex = node_error(*d, d->x, ref.x, ref.model().X, d->model().X);
+  const double ev = node_error(*d, d->v, ref.v, std::vector<Vec3>(ref.v.size()), std::vector<Vec3>(d->v.size()));
+  EXPECT_LT(ex, 1e-10) << "displacements";
+  EXPECT_LT(ev, 1e-10) << "velocities";
+  if (world_rank() == 0)
+    std::printf("elastic, %d rank(s): curve %.2e, displacement %.2e, velocity %.2e (relative)\n", world_size(),
+                worst_curve, ex, ev);
+}
+
+TEST(Ranks, FracturingBoxMatchesOneRank) {
+  // Through the peak with contact: the same peak stress and broken-CE6 count, with CE6s
+  // breaking on the partition boundary.
+  Scene scene = box_scene();
+  scene.platens.velocity = 1.0;
+  scene.platens.ramp_time = 2e-5;
+  scene.confinement.enabled = true;
+  scene.confinement.pressure = 1e6;
+  scene.confinement.path = "constant";
+  scene.confinement.ramp_time = 2e-5;
+  scene.solver.time_step_safety = 0.9;
+  const Model global = build_model(structured_box_mesh({0.01, 0.01, 0.02}, 3, 3, 6), scene);
+  Solver ref(scene, global);
+  auto d = decomposed(scene, global);
+  double peak_r = 0, peak_d = 0;
+  Monitors mr, md;
+  for (int i = 1; i <= 3000; ++i) {
+    ref.step();
+    d->step();
+    if (i % 50) continue;
+    mr = ref.measure();
+    md = d->measure();
+    peak_r = std::max(peak_r, mr.axial_stress);
+    peak_d = std::max(peak_d, md.axial_stress);
+  }
+  ASSERT_GT(mr.broken, 20) << "the box fractured";
+  EXPECT_LT(std::fabs(peak_d - peak_r), 0.005 * peak_r);
+  EXPECT_LE(std::fabs(double(md.broken - mr.broken)), 0.02 * mr.broken);
+  // Broken CE6s whose two tets belong to different ranks (counted once, by the CE6's owner).
+  const Model& m = d->model();
+  double on_boundary = 0;
+  for (std::size_t c = 0; c < d->ce6.size(); ++c)
+    if (d->owned_ce6()[c] && d->ce6[c].mode != 0 &&
+        d->owned_tets()[m.ce6_tets[c][0]] != d->owned_tets()[m.ce6_tets[c][1]])
+      on_boundary += 1;
+  on_boundary = sum_over_ranks(on_boundary);
+  if (world_size() > 1) {
+    EXPECT_GT(on_boundary, 0);
+  }
+  if (world_rank() == 0)
+    std::printf("fracturing, %d rank(s): peak %.6g against %.6g MPa, broken %ld against %ld, %g on the boundary\n",
+                world_size(), peak_d / 1e6, peak_r / 1e6, md.broken, mr.broken, on_boundary);
+}
+
+TEST(Ranks, ContactPairAcrossRanksGivesOneRankForces) {
+  // Two continuous blocks, one on the other (offset sideways), the upper one moving down at
+  // 0.5 m/s: block A on rank 0, block B on the last rank. Contact is the only force between
+  // them, so every force across the interface comes from pairs split over two ranks.
+  Mesh a = structured_box_mesh({0.01, 0.01, 0.01}, 2, 2, 2);
+  const Mesh b = structured_box_mesh({0.01, 0.01, 0.01}, 2, 2, 2);
+  const int off = int(a.vertices.size());
+  for (Vec3 p : b.vertices) a.vertices.push_back(p + Vec3{0.001, 0.0005, 0.01});
+  for (auto q : b.tets) a.tets.push_back({q[0] + off, q[1] + off, q[2] + off, q[3] + off});
+  a.source = "two blocks";
+  Scene scene = box_scene();
+  scene.platens.enabled = false;
+  scene.contact.activation = "full";
+  scene.fracture.everywhere = false;  // two continuous blocks: contact only between them
+  const Model global = build_model(a, scene);
+  auto upper = [](const Model& m, int t) {
+    real zc = 0;
+    for (int n : m.tet_nodes[t]) zc += 0.25 * m.X[n].z;
+    return zc > 0.01;
+  };
+  std::vector<int> part(global.tet_nodes.size());
+  for (std::size_t t = 0; t < part.size(); ++t) part[t] = upper(global, int(t)) ? world_size() - 1 : 0;
+  Solver ref(scene, global);
+  auto d = decomposed(scene, global, part);
+  for (Solver* s : {&ref, d.get()})
+    for (std::size_t t = 0; t < s->model().tet_nodes.size(); ++t)
+      if (upper(s->model(), int(t)))
+        for (int n : s->model().tet_nodes[t]) s->v[n] = {0, 0, -0.5};
+  const std::vector<Vec3> zero_r(ref.f.size()), zero_d(d->f.size());
+  double worst_f = 0, worst_x = 0, across = 0;
+  long touching = 0, touching_d = 0;
+  Monitors mr, md;
+  for (int i = 1; i <= 400; ++i) {
+    ref.step();
+    d->step();
+    if (i % 10) continue;
+    mr = ref.measure();
+    md = d->measure();
+    if (mr.contacts == 0) continue;
+    worst_f = std::max(worst_f, node_error(*d, d->f, ref.f, zero_r, zero_d));
+    worst_x = std::max(worst_x, node_error(*d, d->x, ref.x, ref.model().X, d->model().X));
+    touching = std::max(touching, mr.contacts);
+    touching_d = std::max(touching_d, md.contacts);
+  }
+  // Candidate pairs with one tet here and one on another rank.
+  for (const ContactPair& p : d->contacts.pairs()) across += d->owned_tets()[p.a] != d->owned_tets()[p.b];
+  across = sum_over_ranks(across);
+  if (world_size() > 1) {
+    EXPECT_GT(across, 0);
+  }
+  EXPECT_GT(touching, 0) << "the blocks touch";
+  EXPECT_EQ(touching_d, touching);
+  EXPECT_LT(worst_f, 1e-10) << "forces";
+  EXPECT_LT(worst_x, 1e-10) << "displacements";
+  EXPECT_LT(std::fabs(md.contact - mr.contact), 1e-10 * std::fabs(mr.contact));
+  if (world_rank() == 0)
+    std::printf(
+        "contact, %d rank(s): %g candidate pairs across ranks, %ld touching; forces %.2e, displacements "
+        "%.2e (relative)\n",
+        world_size(), across, touching, worst_f, worst_x);
+}
+
+TEST(Ranks, PrepartitionedFilesGiveTheSameRun) {
+  // fdem partition's rank files against the partition made at start: identical bits.
+  Scene scene = box_scene();
+  scene.platens.velocity = 2.0;
+  const Model global = build_model(structured_box_mesh({0.01, 0.01, 0.02}, 3, 3, 6), scene);
+  const std::vector<int> part = partition_tets(global, world_size());
+  std::string dir = "/tmp/fdem_test_ranks_" + std::to_string(getpid());
+  int len = int(dir.size());
+  MPI_Bcast(&len, 1, MPI_INT, 0, MPI_COMM_WORLD);
+  dir.resize(len);
+  MPI_Bcast(dir.data(), len, MPI_CHAR, 0, MPI_COMM_WORLD);
+  const std::string file = dir + "/rank_" + std::to_string(world_rank()) + ".fdp";
+  if (world_rank() == 0) {
+    std::filesystem::create_directories(dir);
+    for (int r = 0; r < world_size(); ++r)
+      write_rank_file(dir + "/rank_" + std::to_string(r) + ".fdp",
+                      extract_rank(global, part, r, 1, default_reach(global, scene)), model_key(scene));
+  }
+  MPI_Barrier(MPI_COMM_WORLD);
+  RankModel rm = read_rank_file(file, model_key(scene));
+  Scene other = scene;
+  other.solver.mass_scaling = 20;
+  EXPECT_THROW(read_rank_file(file, model_key(other)), InputError) << "a rank file of another model";
+  MPI_Barrier(MPI_COMM_WORLD);
+  if (world_rank() == 0) std::filesystem::remove_all(dir);
+  Solver from_file(scene, std::move(rm.model), std::move(rm.dd), MPI_COMM_WORLD);
+  auto on_the_fly = decomposed(scene, global, part);
+  for (int i = 0; i < 2000; ++i) from_file.step(), on_the_fly->step();
+  ASSERT_EQ(from_file.x.size(), on_the_fly->x.size());
+  EXPECT_EQ(std::memcmp(from_file.x.data(), on_the_fly->x.data(), from_file.x.size() * sizeof(Vec3)), 0);
+  EXPECT_EQ(std::memcmp(from_file.ce6.data(), on_the_fly->ce6.data(), from_file.ce6.size() * sizeof(Ce6State)), 0);
+  EXPECT_GT(from_file.measure().damaged, 0) << "the run went far enough to damage CE6s";
+}
+
+TEST(Ranks, PartitionIsBalancedAndCoversEveryTet) {
+  const Scene scene = box_scene();
+  const Model global = build_model(structured_box_mesh({0.01, 0.01, 0.02}, 4, 4, 8), scene);
+  for (int parts : {1, 2, 3, 4}) {
+    const std::vector<int> part = partition_tets(global, parts);
+    std::vector<long> count(parts, 0);
+    for (int p : part) ++count[p];
+    const long nt = long(global.tet_nodes.size());
+    for (int r = 0; r < parts; ++r) {
+      EXPECT_GT(count[r], 0);
+      EXPECT_LT(count[r], 1.1 * nt / parts + 1) << parts << " parts";  // METIS allows 3 % imbalance
+    }
+    // Every tet owned once; every node owned once; a ghost node's owner is a neighbour.
+    long tets = 0, nodes = 0;
+    for (int r = 0; r < parts; ++r) {
+      const RankModel rm = extract_rank(global, part, r, 1);
+      for (auto o : rm.dd.tet_owned) tets += o;
+      for (auto o : rm.dd.node_owned) nodes += o;
+      long ghosts = 0, received = 0;
+      for (auto o : rm.dd.node_owned) ghosts += !o;
+      for (const Neighbour& nb : rm.dd.neighbours) received += long(nb.recv_nodes.size());
+      EXPECT_EQ(received, ghosts) << "rank " << r << " of " << parts;
+    }
+    EXPECT_EQ(tets, nt);
+    EXPECT_EQ(nodes, long(global.X.size()));
+  }
+  EXPECT_THROW(partition_tets(global, int(global.tet_nodes.size()) + 1), InputError);
+}
+
+int main(int argc, char** argv) {
+  MPI_Init(&argc, &argv);
+  ::testing::InitGoogleTest(&argc, argv);
+  const int code = RUN_ALL_TESTS();
+  int worst = code;
+  MPI_Allreduce(MPI_IN_PLACE, &worst, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+  MPI_Finalize();
+  return worst;
+}
