@@ -223,7 +223,7 @@ TEST(CliExe, UnstableRunStopsWithExitThreeAndAValidCsv) {
   EXPECT_FALSE(has(xdmf, "nan"));
 }
 
-TEST(CliExe, RunsUnderMpiexecWithOneRankOnly) {
+TEST(CliExe, RunsUnderMpiexecWithOneRank) {
   const std::string mpiexec = find_mpiexec();
   if (mpiexec.empty()) GTEST_SKIP() << "mpiexec not found";
   TempDir tmp("mpi");
@@ -236,13 +236,7 @@ TEST(CliExe, RunsUnderMpiexecWithOneRankOnly) {
   EXPECT_TRUE(fs::exists(out / "fields.h5"));
   EXPECT_EQ(read_csv(out / "monitors.csv").rows.size(), 17u);
 
-  const fs::path out2 = tmp.path / "mpi2";
-  const Outcome two = run_cmd(kMpiEnv + kEnv + quote(mpiexec) + " -n 2 " + quote(kExe) + " run " + scene + " -o " +
-                              quote(out2.string()));
-  EXPECT_NE(two.code, 0) << two.text;
-  EXPECT_TRUE(has(two.text, "one MPI rank")) << two.text;
-  EXPECT_TRUE(has(two.text, "-n 1")) << two.text;
-  EXPECT_FALSE(fs::exists(out2));
+  // Several ranks: tests/mpi/test_cli_ranks.cpp.
 }
 
 TEST(CliExe, SeriesRunsEveryValueOnceAndTabulatesThem) {

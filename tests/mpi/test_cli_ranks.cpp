@@ -1,0 +1,160 @@
+// fdem under mpiexec with two ranks, through the real executable: the same results as one
+// rank, rank files from fdem partition, and a failing rank ending the whole job at once.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <chrono>
+#include <cmath>
+#include <thread>
+
+#include "cli_support.hpp"
+
+using namespace cli_test;
+
+namespace {
+
+const std::string kScene = (kData / "cli" / "restart_box.yaml").string();
+
+std::string mpiexec(int ranks) {
+  const std::string exe = find_mpiexec();
+  return exe.empty() ? "" : kMpiEnv + kEnv + quote(exe) + " -n " + std::to_string(ranks) + " ";
+}
+
+/// Largest relative difference of two monitor files, column by column (energy_error aside,
+/// which is a small difference of large sums), and whether their shapes agree.
+double monitor_difference(const Csv& a, const Csv& b) {
+  if (a.header != b.header || a.rows.size() != b.rows.size()) return 1e300;
+  double worst = 0;
+  const int skip = column(a, "energy_error");
+  for (std::size_t r = 0; r < a.rows.size(); ++r)
+    for (std::size_t c = 0; c < a.header.size(); ++c) {
+      if (int(c) == skip) continue;
+      const double x = a.rows[r][c], y = b.rows[r][c];
+      if (x != y) worst = std::max(worst, std::fabs(x - y) / std::max(std::fabs(x), 1e-300));
+    }
+  return worst;
+}
+
+}  // namespace
+
+TEST(CliRanks, TwoRanksWriteTheOneRankResults) {
+  if (mpiexec(2).empty()) GTEST_SKIP() << "mpiexec not found";
+  TempDir tmp("ranks");
+  const fs::path one = tmp.path / "one", two = tmp.path / "two";
+  const Outcome a = fdem("run " + quote(kScene) + " -q -o " + quote(one.string()));
+  ASSERT_EQ(a.code, 0) << a.text;
+  const Outcome b = run_cmd(mpiexec(2) + quote(kExe) + " run " + quote(kScene) + " -q -o " + quote(two.string()));
+  ASSERT_EQ(b.code, 0) << b.text;
+  EXPECT_TRUE(has(b.text, "on 2 MPI ranks")) << b.text;
+  // Through the peak and 73 broken CE6s with contact: the same curve to 10 digits (the CSV's).
+  EXPECT_LT(monitor_difference(read_csv(one / "monitors.csv"), read_csv(two / "monitors.csv")), 1e-9);
+  EXPECT_EQ(slurp(one / "broken_ce6.csv"), slurp(two / "broken_ce6.csv"));
+  EXPECT_GT(read_csv(two / "broken_ce6.csv").rows.size(), 50u);
+  // One ParaView index over both ranks' files; each tet written once, with its rank.
+  for (const char* f : {"fields_rank0.h5", "fields_rank1.h5", "fields.xdmf", "summary.csv"})
+    EXPECT_TRUE(fs::exists(two / f)) << f;
+  const std::string xdmf = slurp(two / "fields.xdmf");
+  EXPECT_TRUE(has(xdmf, "rock_rank0") && has(xdmf, "rock_rank1") && has(xdmf, "fields_rank1.h5")) << xdmf;
+  EXPECT_TRUE(has(xdmf, "\"rank\""));
+  EXPECT_TRUE(has(xdmf, "_peak\""));
+  const std::string r0 = slurp(two / "fields_rank0.xdmf"), r1 = slurp(two / "fields_rank1.xdmf");
+  auto tets = [](const std::string& x) {  // NumberOfElements of the first rock grid
+    const std::string key = "TopologyType=\"Tetrahedron\" NumberOfElements=\"";
+    const std::size_t at = x.find(key);
+    return at == std::string::npos ? -1L : std::stol(x.substr(at + key.size()));
+  };
+  EXPECT_EQ(tets(r0) + tets(r1), tets(slurp(one / "fields.xdmf")));
+}
+
+TEST(CliRanks, RankFilesFromPartitionGiveTheSameRun) {
+  if (mpiexec(2).empty()) GTEST_SKIP() << "mpiexec not found";
+  TempDir tmp("partition");
+  const fs::path parts = tmp.path / "parts", fly = tmp.path / "fly", files = tmp.path / "files";
+  const Outcome p = fdem("partition " + quote(kScene) + " -n 2 -o " + quote(parts.string()));
+  ASSERT_EQ(p.code, 0) << p.text;
+  EXPECT_TRUE(fs::exists(parts / "rank_0.fdp") && fs::exists(parts / "rank_1.fdp")) << p.text;
+  const std::string steps = " -q -o ";
+  const Outcome a = run_cmd(mpiexec(2) + quote(kExe) + " run " + quote(kScene) + steps + quote(fly.string()));
+  ASSERT_EQ(a.code, 0) << a.text;
+  const Outcome b = run_cmd(mpiexec(2) + quote(kExe) + " run " + quote(kScene) + " --partitioned " +
+                            quote(parts.string()) + steps + quote(files.string()));
+  ASSERT_EQ(b.code, 0) << b.text;
+  EXPECT_EQ(slurp(fly / "monitors.csv"), slurp(files / "monitors.csv"));
+  EXPECT_EQ(slurp(fly / "broken_ce6.csv"), slurp(files / "broken_ce6.csv"));
+
+  // Rank files for two ranks on one: refused, naming the file and the fix.
+  const Outcome c = fdem("run " + quote(kScene) + " --partitioned " + quote(parts.string()) + " -q -o " +
+                         quote((tmp.path / "wrong").string()));
+  EXPECT_EQ(c.code, 2) << c.text;
+  EXPECT_TRUE(has(c.text, "rank_0.fdp") && has(c.text, "mpiexec -n 2")) << c.text;
+}
+
+TEST(CliRanks, ABadInputOnOneRankEndsTheJobWithItsMessage) {
+  if (mpiexec(2).empty()) GTEST_SKIP() << "mpiexec not found";
+  TempDir tmp("fail");
+  // Rank 0 reads a good scene and goes on to the first exchange; rank 1 cannot read its scene.
+  const std::string bad = (kData / "bad_scenes" / "negative_modulus.yaml").string();
+  ASSERT_TRUE(fs::exists(bad));
+  const std::string exe = find_mpiexec();
+  const auto t0 = std::chrono::steady_clock::now();
+  const Outcome o = run_cmd(kMpiEnv + kEnv + "timeout 120 " + quote(exe) + " -n 1 " + quote(kExe) + " run " +
+                            quote(kScene) + " -q -o " + quote((tmp.path / "a").string()) + " : -n 1 " + quote(kExe) +
+                            " run " + quote(bad) + " -q -o " + quote((tmp.path / "b").string()));
+  const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  EXPECT_NE(o.code, 0) << o.text;
+  EXPECT_NE(o.code, 124) << "the job hung until timeout killed it: " << o.text;
+  EXPECT_TRUE(has(o.text, "rank 1: error:")) << o.text;
+  EXPECT_TRUE(has(o.text, "negative_modulus.yaml")) << o.text;
+  EXPECT_FALSE(has(o.text, "finished:")) << o.text;
+  std::printf("a bad scene on rank 1 ended the job in %.1f s\n", s);
+
+  // A damaged rank file on one rank: the same.
+  const fs::path parts = tmp.path / "parts";
+  ASSERT_EQ(fdem("partition " + quote(kScene) + " -n 2 -o " + quote(parts.string())).code, 0);
+  fs::resize_file(parts / "rank_1.fdp", fs::file_size(parts / "rank_1.fdp") / 2);
+  const Outcome d = run_cmd(mpiexec(2) + "timeout 120 " + quote(kExe) + " run " + quote(kScene) + " --partitioned " +
+                            quote(parts.string()) + " -q -o " + quote((tmp.path / "c").string()));
+  EXPECT_NE(d.code, 0) << d.text;
+  EXPECT_NE(d.code, 124) << d.text;
+  EXPECT_TRUE(has(d.text, "rank 1: error:") && has(d.text, "rank_1.fdp")) << d.text;
+}
+
+TEST(CliRanks, ARankKilledMidRunEndsTheJob) {
+  if (mpiexec(2).empty()) GTEST_SKIP() << "mpiexec not found";
+  TempDir tmp("kill");
+  // A long run (1e6 steps); one of its ranks is killed once both are stepping.
+  const fs::path scene = tmp.path / "long.yaml";
+  {
+    std::ofstream o(scene);
+    o << slurp(kScene) << "\n";
+  }
+  std::string text = slurp(scene);
+  text.replace(text.find("end: {steps: 3000}"), 18, "end: {steps: 1000000}");
+  {
+    std::ofstream o(scene);
+    o << text;
+  }
+  const fs::path log = tmp.path / "log.txt";
+  const std::string cmd = mpiexec(2) + "timeout 300 " + quote(kExe) + " run " + quote(scene.string()) + " -o " +
+                          quote((tmp.path / "out").string()) + " > " + quote(log.string()) + " 2>&1; echo $? > " +
+                          quote((tmp.path / "rc").string());
+  ASSERT_EQ(std::system(("(" + cmd + ") &").c_str()), 0);
+  // Wait until the run has written monitor rows (both ranks past the start), then kill rank 1.
+  const fs::path mon = tmp.path / "out" / "monitors.csv";
+  for (int i = 0; i < 600 && !(fs::exists(mon) && fs::file_size(mon) > 2000); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  ASSERT_TRUE(fs::exists(mon)) << slurp(log);
+  const std::string marker = quote("^" + kExe + " run " + scene.string());
+  const auto t0 = std::chrono::steady_clock::now();
+  // The newest fdem process of this run is one of its two ranks.
+  ASSERT_EQ(std::system(("pkill -KILL -n -f " + marker).c_str()) >> 8, 0);
+  const fs::path rc = tmp.path / "rc";
+  for (int i = 0; i < 1200 && !fs::exists(rc); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  ASSERT_TRUE(fs::exists(rc)) << "the job did not end within 120 s of a rank's death";
+  const int code = std::stoi(slurp(rc));
+  EXPECT_NE(code, 0);
+  EXPECT_NE(code, 124) << "timeout ended it, not MPI";
+  EXPECT_FALSE(fs::exists(tmp.path / "out" / "summary.csv"));
+  std::printf("a killed rank ended the job in %.1f s (exit %d)\n", s, code);
+}
