@@ -316,8 +316,11 @@ int run_main(int argc, char** argv) {
   } catch (const fdem::Interrupted& e) {
     // Every option that changes the run, so that the checkpoint matches (and, with -t, bit for bit).
     auto q = [](const std::string& a) { return "'" + a + "'"; };
-    std::string cmd = "fdem run " + q(scene_path);
+    std::string cmd =
+        (size > 1 ? "mpiexec -n " + std::to_string(size) + " " : std::string()) + "fdem run " + q(scene_path);
     if (!output.empty()) cmd += " -o " + q(output);
+    if (!partitioned.empty()) cmd += " --partitioned " + q(partitioned);
+    if (contact_reach > 0) cmd += " --contact-reach " + fdem::fmt(contact_reach, 10);
     if (threads > 0) cmd += " -t " + std::to_string(threads);
     if (!activation.empty()) cmd += " --contact " + activation;
     throw fdem::Interrupted(std::string(e.what()) + "; continue with: " + cmd + " --restart " + q(scene.output.folder));
@@ -371,7 +374,10 @@ int main(int argc, char** argv) {
   } catch (const std::exception& e) {
     message = "error: " + std::string(e.what()), code = 1;
   }
-  if (!message.empty()) {
+  if (code == 5 && size > 1) {
+    // A signal stops every rank at the same step after each wrote its checkpoint: a clean end.
+    if (world_rank() == 0) std::cerr << message << std::endl;
+  } else if (!message.empty()) {
     std::cerr << who << message << std::endl;
     if (size > 1) MPI_Abort(MPI_COMM_WORLD, code);
   }

@@ -362,8 +362,8 @@ class PeakFrames {
 };
 
 /// Keeps the newest `keep` checkpoints of a folder and removes the rest.
-void prune_checkpoints(const std::string& folder, std::size_t keep) {
-  std::vector<std::string> all = find_checkpoints(folder);
+void prune_checkpoints(const std::string& folder, std::size_t keep, const std::string& suffix) {
+  std::vector<std::string> all = find_checkpoints(folder, suffix);
   for (std::size_t i = keep; i < all.size(); ++i) std::filesystem::remove(all[i]);
 }
 
@@ -438,16 +438,28 @@ bool stop_requested() {
   return g_signal_request.load() == 2;
 }
 
-std::vector<std::string> find_checkpoints(const std::string& path) {
+std::string checkpoint_suffix(int rank, int size) {
+  return size > 1 ? ".rank" + std::to_string(rank) + "of" + std::to_string(size) + ".ckpt" : ".ckpt";
+}
+
+std::vector<std::string> find_checkpoints(const std::string& path, const std::string& suffix) {
   namespace fs = std::filesystem;
   std::error_code ec;
-  if (fs::is_regular_file(path, ec)) return {path};
+  const bool one_rank = suffix == ".ckpt";
+  if (one_rank && fs::is_regular_file(path, ec)) return {path};
   fs::path dir = path;
+  if (fs::is_regular_file(dir, ec)) dir = dir.parent_path();  // several ranks: the folder of the file
   if (fs::is_directory(dir / "checkpoints", ec)) dir /= "checkpoints";
   std::vector<std::string> found;
+  auto ends_with = [](const std::string& s, const std::string& e) {
+    return s.size() >= e.size() && s.compare(s.size() - e.size(), e.size(), e) == 0;
+  };
   if (fs::is_directory(dir, ec))
-    for (const fs::directory_entry& e : fs::directory_iterator(dir, ec))
-      if (e.is_regular_file() && e.path().extension() == ".ckpt") found.push_back(e.path().string());
+    for (const fs::directory_entry& e : fs::directory_iterator(dir, ec)) {
+      const std::string name = e.path().filename().string();
+      if (e.is_regular_file() && ends_with(name, suffix) && (!one_rank || name.find(".rank") == std::string::npos))
+        found.push_back(e.path().string());
+    }
   // step_<12 digits>.ckpt: the names sort by step.
   std::sort(found.rbegin(), found.rend());
   return found;
@@ -510,10 +522,15 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
   const std::string csv_path = root ? (fs::path(out.folder) / "monitors.csv").string() : "/dev/null";
   const std::string ckpt_dir = (fs::path(out.folder) / "checkpoints").string();
   const std::string fields_name = dist ? "fields_rank" + std::to_string(solver.rank()) : "fields";
-  if (dist && !options.restart.empty())
-    throw InputError(
-        "--restart: continuing a run of several MPI ranks is not built yet. Fix: rerun it, or run it "
-        "on one rank");
+  const int ranks = dist ? solver.decomposition().size : 1;
+  const std::string suffix = checkpoint_suffix(solver.rank(), ranks);
+  // Several ranks decide together: true only where true on every rank.
+  auto all_ranks = [&](bool ok) {
+    if (!dist) return ok;
+    int v = ok;
+    MPI_Allreduce(MPI_IN_PLACE, &v, 1, MPI_INT, MPI_MIN, solver.comm());
+    return v != 0;
+  };
 
   // Everything the loop below carries from step to step, besides the solver.
   Monitors mon;
@@ -526,61 +543,91 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
   if (!options.restart.empty()) {
     // The newest checkpoint that reads and matches the files here; a damaged one, or one whose
     // monitors.csv is not the one in this folder, falls back to the one before.
-    const std::vector<std::string> found = find_checkpoints(options.restart);
+    // Several ranks: rank 0's steps are the candidates, and each rank reads its own file of one.
+    std::vector<std::string> found = find_checkpoints(options.restart, suffix);
+    auto step_of = [](const std::string& file) {
+      const std::string name = fs::path(file).filename().string();
+      return name.rfind("step_", 0) == 0 ? std::atol(name.c_str() + 5) : -1L;
+    };
+    if (dist) {
+      std::vector<long> steps;
+      for (const std::string& f : found) steps.push_back(step_of(f));
+      long n = long(steps.size());
+      MPI_Bcast(&n, 1, MPI_LONG, 0, solver.comm());
+      steps.resize(n);
+      MPI_Bcast(steps.data(), int(n), MPI_LONG, 0, solver.comm());
+      std::vector<std::string> mine;
+      for (long st : steps) {
+        std::string file;  // "" where this rank has no file of that step
+        for (const std::string& f : found)
+          if (step_of(f) == st) file = f;
+        mine.push_back(file);
+      }
+      found.swap(mine);
+    }
     if (found.empty())
-      throw InputError("--restart " + options.restart +
-                       ": no checkpoint there (files checkpoints/step_<n>.ckpt). Fix: give the output folder of the "
-                       "interrupted run or one of its .ckpt files");
+      throw InputError("--restart " + options.restart + ": no checkpoint there (files checkpoints/step_<n>" + suffix +
+                       "). Fix: give the output folder of the interrupted run" +
+                       (dist ? " and run it on as many ranks as it had" : " or one of its .ckpt files"));
     std::string problems;
     for (std::size_t k = 0; k < found.size(); ++k) {
       const std::string& file = found[k];
-      auto skip = [&](const std::string& why) {
-        log << "warning: " << why << std::endl;
-        problems += "\n  " + why;
-      };
-      std::optional<CheckpointIn> in;
-      try {
-        in.emplace(read_checkpoint(file));
-      } catch (const InputError& e) {
-        skip(e.what());
-        continue;
-      }
-      solver.load(*in);
-      in->get(mon);
-      in->get(sum.peak_stress);
-      in->get(sum.strain_at_peak);
-      in->get(sum.peak_indirect_tensile);
-      in->get(peak_written);
-      peak_frames.load(*in);
-      in->get(wall_before);
-      in->get(csv.bytes);
-      in->get(csv.hash);
+      std::string why;
       FieldWriterState fs_state;
-      in->get(fs_state.grids);
-      in->get(fs_state.labels);
-      in->get(fs_state.mesh_tets);
-      in->get(fs_state.have_mesh);
-      in->finish();
-      std::uint64_t hash = 0;
-      if (!hash_prefix(csv_path, csv.bytes, hash) || hash != csv.hash) {
-        skip(file + ": " + csv_path + " is missing, shorter than, or different from the monitors.csv of this " +
-             "checkpoint. Fix: restart with output.folder (or -o) set to the folder of the interrupted run");
-        continue;
+      if (file.empty()) {
+        why = "rank " + std::to_string(solver.rank()) + " has no file of the step rank 0 has";
+      } else {
+        std::optional<CheckpointIn> in;
+        try {
+          in.emplace(read_checkpoint(file));
+        } catch (const InputError& e) {
+          why = e.what();
+        }
+        if (in) {
+          solver.load(*in);
+          in->get(mon);
+          in->get(sum.peak_stress);
+          in->get(sum.strain_at_peak);
+          in->get(sum.peak_indirect_tensile);
+          in->get(peak_written);
+          peak_frames.load(*in);
+          in->get(wall_before);
+          in->get(csv.bytes);
+          in->get(csv.hash);
+          in->get(fs_state.grids);
+          in->get(fs_state.labels);
+          in->get(fs_state.mesh_tets);
+          in->get(fs_state.have_mesh);
+          in->finish();
+          std::uint64_t hash = 0;
+          const fs::path h5 = fs::path(out.folder) / (fields_name + ".h5");
+          if (root && (!hash_prefix(csv_path, csv.bytes, hash) || hash != csv.hash))
+            why = file + ": " + csv_path + " is missing, shorter than, or different from the monitors.csv of this " +
+                  "checkpoint. Fix: restart with output.folder (or -o) set to the folder of the interrupted run";
+          else if (!fs::is_regular_file(h5, ec))
+            why = file + ": " + h5.string() + " is missing";
+        }
       }
-      if (!fs::is_regular_file(fs::path(out.folder) / "fields.h5", ec)) {  // (one rank only here)
-        skip(file + ": " + (fs::path(out.folder) / "fields.h5").string() + " is missing");
+      if (!all_ranks(why.empty())) {
+        if (why.empty()) why = (file.empty() ? "step " : file + ": ") + std::string("another rank cannot use its file");
+        if (dist && !root) why = "rank " + std::to_string(solver.rank()) + ": " + why;
+        (root ? log : std::cerr) << "warning: " << why << std::endl;
+        problems += "\n  " + why;
         continue;
       }
       // Rows and frames written after the checkpoint are dropped; the loop writes them again.
       // Newer checkpoints (damaged, or of the history being replaced) go too.
-      fields = std::make_unique<FieldWriter>(out.folder, "fields", fs_state);
-      fs::resize_file(csv_path, csv.bytes, ec);
-      if (ec) throw OutputError("cannot truncate " + csv_path + ": " + ec.message());
+      fields = std::make_unique<FieldWriter>(out.folder, fields_name, fs_state);
+      if (root) {
+        fs::resize_file(csv_path, csv.bytes, ec);
+        if (ec) throw OutputError("cannot truncate " + csv_path + ": " + ec.message());
+      }
       csv.f.open(csv_path, std::ios::app);
       for (std::size_t j = 0; j < k; ++j)
-        if (fs::path(found[j]).parent_path() == fs::path(file).parent_path()) fs::remove(found[j], ec);
-      log << "restart: continuing from " << file << " at step " << solver.step_count() << ", t = " << solver.time()
-          << " s" << std::endl;
+        if (!found[j].empty() && fs::path(found[j]).parent_path() == fs::path(file).parent_path())
+          fs::remove(found[j], ec);
+      log << "restart: continuing from " << file << (dist ? " (and the other ranks' files of that step)" : "")
+          << " at step " << solver.step_count() << ", t = " << solver.time() << " s" << std::endl;
       break;
     }
     if (!csv.f.is_open()) throw InputError("--restart " + options.restart + ": no usable checkpoint:" + problems);
@@ -594,15 +641,15 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
     csv.put(std::string(kCsvHeader) + "\n");
     fields = std::make_unique<FieldWriter>(out.folder, fields_name);
   }
-  // Several ranks: the merged index after every change of the frames (collective).
-  int merged_frames = 0;
+  // Several ranks: the merged index after every change of the frames (collective); at once
+  // after a restart, which may have dropped frames.
+  int merged_frames = options.restart.empty() ? 0 : -1;
   auto merge_index = [&] {
     if (!dist || fields->frames() == merged_frames) return;
     write_merged_index(*fields, solver, out.folder);
     merged_frames = fields->frames();
   };
-  if (dist && root && (out.checkpoint_interval > 0 || out.checkpoint_wall_interval > 0))
-    log << "note: checkpoints are not written in runs of several MPI ranks yet (output.checkpoint_*)" << std::endl;
+  merge_index();
 
   // Expected number of steps, for the ETA and the automatic field interval.
   const real dt = solver.dt();
@@ -644,18 +691,17 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
     o.put(st.mesh_tets);
     o.put(st.have_mesh);
     char name[48];
-    std::snprintf(name, sizeof name, "step_%012ld.ckpt", solver.step_count());
-    const std::string path = (fs::path(ckpt_dir) / name).string();
+    std::snprintf(name, sizeof name, "step_%012ld", solver.step_count());
+    const std::string path = (fs::path(ckpt_dir) / (name + suffix)).string();
     write_checkpoint(path, o);
     sync_path(ckpt_dir);
-    prune_checkpoints(ckpt_dir, 2);
+    prune_checkpoints(ckpt_dir, 2, suffix);
     last_checkpoint_wall = elapsed();
     log << "checkpoint (" << why << "): " << path << std::endl;
     return path;
   };
-  // One rank: SIGTERM writes a checkpoint first. Several: the default action ends the job.
-  std::optional<SignalGuard> signals;
-  if (!dist) signals.emplace();
+  SignalGuard signals;
+  int pending_request = 0;  // several ranks: a signal waits for the next monitor row
   if (options.restart.empty()) {
     mon = solver.measure();
     csv.put(monitor_row(mon));
@@ -715,9 +761,24 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
         sum.end_reason = reason;
         break;
       }
-      // Checkpoints: by steps, by wall time, or asked for by a signal (one rank only).
-      if (dist) continue;
-      const int request = g_signal_request.exchange(0);
+      // Checkpoints: by steps, by wall time, or asked for by a signal. Several ranks agree on
+      // signals and on rank 0's wall clock at monitor rows (one reduction there), so that all
+      // write the same step.
+      int request = std::max(pending_request, g_signal_request.exchange(0));
+      bool wall_due = out.checkpoint_wall_interval > 0 && wall - last_checkpoint_wall >= out.checkpoint_wall_interval;
+      if (dist) {
+        if (!monitor_now) {
+          pending_request = request;
+          request = 0;
+          wall_due = false;
+        } else {
+          int v[2] = {request, root && wall_due};
+          MPI_Allreduce(MPI_IN_PLACE, v, 2, MPI_INT, MPI_MAX, solver.comm());
+          request = v[0];
+          wall_due = v[1] != 0;
+          pending_request = 0;
+        }
+      }
       if (request == 2) {
         const std::string path = checkpoint("signal");
         throw Interrupted("stopped by a signal at step " + std::to_string(n) + " after writing " + path);
@@ -727,7 +788,7 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
         why = "SIGUSR1";
       else if (out.checkpoint_interval > 0 && n % out.checkpoint_interval == 0)
         why = "every " + std::to_string(out.checkpoint_interval) + " steps";
-      else if (out.checkpoint_wall_interval > 0 && wall - last_checkpoint_wall >= out.checkpoint_wall_interval)
+      else if (wall_due)
         why = "wall-time interval";
       if (!why.empty()) {
         // A checkpoint that cannot be written (disk full, folder gone) does not end the run:

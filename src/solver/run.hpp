@@ -67,7 +67,12 @@ bool stop_requested();
 
 /// The checkpoints under path (a checkpoint file, a run folder or its checkpoints/ folder),
 /// newest first; InputError if there is none.
-std::vector<std::string> find_checkpoints(const std::string& path);
+/// Only names ending in `suffix` (checkpoint_suffix; one rank's files by default).
+std::vector<std::string> find_checkpoints(const std::string& path, const std::string& suffix = ".ckpt");
+
+/// The end of a checkpoint file name: ".ckpt" for one rank, ".rank<r>of<n>.ckpt" for rank r of n
+/// (each rank writes its own file of a step: step_<n>.rank<r>of<n>.ckpt).
+std::string checkpoint_suffix(int rank, int size);
 
 /// Runs scripts/<script> with python3 and the arguments, without a shell and with its output
 /// silenced; true when it exited with 0.

@@ -158,3 +158,61 @@ TEST(CliRanks, ARankKilledMidRunEndsTheJob) {
   EXPECT_FALSE(fs::exists(tmp.path / "out" / "summary.csv"));
   std::printf("a killed rank ended the job in %.1f s (exit %d)\n", s, code);
 }
+
+TEST(CliRanks, TwoRanksRestartBitForBitFromTheirCheckpoints) {
+  if (mpiexec(2).empty()) GTEST_SKIP() << "mpiexec not found";
+  TempDir tmp("restart");
+  const fs::path whole = tmp.path / "whole", cut = tmp.path / "cut", term = tmp.path / "term";
+  auto scene_with = [&](const std::string& name, const std::string& from, const std::string& to) {
+    std::string text = slurp(kScene);
+    text.replace(text.find(from), from.size(), to);
+    const fs::path p = tmp.path / name;
+    std::ofstream(p) << text;
+    return p.string();
+  };
+  const std::string run = mpiexec(2) + quote(kExe) + " run ";
+  const Outcome a = run_cmd(run + quote(kScene) + " -q -o " + quote(whole.string()));
+  ASSERT_EQ(a.code, 0) << a.text;
+
+  // (a) A checkpoint every 500 steps, the run ending at step 1000, then continued to 3000.
+  const std::string short_scene = scene_with("short.yaml", "end: {steps: 3000}", "end: {steps: 1000}");
+  std::string text = slurp(short_scene);
+  text.replace(text.find("checkpoint_wall_interval: 0"), 27, "checkpoint_wall_interval: 0, checkpoint_interval: 500");
+  std::ofstream(short_scene) << text;
+  const Outcome b = run_cmd(run + quote(short_scene) + " -q -o " + quote(cut.string()));
+  ASSERT_EQ(b.code, 0) << b.text;
+  EXPECT_TRUE(fs::exists(cut / "checkpoints" / "step_000000000500.rank0of2.ckpt"));
+  EXPECT_TRUE(fs::exists(cut / "checkpoints" / "step_000000000500.rank1of2.ckpt"));
+  const Outcome c =
+      run_cmd(run + quote(kScene) + " -q -o " + quote(cut.string()) + " --restart " + quote(cut.string()));
+  ASSERT_EQ(c.code, 0) << c.text;
+  EXPECT_TRUE(has(c.text, "continuing from")) << c.text;
+  for (const char* f : {"monitors.csv", "broken_ce6.csv", "fields.xdmf", "fields_rank0.xdmf", "fields_rank1.xdmf"})
+    EXPECT_EQ(slurp(whole / f), slurp(cut / f)) << f;
+
+  // (b) SIGTERM to both ranks mid-run: each writes its checkpoint of the same step, the job
+  // ends with exit 5 and the command that continues it; continuing gives the same files.
+  const std::string log = (tmp.path / "term.log").string(), rc = (tmp.path / "term.rc").string();
+  ASSERT_EQ(std::system(("(" + run + quote(kScene) + " -o " + quote(term.string()) + " > " + quote(log) +
+                         " 2>&1; echo $? > " + quote(rc) + ") &")
+                            .c_str()),
+            0);
+  const fs::path mon = term / "monitors.csv";
+  for (int i = 0; i < 600 && !(fs::exists(mon) && fs::file_size(mon) > 4000); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  std::system(("pkill -TERM -f " + quote("^" + kExe + " run " + kScene)).c_str());
+  for (int i = 0; i < 1200 && !fs::exists(rc); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  ASSERT_TRUE(fs::exists(rc));
+  const std::string term_log = slurp(log);
+  if (std::stoi(slurp(rc)) == 0) GTEST_SKIP() << "the run finished before the signal: " << term_log;
+  EXPECT_EQ(std::stoi(slurp(rc)), 5) << term_log;
+  EXPECT_TRUE(has(term_log, "continue with: mpiexec -n 2 fdem run")) << term_log;
+  std::size_t files = 0;
+  for (const auto& e : fs::directory_iterator(term / "checkpoints")) files += e.path().extension() == ".ckpt";
+  EXPECT_EQ(files, 2u) << "one file per rank of the same step";
+  const Outcome d =
+      run_cmd(run + quote(kScene) + " -q -o " + quote(term.string()) + " --restart " + quote(term.string()));
+  ASSERT_EQ(d.code, 0) << d.text;
+  for (const char* f : {"monitors.csv", "broken_ce6.csv", "fields.xdmf"})
+    EXPECT_EQ(slurp(whole / f), slurp(term / f)) << f;
+}
