@@ -71,31 +71,41 @@ real default_reach(const Model& m, const Scene& s) {
   return s.contact.enabled() ? 2 * m.mean_edge : 0;
 }
 
-RankModel extract_rank(const Model& g, const std::vector<int>& part, int rank, int layers, real reach) {
-  const int nt = int(g.tet_nodes.size()), nn = int(g.X.size()), nc = int(g.ce6_nodes.size());
+PartitionPlan plan_partition(const Model& g, const std::vector<int>& part, int layers, real reach) {
+  const int nt = int(g.tet_nodes.size()), nn = int(g.X.size());
+  PartitionPlan plan;
+  plan.layers = layers;
+  plan.reach = reach;
+  plan.part = part;
   int size = 0;
   for (int p : part) size = std::max(size, p + 1);
-  if (int(part.size()) != nt || rank < 0 || rank >= size)
+  plan.size = size;
+  if (int(part.size()) != nt || size < 1)
     throw InputError("partition: the partition does not match the model (" + std::to_string(part.size()) +
-                     " entries for " + std::to_string(nt) + " tets, rank " + std::to_string(rank) + ")");
+                     " entries for " + std::to_string(nt) + " tets)");
   const VertexTets vt(g);
 
   // Node owner: the rank of the lowest-numbered tet holding the node.
-  std::vector<int> node_owner(nn, -1);
+  plan.node_owner.assign(nn, -1);
   for (int t = 0; t < nt; ++t)
     for (int n : g.tet_nodes[t])
-      if (node_owner[n] < 0) node_owner[n] = part[t];
+      if (plan.node_owner[n] < 0) plan.node_owner[n] = part[t];
 
-  // Tets each rank holds, with the ghost layer (0 = owned): breadth first over shared vertices.
-  // Ranks are visited one after another; a tet is held by few ranks, so keep (rank, layer) lists.
-  std::vector<std::vector<std::array<int, 2>>> held(nt);
+  // Tets each rank holds, with the ghost layer (0 = owned): breadth first over shared vertices,
+  // one rank after another from its own tets (bucketed once); a tet is held by few ranks.
+  auto& held = plan.held;
+  held.assign(nt, {});
   {
+    std::vector<int> start(size + 1, 0), by_rank(nt);
+    for (int p : part) ++start[p + 1];
+    for (int r = 0; r < size; ++r) start[r + 1] += start[r];
+    std::vector<int> fill(start.begin(), start.end() - 1);
+    for (int t = 0; t < nt; ++t) by_rank[fill[part[t]]++] = t;
     std::vector<int> layer(nt, -1), frontier, next, touched;
     for (int r = 0; r < size; ++r) {
-      frontier.clear();
-      touched.clear();
-      for (int t = 0; t < nt; ++t)
-        if (part[t] == r) layer[t] = 0, frontier.push_back(t), touched.push_back(t);
+      frontier.assign(by_rank.begin() + start[r], by_rank.begin() + start[r + 1]);
+      touched = frontier;
+      for (int t : frontier) layer[t] = 0;
       for (int k = 1; k <= layers; ++k) {
         next.clear();
         for (int t : frontier)
@@ -135,6 +145,31 @@ RankModel extract_rank(const Model& g, const std::vector<int>& part, int rank, i
     for (auto& h : held) std::sort(h.begin(), h.end());  // by rank, as the lists below assume
   }
 
+  // Ranks holding each node: those holding a tet of it.
+  plan.node_ranks.assign(nn, {});
+  for (int t = 0; t < nt; ++t)
+    for (const auto& h : held[t])
+      for (int n : g.tet_nodes[t]) {
+        auto& rs = plan.node_ranks[n];
+        if (std::find(rs.begin(), rs.end(), h[0]) == rs.end()) rs.push_back(h[0]);
+      }
+  return plan;
+}
+
+RankModel extract_rank(const Model& g, const std::vector<int>& part, int rank, int layers, real reach) {
+  return extract_rank(g, plan_partition(g, part, layers, reach), rank);
+}
+
+RankModel extract_rank(const Model& g, const PartitionPlan& plan, int rank) {
+  const int nt = int(g.tet_nodes.size()), nn = int(g.X.size()), nc = int(g.ce6_nodes.size());
+  const int size = plan.size, layers = plan.layers;
+  const real reach = plan.reach;
+  const std::vector<int>& part = plan.part;
+  const std::vector<int>& node_owner = plan.node_owner;
+  const auto& held = plan.held;
+  if (rank < 0 || rank >= size || int(part.size()) != nt)
+    throw InputError("partition: rank " + std::to_string(rank) + " of a partition into " + std::to_string(size) +
+                     " parts, or a plan of another model");
   RankModel out;
   Decomposition& dd = out.dd;
   dd.rank = rank;
@@ -235,14 +270,8 @@ RankModel extract_rank(const Model& g, const std::vector<int>& part, int rank, i
     dd.ce6_owned[i] = part[std::min(ab[0], ab[1])] == rank;
   }
 
-  // The halo plan. Ranks holding each node: those holding a tet of it.
-  std::vector<std::vector<int>> node_ranks(nn);
-  for (int t = 0; t < nt; ++t)
-    for (const auto& h : held[t])
-      for (int n : g.tet_nodes[t]) {
-        auto& rs = node_ranks[n];
-        if (std::find(rs.begin(), rs.end(), h[0]) == rs.end()) rs.push_back(h[0]);
-      }
+  // The halo plan.
+  const auto& node_ranks = plan.node_ranks;
   std::vector<Neighbour> nb(size);
   for (int r = 0; r < size; ++r) nb[r].rank = r;
   for (std::size_t i = 0; i < nodes.size(); ++i) {

@@ -210,8 +210,9 @@ int run_main(int argc, char** argv) {
     std::filesystem::create_directories(output);
     std::cout << "partition of " << model.tet_nodes.size() << " tets, " << model.ce6_nodes.size() << " CE6, "
               << model.X.size() << " nodes for " << parts << " ranks, contact reach " << reach << " m:\n";
+    const fdem::PartitionPlan plan = fdem::plan_partition(model, part, 1, reach);
     for (int r = 0; r < parts; ++r) {
-      const fdem::RankModel rm = fdem::extract_rank(model, part, r, 1, reach);
+      const fdem::RankModel rm = fdem::extract_rank(model, plan, r);
       const std::string path = rank_file(output, r);
       fdem::write_rank_file(path, rm, fdem::model_key(scene));
       long own = 0, ghost_nodes = 0;

@@ -1,0 +1,191 @@
+// bench_ranks: what several MPI ranks cost and gain on the CPU backend, and a model of weak
+// scaling from measured halo sizes.
+//
+// Part 1 (run it under mpiexec with 1 and with 2 ranks): for each structured box (Kuhn tets,
+// 2:1 height, CE6 everywhere, Table 2 rock, platens at 0.1 m/s, mass scaling 5, no contact
+// unless --contact), partition with METIS over the ranks and time N steps: wall time per
+// step (slowest rank), the part of it spent in the node halo exchange (slowest rank), halo
+// bytes sent per step (largest rank and all ranks), ghost tets against own tets, neighbours.
+//
+// Part 2 (--weak N, one process): weak scaling to 8 and 64 ranks without running them. A box
+// of about N tets per rank times P is partitioned for P = 1, 2, 8, 64; for a sample of ranks
+// the halo is built exactly as a run would build it, giving the largest ghost-node count,
+// neighbour count and ghost-tet fraction. The time per step is then modelled as
+//   t(P) = t_compute(N) * (1 + ghost fraction) + neighbours * latency + bytes / bandwidth
+// with t_compute measured here per own tet (part 1 or --tet-us) and the latency and bandwidth
+// given (--latency-us, --gbps; defaults 2 us and 12.5 GB/s, an HDR100 InfiniBand link; these
+// are assumptions, not measurements).
+//
+// Usage: mpiexec -n 2 bench_ranks [--cells 6,10,14] [--steps N] [--contact]
+//        bench_ranks --weak 20000 [--tet-us 0.5] [--latency-us 2] [--gbps 12.5] [--sample 6]
+// Prints Markdown. A benchmark, not a test: it checks nothing.
+#include <mpi.h>
+#include <omp.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "model/structured.hpp"
+#include "partition/partition.hpp"
+#include "solver/solver.hpp"
+
+namespace {
+
+using namespace fdem;
+
+Scene bench_scene(bool contact) {
+  Scene s;
+  s.name = "bench_ranks";
+  s.output.progress_interval = 0;
+  s.output.plot = false;
+  s.solver.mass_scaling = 5;
+  s.platens.velocity = 0.1;
+  if (!contact) s.contact.activation = "none";
+  return s;
+}
+
+/// Box of nx x nx x 2nx cells (6 tets each), 0.01 m cells.
+Model box_model(int nx, const Scene& s) {
+  return build_model(structured_box_mesh({0.01 * nx, 0.01 * nx, 0.02 * nx}, nx, nx, 2 * nx), s);
+}
+
+std::vector<int> parse_ints(const std::string& a) {
+  std::vector<int> v;
+  std::stringstream in(a);
+  for (std::string x; std::getline(in, x, ',');) v.push_back(std::atoi(x.c_str()));
+  return v;
+}
+
+double max_over(double v) {
+  MPI_Allreduce(MPI_IN_PLACE, &v, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+  return v;
+}
+double sum_over(double v) {
+  MPI_Allreduce(MPI_IN_PLACE, &v, 1, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
+  return v;
+}
+
+void measured(const std::vector<int>& cells, int steps, bool contact) {
+  int rank = 0, size = 1;
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  MPI_Comm_size(MPI_COMM_WORLD, &size);
+  const Scene scene = bench_scene(contact);
+  if (rank == 0) {
+    std::printf("\n### %d rank(s), %d OpenMP thread(s) each, %d steps, contact %s\n\n", size, omp_get_max_threads(),
+                steps, contact ? "adaptive" : "none");
+    std::printf(
+        "| tets | own tets (largest rank) | ghost tets / own | neighbours | us/step | halo us/step | halo share | "
+        "halo kB/step (largest rank) | halo kB/step (all) | us per own tet-step |\n"
+        "|---|---|---|---|---|---|---|---|---|---|\n");
+  }
+  for (int nx : cells) {
+    const Model global = box_model(nx, scene);
+    const std::vector<int> part = partition_tets(global, size);
+    RankModel rm = extract_rank(global, part, rank, 1, default_reach(global, scene));
+    double own = 0, ghost = 0;
+    for (auto o : rm.dd.tet_owned) own += o, ghost += !o;
+    const double neighbours = double(rm.dd.neighbours.size());
+    Solver s(scene, std::move(rm.model), std::move(rm.dd), MPI_COMM_WORLD);
+    for (int i = 0; i < std::max(20, steps / 10); ++i) s.step();  // warm up
+    const double halo0 = s.halo_seconds();
+    MPI_Barrier(MPI_COMM_WORLD);
+    const double t0 = MPI_Wtime();
+    for (int i = 0; i < steps; ++i) s.step();
+    const double wall = max_over(MPI_Wtime() - t0) / steps;
+    const double halo = max_over(s.halo_seconds() - halo0) / steps;
+    const double bytes = double(s.halo_bytes_per_step());
+    const double own_max = max_over(own);
+    const double ghost_ratio = max_over(own > 0 ? ghost / own : 0);
+    const double bytes_max = max_over(bytes), bytes_all = sum_over(bytes), nb = max_over(neighbours);
+    if (rank == 0)
+      std::printf("| %zu | %.0f | %.3f | %.0f | %.1f | %.1f | %.1f %% | %.1f | %.1f | %.3f |\n",
+                  global.tet_nodes.size(), own_max, ghost_ratio, nb, 1e6 * wall, 1e6 * halo, 100 * halo / wall,
+                  bytes_max / 1e3, bytes_all / 1e3, 1e6 * wall / own_max);
+  }
+}
+
+void weak(long per_rank, double tet_us, double latency_us, double gbps, int sample) {
+  const Scene scene = bench_scene(false);
+  std::printf(
+      "\n### Weak scaling model: about %ld tets per rank\n\n"
+      "Measured: partition, ghosts and halo of a sample of %d ranks (the largest shown). Modelled: compute %.3f us "
+      "per own tet-step (x (1 + ghost/own)), latency %.1f us per neighbour, %.1f GB/s per rank.\n\n"
+      "| ranks | tets | own tets (largest) | ghost tets / own | neighbours | halo kB/step | compute us | halo us | "
+      "step us | halo share | efficiency vs 1 rank |\n"
+      "|---|---|---|---|---|---|---|---|---|---|---|\n",
+      per_rank, sample, tet_us, latency_us, gbps);
+  double t1 = 0;
+  for (int P : {1, 2, 8, 64}) {
+    const int nx = std::max(2, int(std::lround(std::cbrt(double(per_rank) * P / 12.0))));
+    const Model global = box_model(nx, scene);
+    const PartitionPlan plan = plan_partition(global, partition_tets(global, P), 1, 0);
+    double own_max = 0, ghost_ratio = 0, nb_max = 0, bytes_max = 0;
+    for (int k = 0; k < std::min(P, sample); ++k) {
+      const int r = int((long(k) * P) / std::min(P, sample));  // spread over the rank numbers
+      const RankModel rm = extract_rank(global, plan, r);
+      double own = 0, ghost = 0, sent = 0;
+      for (auto o : rm.dd.tet_owned) own += o, ghost += !o;
+      for (const Neighbour& n : rm.dd.neighbours) sent += 2.0 * sizeof(Vec3) * double(n.send_nodes.size());
+      own_max = std::max(own_max, own);
+      ghost_ratio = std::max(ghost_ratio, own > 0 ? ghost / own : 0);
+      nb_max = std::max(nb_max, double(rm.dd.neighbours.size()));
+      bytes_max = std::max(bytes_max, sent);
+    }
+    const double compute = tet_us * own_max * (1 + ghost_ratio);
+    const double halo = P > 1 ? nb_max * latency_us + bytes_max / (gbps * 1e3) : 0;
+    const double step = compute + halo;
+    if (P == 1) t1 = step / own_max;
+    std::printf("| %d | %zu | %.0f | %.3f | %.0f | %.1f | %.0f | %.1f | %.0f | %.1f %% | %.2f |\n", P,
+                global.tet_nodes.size(), own_max, ghost_ratio, nb_max, bytes_max / 1e3, compute, halo, step,
+                100 * halo / step, t1 * own_max / step);
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  MPI_Init(&argc, &argv);
+  std::vector<int> cells = {6, 10, 14};
+  int steps = 200, sample = 6;
+  long per_rank = 0;
+  bool contact = false;
+  double tet_us = 0.5, latency_us = 2, gbps = 12.5;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto next = [&] { return i + 1 < argc ? std::string(argv[++i]) : std::string(); };
+    if (a == "--cells")
+      cells = parse_ints(next());
+    else if (a == "--steps")
+      steps = std::atoi(next().c_str());
+    else if (a == "--contact")
+      contact = true;
+    else if (a == "--weak")
+      per_rank = std::atol(next().c_str());
+    else if (a == "--tet-us")
+      tet_us = std::atof(next().c_str());
+    else if (a == "--latency-us")
+      latency_us = std::atof(next().c_str());
+    else if (a == "--gbps")
+      gbps = std::atof(next().c_str());
+    else if (a == "--sample")
+      sample = std::atoi(next().c_str());
+    else {
+      std::fprintf(stderr, "bench_ranks: unknown option %s (see the comment at the top of bench/bench_ranks.cpp)\n",
+                   a.c_str());
+      MPI_Finalize();
+      return 2;
+    }
+  }
+  if (per_rank > 0)
+    weak(per_rank, tet_us, latency_us, gbps, sample);
+  else
+    measured(cells, steps, contact);
+  MPI_Finalize();
+  return 0;
+}
