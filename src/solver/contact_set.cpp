@@ -170,6 +170,13 @@ void ContactSet::rebuild(const Model& m, const std::vector<Vec3>& x) {
     // Tets sharing a node are one continuous body, unless a CE6 joins them: on the border
     // of a fracture region a CE6 can have one or two single-node pairs and still break.
     if (joint < 0 && share_node(m.tet_nodes[p[0]], m.tet_nodes[p[1]])) continue;
+    // A rank's part of a decomposed model: a pair acting on no owned node does not matter here.
+    if (node_owned_) {
+      bool any = false;
+      for (int t : p)
+        for (int n : m.tet_nodes[t]) any = any || (*node_owned_)[n];
+      if (!any) continue;
+    }
     next.push_back({p[0], p[1], joint});
   }
   // Carry each surviving pair's friction spring over (both lists are sorted by (a, b)).

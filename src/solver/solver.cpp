@@ -49,6 +49,24 @@ Solver::Solver(const Scene& scene, Model model, Decomposition dd, MPI_Comm comm)
     own_tet_ = dd_.tet_owned;
     own_ce6_ = dd_.ce6_owned;
     halo_ = std::make_unique<Halo>(comm_, dd_);
+    // Forces are needed on owned nodes only: the loops skip elements that are not this rank's
+    // and have no owned node (ghosts' nodes take their owners' values after each step). With
+    // CE6 everywhere that is every ghost TET4 and every CE6 off the partition boundary.
+    auto keep_touching_owned = [&](Colouring& c, const std::vector<std::uint8_t>& own, auto&& nodes_of) {
+      Colouring kept;
+      kept.offsets.push_back(0);
+      for (int k = 0; k < c.colours(); ++k) {
+        for (int j = c.offsets[k]; j < c.offsets[k + 1]; ++j) {
+          bool any = own[c.order[j]];
+          for (int n : nodes_of(c.order[j])) any = any || own_node_[n];
+          if (any) kept.order.push_back(c.order[j]);
+        }
+        kept.offsets.push_back(int(kept.order.size()));
+      }
+      c = std::move(kept);
+    };
+    keep_touching_owned(model_.tet_colours, own_tet_, [&](int t) { return model_.tet_nodes[t]; });
+    keep_touching_owned(model_.ce6_colours, own_ce6_, [&](int c) { return model_.ce6_nodes[c]; });
   } else {
     own_node_.assign(nn, 1);
     own_tet_.assign(model_.tet_nodes.size(), 1);
