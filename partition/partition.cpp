@@ -145,14 +145,38 @@ PartitionPlan plan_partition(const Model& g, const std::vector<int>& part, int l
     for (auto& h : held) std::sort(h.begin(), h.end());  // by rank, as the lists below assume
   }
 
-  // Ranks holding each node: those holding a tet of it.
+  // Ranks that need each node's position and velocity every step. With contact: every rank
+  // holding a tet of it (the broad phase looks at all held tets). Without: only ranks where an
+  // element they compute uses it, i.e. a tet or CE6 they own or with a node they own (the
+  // other ghosts' nodes are never read, so they are not sent).
   plan.node_ranks.assign(nn, {});
+  auto need = [&](int n, int r) {
+    auto& rs = plan.node_ranks[n];
+    if (std::find(rs.begin(), rs.end(), r) == rs.end()) rs.push_back(r);
+  };
+  const bool contact = reach > 0;
   for (int t = 0; t < nt; ++t)
-    for (const auto& h : held[t])
-      for (int n : g.tet_nodes[t]) {
-        auto& rs = plan.node_ranks[n];
-        if (std::find(rs.begin(), rs.end(), h[0]) == rs.end()) rs.push_back(h[0]);
+    for (const auto& h : held[t]) {
+      bool used = contact || part[t] == h[0];
+      for (int n : g.tet_nodes[t]) used = used || plan.node_owner[n] == h[0];
+      if (used)
+        for (int n : g.tet_nodes[t]) need(n, h[0]);
+    }
+  if (!contact)
+    for (std::size_t c = 0; c < g.ce6_nodes.size(); ++c) {
+      const auto& ab = g.ce6_tets[c];
+      for (const auto& h : held[ab[0]]) {
+        const int r = h[0];
+        bool both = false;
+        for (const auto& hb : held[ab[1]]) both = both || hb[0] == r;
+        if (!both) continue;
+        bool used = part[std::min(ab[0], ab[1])] == r;
+        for (int n : g.ce6_nodes[c]) used = used || plan.node_owner[n] == r;
+        if (used)
+          for (int n : g.ce6_nodes[c]) need(n, r);
       }
+    }
+  for (auto& rs : plan.node_ranks) std::sort(rs.begin(), rs.end());
   return plan;
 }
 
@@ -254,8 +278,22 @@ RankModel extract_rank(const Model& g, const PartitionPlan& plan, int rank) {
   m.min_altitude = g.min_altitude;
   m.mean_edge = g.mean_edge;
   m.source = g.source + " (rank " + std::to_string(rank) + " of " + std::to_string(size) + ")";
-  m.tet_colours = colour_tets(m.tet_nodes, nodes.size());
-  m.ce6_colours = colour_ce6(m.ce6_nodes, nodes.size());
+  // The global colourings, restricted: each node then receives its element forces in the same
+  // order as on one rank, so the sums agree bit for bit.
+  auto restrict_colouring = [](const Colouring& c, const std::vector<int>& local) {
+    Colouring out;
+    out.offsets.push_back(0);
+    for (int k = 0; k < c.colours(); ++k) {
+      for (int j = c.offsets[k]; j < c.offsets[k + 1]; ++j)
+        if (local[c.order[j]] >= 0) out.order.push_back(local[c.order[j]]);
+      out.offsets.push_back(int(out.order.size()));
+    }
+    return out;
+  };
+  std::vector<int> ce6_local(nc, -1);
+  for (std::size_t i = 0; i < ce6s.size(); ++i) ce6_local[ce6s[i]] = int(i);
+  m.tet_colours = restrict_colouring(g.tet_colours, tet_local);
+  m.ce6_colours = restrict_colouring(g.ce6_colours, ce6_local);
 
   dd.node_global.assign(nodes.begin(), nodes.end());
   dd.tet_global.assign(tets.begin(), tets.end());
@@ -279,7 +317,7 @@ RankModel extract_rank(const Model& g, const PartitionPlan& plan, int rank) {
     if (node_owner[n] == rank) {
       for (int r : node_ranks[n])
         if (r != rank) nb[r].send_nodes.push_back(int(i));
-    } else {
+    } else if (std::binary_search(node_ranks[n].begin(), node_ranks[n].end(), rank)) {
       nb[node_owner[n]].recv_nodes.push_back(int(i));
     }
   }

@@ -66,13 +66,13 @@ RankModel extract_rank(const Model& global, const std::vector<int>& part, int ra
 
 /// What every rank's extraction needs, computed once for all ranks (fdem partition cuts out
 /// N ranks from one plan): the partition, node owners, and which ranks hold each tet (with its
-/// ghost layer) and each node.
+/// ghost layer) and which ranks need each node sent to them every step.
 struct PartitionPlan {
   int size = 0, layers = 0;
   real reach = 0;
   std::vector<int> part, node_owner;
   std::vector<std::vector<std::array<int, 2>>> held;  // per tet: (rank, layer), ranks ascending
-  std::vector<std::vector<int>> node_ranks;           // per node: the ranks holding it
+  std::vector<std::vector<int>> node_ranks;           // per node: the ranks that need it (ascending)
 };
 PartitionPlan plan_partition(const Model& global, const std::vector<int>& part, int layers, real reach = 0);
 RankModel extract_rank(const Model& global, const PartitionPlan& plan, int rank);

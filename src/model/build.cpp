@@ -83,13 +83,6 @@ VertexTets::VertexTets(const Model& m) {
     for (int n : m.tet_nodes[t]) tets[fill[m.node_vertex[n]]++] = t;
 }
 
-Colouring colour_tets(const std::vector<std::array<int, 4>>& tets, std::size_t n_nodes) {
-  return colour_elements(tets, n_nodes, "TET4");
-}
-Colouring colour_ce6(const std::vector<std::array<int, 6>>& ce6, std::size_t n_nodes) {
-  return colour_elements(ce6, n_nodes, "CE6");
-}
-
 Model build_model(const Mesh& mesh, const Scene& scene) {
   const Material& mat = scene.material;
   const SolverSettings& sol = scene.solver;
@@ -315,8 +308,8 @@ Model build_model(const Mesh& mesh, const Scene& scene) {
       m.lateral_nodes.push_back(int(n));
   }
 
-  m.tet_colours = colour_tets(m.tet_nodes, nn);
-  m.ce6_colours = colour_ce6(m.ce6_nodes, nn);
+  m.tet_colours = colour_elements(m.tet_nodes, nn, "TET4");
+  m.ce6_colours = colour_elements(m.ce6_nodes, nn, "CE6");
   return m;
 }
 

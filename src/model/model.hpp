@@ -75,9 +75,5 @@ struct VertexTets {
   explicit VertexTets(const Model& m);
 };
 
-/// Greedy colourings of tets and CE6s over n_nodes nodes (used by the build and by the
-/// per-rank models of partition/); InputError past 64 colours.
-Colouring colour_tets(const std::vector<std::array<int, 4>>& tets, std::size_t n_nodes);
-Colouring colour_ce6(const std::vector<std::array<int, 6>>& ce6, std::size_t n_nodes);
 
 }  // namespace fdem

@@ -73,9 +73,13 @@ Scene box_scene() {
 
 }  // namespace
 
-TEST(Ranks, ElasticCurveAndNodesMatchOneRank) {
-  // Before any CE6 is damaged: the same curve and node positions to round-off.
-  const Scene scene = box_scene();
+class RanksElastic : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(RanksElastic, CurveAndNodesMatchOneRank) {
+  // Before any CE6 is damaged: the same curve and node positions to round-off. Without
+  // contact a rank receives only the ghost nodes its elements read; with it, all it holds.
+  Scene scene = box_scene();
+  scene.contact.activation = GetParam();
   const Model global = build_model(structured_box_mesh({0.01, 0.01, 0.02}, 3, 3, 6), scene);
   Solver ref(scene, global);
   auto d = decomposed(scene, global);
@@ -106,9 +110,11 @@ TEST(Ranks, ElasticCurveAndNodesMatchOneRank) {
   EXPECT_LT(ex, 1e-10) << "displacements";
   EXPECT_LT(ev, 1e-10) << "velocities";
   if (world_rank() == 0)
-    std::printf("elastic, %d rank(s): curve %.2e, displacement %.2e, velocity %.2e (relative)\n", world_size(),
-                worst_curve, ex, ev);
+    std::printf("elastic, contact %s, %d rank(s): curve %.2e, displacement %.2e, velocity %.2e (relative)\n",
+                GetParam(), world_size(), worst_curve, ex, ev);
 }
+
+INSTANTIATE_TEST_SUITE_P(Contact, RanksElastic, ::testing::Values("adaptive", "none"));
 
 TEST(Ranks, FracturingBoxMatchesOneRank) {
   // Through the peak with contact: the same peak stress and broken-CE6 count, with CE6s
@@ -262,16 +268,33 @@ TEST(Ranks, PartitionIsBalancedAndCoversEveryTet) {
       EXPECT_GT(count[r], 0);
       EXPECT_LT(count[r], 1.1 * nt / parts + 1) << parts << " parts";  // METIS allows 3 % imbalance
     }
-    // Every tet owned once; every node owned once; a ghost node's owner is a neighbour.
+    // Every tet owned once; every node owned once; with contact every ghost node is received
+    // (the broad phase reads them all), without only some; what one rank sends another
+    // receives.
     long tets = 0, nodes = 0;
-    for (int r = 0; r < parts; ++r) {
-      const RankModel rm = extract_rank(global, part, r, 1);
-      for (auto o : rm.dd.tet_owned) tets += o;
-      for (auto o : rm.dd.node_owned) nodes += o;
-      long ghosts = 0, received = 0;
-      for (auto o : rm.dd.node_owned) ghosts += !o;
-      for (const Neighbour& nb : rm.dd.neighbours) received += long(nb.recv_nodes.size());
-      EXPECT_EQ(received, ghosts) << "rank " << r << " of " << parts;
+    for (real reach : {real(0), default_reach(global, scene)}) {
+      const PartitionPlan plan = plan_partition(global, part, 1, reach);
+      std::vector<std::vector<long>> sent(parts, std::vector<long>(parts, 0)), got = sent;
+      for (int r = 0; r < parts; ++r) {
+        const RankModel rm = extract_rank(global, plan, r);
+        if (reach == 0) {
+          for (auto o : rm.dd.tet_owned) tets += o;
+          for (auto o : rm.dd.node_owned) nodes += o;
+        }
+        long ghosts = 0, received = 0;
+        for (auto o : rm.dd.node_owned) ghosts += !o;
+        for (const Neighbour& nb : rm.dd.neighbours) {
+          received += long(nb.recv_nodes.size());
+          sent[r][nb.rank] = long(nb.send_nodes.size());
+          got[nb.rank][r] = long(nb.recv_nodes.size());
+        }
+        if (reach > 0) {
+          EXPECT_EQ(received, ghosts) << "rank " << r << " of " << parts;
+        } else if (parts > 1) {
+          EXPECT_LT(received, ghosts) << "rank " << r << " of " << parts;
+        }
+      }
+      EXPECT_EQ(sent, got) << parts << " parts, reach " << reach;
     }
     EXPECT_EQ(tets, nt);
     EXPECT_EQ(nodes, long(global.X.size()));
