@@ -5,7 +5,7 @@ set -euo pipefail
 packages=(build-essential cmake pkg-config git
   libopenmpi-dev openmpi-bin libhdf5-openmpi-dev libmetis-dev petsc-dev
   libeigen3-dev libgtest-dev libgmsh-dev libyaml-cpp-dev libcli11-dev
-  python3 python3-matplotlib "$@")
+  python3 python3-matplotlib procps "$@")  # procps: pkill in the multi-rank tests
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
