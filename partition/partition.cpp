@@ -405,17 +405,26 @@ std::uint64_t model_key(const Scene& s) {
   return fnv1a64(words.data(), words.size(), h);
 }
 
-void write_rank_file(const std::string& path, const RankModel& rm, std::uint64_t key) {
-  CheckpointOut o;
+void put_rank_model(CheckpointOut& o, const RankModel& rm, std::uint64_t key) {
   o.put(kRankFileMagic);
   o.put(key);
   model_fields([&](const auto& v) { o.put(v); }, rm.model);
   rm.dd.save(o);
+}
+
+void write_rank_file(const std::string& path, const RankModel& rm, std::uint64_t key) {
+  CheckpointOut o;
+  put_rank_model(o, rm, key);
   write_checkpoint(path, o);
 }
 
 RankModel read_rank_file(const std::string& path, std::uint64_t key) {
   CheckpointIn in = read_checkpoint(path);
+  return get_rank_model(in, key);
+}
+
+RankModel get_rank_model(CheckpointIn& in, std::uint64_t key) {
+  const std::string& path = in.file();
   std::uint64_t magic = 0, file_key = 0;
   in.get(magic);
   if (magic != kRankFileMagic)

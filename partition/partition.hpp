@@ -90,5 +90,8 @@ std::uint64_t model_key(const Scene& s);
 void write_rank_file(const std::string& path, const RankModel& rm, std::uint64_t key);
 /// InputError naming the file when it is damaged, not a rank file, or made for another scene (key).
 RankModel read_rank_file(const std::string& path, std::uint64_t key);
+/// The same contents in a checkpoint payload (rank 0 sends each rank its model this way).
+void put_rank_model(CheckpointOut& out, const RankModel& rm, std::uint64_t key);
+RankModel get_rank_model(CheckpointIn& in, std::uint64_t key);
 
 }  // namespace fdem

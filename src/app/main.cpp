@@ -3,6 +3,7 @@
 #include <mpi.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
@@ -97,6 +98,24 @@ fdem::Model build_scene_model(const fdem::Scene& scene) {
     // Name the scene too: the mesh message names the mesh file and the element.
     throw fdem::InputError(scene.file + ": mesh: " + e.what());
   }
+}
+
+/// Point-to-point transfer of a byte string of any length (in pieces below MPI's int count).
+void send_bytes(const std::string& bytes, int to) {
+  const std::uint64_t n = bytes.size();
+  MPI_Send(&n, 1, MPI_UINT64_T, to, 7, MPI_COMM_WORLD);
+  constexpr std::uint64_t kPiece = 1u << 30;
+  for (std::uint64_t at = 0; at < n; at += kPiece)
+    MPI_Send(bytes.data() + at, int(std::min(kPiece, n - at)), MPI_BYTE, to, 8, MPI_COMM_WORLD);
+}
+std::string receive_bytes(int from) {
+  std::uint64_t n = 0;
+  MPI_Recv(&n, 1, MPI_UINT64_T, from, 7, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+  std::string bytes(n, '\0');
+  constexpr std::uint64_t kPiece = 1u << 30;
+  for (std::uint64_t at = 0; at < n; at += kPiece)
+    MPI_Recv(bytes.data() + at, int(std::min(kPiece, n - at)), MPI_BYTE, from, 8, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+  return bytes;
 }
 
 std::string rank_file(const std::string& folder, int rank) {
@@ -268,41 +287,37 @@ int run_main(int argc, char** argv) {
                              ", or fdem partition -n " + std::to_string(size));
     model = std::move(rm.model);
     dd = std::move(rm.dd);
-  } else {
+  } else if (size == 1) {
     model = build_scene_model(scene);
-    if (size > 1) {
-      // Every rank built the model; they must agree before rank 0's partition is used.
-      std::uint64_t h = fdem::fnv1a64(model.X.data(), model.X.size() * sizeof(fdem::Vec3));
-      h = fdem::fnv1a64(model.tet_nodes.data(), model.tet_nodes.size() * sizeof(model.tet_nodes[0]), h);
-      std::uint64_t lo = h, hi = h;
-      MPI_Allreduce(MPI_IN_PLACE, &lo, 1, MPI_UINT64_T, MPI_MIN, MPI_COMM_WORLD);
-      MPI_Allreduce(MPI_IN_PLACE, &hi, 1, MPI_UINT64_T, MPI_MAX, MPI_COMM_WORLD);
-      if (lo != hi)
-        throw fdem::InputError(scene.file + ": the ranks built different models from mesh " + scene.mesh.file +
-                               scene.mesh.shape +
-                               ". Fix: write rank files with fdem partition and run with "
-                               "--partitioned");
-      std::vector<int> part(model.tet_nodes.size());
-      int ok = 1;
-      std::string why;
-      if (rank == 0) try {
-          part = fdem::partition_tets(model, size);
-        } catch (const fdem::InputError& e) {
-          ok = 0, why = e.what();
-        }
-      MPI_Bcast(&ok, 1, MPI_INT, 0, MPI_COMM_WORLD);
-      if (!ok) {
-        if (rank == 0) throw fdem::InputError(scene.file + ": " + why);
-        MPI_Barrier(MPI_COMM_WORLD);  // rank 0 reports and ends the job
+  } else {
+    // Rank 0 builds the model, partitions it with METIS and sends every rank its part: the
+    // other ranks never hold the whole model. (A failure on rank 0 ends the job, MPI_Abort.)
+    const std::uint64_t key = fdem::model_key(scene);
+    fdem::RankModel mine;
+    if (rank == 0) {
+      const fdem::Model global = build_scene_model(scene);
+      std::vector<int> part;
+      try {
+        part = fdem::partition_tets(global, size);
+      } catch (const fdem::InputError& e) {
+        throw fdem::InputError(scene.file + ": " + e.what());
       }
-      MPI_Bcast(part.data(), int(part.size()), MPI_INT, 0, MPI_COMM_WORLD);
       const double reach = !scene.contact.enabled() ? 0
                            : contact_reach > 0      ? contact_reach
-                                                    : fdem::default_reach(model, scene);
-      fdem::RankModel rm = fdem::extract_rank(model, part, rank, 1, reach);
-      model = std::move(rm.model);
-      dd = std::move(rm.dd);
+                                                    : fdem::default_reach(global, scene);
+      const fdem::PartitionPlan plan = fdem::plan_partition(global, part, 1, reach);
+      for (int r = 1; r < size; ++r) {
+        fdem::CheckpointOut o;
+        fdem::put_rank_model(o, fdem::extract_rank(global, plan, r), key);
+        send_bytes(o.payload(), r);
+      }
+      mine = fdem::extract_rank(global, plan, 0);
+    } else {
+      fdem::CheckpointIn in(receive_bytes(0), "the model part sent by rank 0");
+      mine = fdem::get_rank_model(in, key);
     }
+    model = std::move(mine.model);
+    dd = std::move(mine.dd);
   }
   NullBuffer null_buffer;
   std::ostream null_stream(&null_buffer);
