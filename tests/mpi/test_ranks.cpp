@@ -71,6 +71,35 @@ Scene box_scene() {
   return s;
 }
 
+/// Two 0.01 m blocks of 48 tets, one on the other, offset sideways.
+Mesh two_blocks() {
+  Mesh a = structured_box_mesh({0.01, 0.01, 0.01}, 2, 2, 2);
+  const Mesh b = structured_box_mesh({0.01, 0.01, 0.01}, 2, 2, 2);
+  const int off = int(a.vertices.size());
+  for (Vec3 p : b.vertices) a.vertices.push_back(p + Vec3{0.001, 0.0005, 0.01});
+  for (auto q : b.tets) a.tets.push_back({q[0] + off, q[1] + off, q[2] + off, q[3] + off});
+  a.source = "two blocks";
+  return a;
+}
+Scene two_blocks_scene() {
+  Scene scene = box_scene();
+  scene.platens.enabled = false;
+  scene.contact.activation = "full";
+  scene.fracture.everywhere = false;  // two continuous blocks: contact only between them
+  return scene;
+}
+bool upper(const Model& m, int t) {
+  real zc = 0;
+  for (int n : m.tet_nodes[t]) zc += 0.25 * m.X[n].z;
+  return zc > 0.01;
+}
+/// The lower block on rank 0, the upper on the last rank.
+std::vector<int> block_per_rank(const Model& m) {
+  std::vector<int> part(m.tet_nodes.size());
+  for (std::size_t t = 0; t < part.size(); ++t) part[t] = upper(m, int(t)) ? world_size() - 1 : 0;
+  return part;
+}
+
 }  // namespace
 
 class RanksElastic : public ::testing::TestWithParam<const char*> {};
@@ -164,24 +193,9 @@ TEST(Ranks, ContactPairAcrossRanksGivesOneRankForces) {
   // Two continuous blocks, one on the other (offset sideways), the upper one moving down at
   // 0.5 m/s: block A on rank 0, block B on the last rank. Contact is the only force between
   // them, so every force across the interface comes from pairs split over two ranks.
-  Mesh a = structured_box_mesh({0.01, 0.01, 0.01}, 2, 2, 2);
-  const Mesh b = structured_box_mesh({0.01, 0.01, 0.01}, 2, 2, 2);
-  const int off = int(a.vertices.size());
-  for (Vec3 p : b.vertices) a.vertices.push_back(p + Vec3{0.001, 0.0005, 0.01});
-  for (auto q : b.tets) a.tets.push_back({q[0] + off, q[1] + off, q[2] + off, q[3] + off});
-  a.source = "two blocks";
-  Scene scene = box_scene();
-  scene.platens.enabled = false;
-  scene.contact.activation = "full";
-  scene.fracture.everywhere = false;  // two continuous blocks: contact only between them
-  const Model global = build_model(a, scene);
-  auto upper = [](const Model& m, int t) {
-    real zc = 0;
-    for (int n : m.tet_nodes[t]) zc += 0.25 * m.X[n].z;
-    return zc > 0.01;
-  };
-  std::vector<int> part(global.tet_nodes.size());
-  for (std::size_t t = 0; t < part.size(); ++t) part[t] = upper(global, int(t)) ? world_size() - 1 : 0;
+  const Scene scene = two_blocks_scene();
+  const Model global = build_model(two_blocks(), scene);
+  const std::vector<int> part = block_per_rank(global);
   Solver ref(scene, global);
   auto d = decomposed(scene, global, part);
   for (Solver* s : {&ref, d.get()})
@@ -220,6 +234,28 @@ TEST(Ranks, ContactPairAcrossRanksGivesOneRankForces) {
         "contact, %d rank(s): %g candidate pairs across ranks, %ld touching; forces %.2e, displacements "
         "%.2e (relative)\n",
         world_size(), across, touching, worst_f, worst_x);
+}
+
+TEST(Ranks, ContactReachGuardStopsARunBeforeAPartnerIsMissed) {
+  // Both blocks fly at 50 m/s with a contact reach of 0.1 mm: at the first broad-phase build
+  // after they have moved 0.05 mm every rank stops the run (with one rank nothing is missing).
+  const Scene scene = two_blocks_scene();
+  const Model global = build_model(two_blocks(), scene);
+  RankModel rm = extract_rank(global, block_per_rank(global), world_rank(), 1, 1e-4);
+  Solver d(scene, std::move(rm.model), std::move(rm.dd), MPI_COMM_WORLD);
+  for (Vec3& v : d.v) v = {50, 0, 0};
+  std::string message;
+  try {
+    for (int i = 0; i < 400; ++i) d.step();
+  } catch (const RunError& e) {
+    message = e.what();
+  }
+  if (world_size() > 1) {
+    EXPECT_NE(message.find("contact reach"), std::string::npos) << message;
+    EXPECT_NE(message.find("--contact-reach"), std::string::npos) << message;
+  } else {
+    EXPECT_EQ(message, "");
+  }
 }
 
 TEST(Ranks, PrepartitionedFilesGiveTheSameRun) {
