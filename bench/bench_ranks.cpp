@@ -34,6 +34,7 @@
 #include <vector>
 
 #include "model/structured.hpp"
+#include "partition/halo.hpp"
 #include "partition/partition.hpp"
 #include "solver/solver.hpp"
 
@@ -65,18 +66,14 @@ std::vector<int> parse_ints(const std::string& a) {
 }
 
 double max_over(double v) {
-  MPI_Allreduce(MPI_IN_PLACE, &v, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
-  return v;
+  return max_over_ranks(MPI_COMM_WORLD, v);
 }
 double sum_over(double v) {
-  MPI_Allreduce(MPI_IN_PLACE, &v, 1, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
-  return v;
+  return sum_over_ranks(MPI_COMM_WORLD, v);
 }
 
 void measured(const std::vector<int>& cells, int steps, bool contact) {
-  int rank = 0, size = 1;
-  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
-  MPI_Comm_size(MPI_COMM_WORLD, &size);
+  const int rank = rank_in(MPI_COMM_WORLD), size = size_of(MPI_COMM_WORLD);
   const Scene scene = bench_scene(contact);
   if (rank == 0) {
     std::printf("\n### %d rank(s), %d OpenMP thread(s) each, %d steps, contact %s\n\n", size, omp_get_max_threads(),
@@ -89,7 +86,7 @@ void measured(const std::vector<int>& cells, int steps, bool contact) {
   for (int nx : cells) {
     const Model global = box_model(nx, scene);
     const std::vector<int> part = partition_tets(global, size);
-    RankModel rm = extract_rank(global, part, rank, 1, default_reach(global, scene));
+    RankModel rm = extract_rank(global, part, rank, default_reach(global, scene));
     double own = 0, ghost = 0;
     for (auto o : rm.dd.tet_owned) own += o, ghost += !o;
     const double neighbours = double(rm.dd.neighbours.size());
@@ -122,7 +119,8 @@ void weak(long per_rank, double tet_us, double latency_us, double gbps, int samp
   std::printf(
       "\n### Weak scaling model: about %ld tets per rank\n\n"
       "Measured: partition, ghosts and halo of a sample of %d ranks (the largest shown). Modelled: compute %.3f us "
-      "per own tet-step (x (1 + elements computed twice / own elements)), latency %.1f us per neighbour, %.1f GB/s per rank.\n\n"
+      "per own tet-step (x (1 + elements computed twice / own elements)), latency %.1f us per neighbour, %.1f GB/s per "
+      "rank.\n\n"
       "| ranks | tets | own tets (largest) | ghost tets / own | computed twice / own elements | neighbours | "
       "halo kB/step | compute us | halo us | step us | halo share | efficiency vs 1 rank |\n"
       "|---|---|---|---|---|---|---|---|---|---|---|---|\n",
@@ -131,7 +129,7 @@ void weak(long per_rank, double tet_us, double latency_us, double gbps, int samp
   for (int P : {1, 2, 8, 64}) {
     const int nx = std::max(2, int(std::lround(std::cbrt(double(per_rank) * P / 12.0))));
     const Model global = box_model(nx, scene);
-    const PartitionPlan plan = plan_partition(global, partition_tets(global, P), 1, 0);
+    const PartitionPlan plan = plan_partition(global, partition_tets(global, P), 0);
     double own_max = 0, ghost_ratio = 0, nb_max = 0, bytes_max = 0, redundant = 0;
     for (int k = 0; k < std::min(P, sample); ++k) {
       const int r = int((long(k) * P) / std::min(P, sample));  // spread over the rank numbers

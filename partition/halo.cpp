@@ -75,9 +75,29 @@ std::size_t Halo::node_bytes_sent() const {
 }
 
 void sum_over_ranks(MPI_Comm comm, double* values, int n) {
-  int size = 1;
-  MPI_Comm_size(comm, &size);
-  if (size > 1) MPI_Allreduce(MPI_IN_PLACE, values, n, MPI_DOUBLE, MPI_SUM, comm);
+  if (size_of(comm) > 1) MPI_Allreduce(MPI_IN_PLACE, values, n, MPI_DOUBLE, MPI_SUM, comm);
+}
+
+double sum_over_ranks(MPI_Comm comm, double value) {
+  sum_over_ranks(comm, &value, 1);
+  return value;
+}
+
+double max_over_ranks(MPI_Comm comm, double value) {
+  if (size_of(comm) > 1) MPI_Allreduce(MPI_IN_PLACE, &value, 1, MPI_DOUBLE, MPI_MAX, comm);
+  return value;
+}
+
+int rank_in(MPI_Comm comm) {
+  int r = 0;
+  MPI_Comm_rank(comm, &r);
+  return r;
+}
+
+int size_of(MPI_Comm comm) {
+  int n = 1;
+  MPI_Comm_size(comm, &n);
+  return n;
 }
 
 }  // namespace fdem

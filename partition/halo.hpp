@@ -33,5 +33,11 @@ class Halo {
 
 /// Sums n values over the ranks of comm in place (nothing to do on one rank).
 void sum_over_ranks(MPI_Comm comm, double* values, int n);
+/// A value's sum and maximum over the ranks of comm.
+double sum_over_ranks(MPI_Comm comm, double value);
+double max_over_ranks(MPI_Comm comm, double value);
+/// This process's rank in comm, and comm's size.
+int rank_in(MPI_Comm comm);
+int size_of(MPI_Comm comm);
 
 }  // namespace fdem

@@ -71,10 +71,9 @@ real default_reach(const Model& m, const Scene& s) {
   return s.contact.enabled() ? 2 * m.mean_edge : 0;
 }
 
-PartitionPlan plan_partition(const Model& g, const std::vector<int>& part, int layers, real reach) {
+PartitionPlan plan_partition(const Model& g, const std::vector<int>& part, real reach) {
   const int nt = int(g.tet_nodes.size()), nn = int(g.X.size());
   PartitionPlan plan;
-  plan.layers = layers;
   plan.reach = reach;
   plan.part = part;
   int size = 0;
@@ -91,8 +90,8 @@ PartitionPlan plan_partition(const Model& g, const std::vector<int>& part, int l
     for (int n : g.tet_nodes[t])
       if (plan.node_owner[n] < 0) plan.node_owner[n] = part[t];
 
-  // Tets each rank holds, with the ghost layer (0 = owned): breadth first over shared vertices,
-  // one rank after another from its own tets (bucketed once); a tet is held by few ranks.
+  // Tets each rank holds: its own (bucketed once) and the tets sharing a mesh vertex with them.
+  // A tet is held by few ranks.
   auto& held = plan.held;
   held.assign(nt, {});
   {
@@ -101,24 +100,18 @@ PartitionPlan plan_partition(const Model& g, const std::vector<int>& part, int l
     for (int r = 0; r < size; ++r) start[r + 1] += start[r];
     std::vector<int> fill(start.begin(), start.end() - 1);
     for (int t = 0; t < nt; ++t) by_rank[fill[part[t]]++] = t;
-    std::vector<int> layer(nt, -1), frontier, next, touched;
+    std::vector<char> in(nt, 0);
+    std::vector<int> touched;
     for (int r = 0; r < size; ++r) {
-      frontier.assign(by_rank.begin() + start[r], by_rank.begin() + start[r + 1]);
-      touched = frontier;
-      for (int t : frontier) layer[t] = 0;
-      for (int k = 1; k <= layers; ++k) {
-        next.clear();
-        for (int t : frontier)
-          for (int n : g.tet_nodes[t]) {
-            const int vtx = g.node_vertex[n];
-            for (int j = vt.ptr[vtx]; j < vt.ptr[vtx + 1]; ++j) {
-              const int u = vt.tets[j];
-              if (layer[u] < 0) layer[u] = k, next.push_back(u), touched.push_back(u);
-            }
-          }
-        frontier.swap(next);
-      }
-      for (int t : touched) held[t].push_back({r, layer[t]}), layer[t] = -1;
+      touched.assign(by_rank.begin() + start[r], by_rank.begin() + start[r + 1]);
+      for (int t : touched) in[t] = 1;
+      for (int k = start[r]; k < start[r + 1]; ++k)
+        for (int n : g.tet_nodes[by_rank[k]]) {
+          const int vtx = g.node_vertex[n];
+          for (int j = vt.ptr[vtx]; j < vt.ptr[vtx + 1]; ++j)
+            if (!in[vt.tets[j]]) in[vt.tets[j]] = 1, touched.push_back(vt.tets[j]);
+        }
+      for (int t : touched) held[t].push_back(r), in[t] = 0;
     }
   }
   // Contact ghosts: tets of another rank whose reference boxes come within reach.
@@ -136,9 +129,7 @@ PartitionPlan plan_partition(const Model& g, const std::vector<int>& part, int l
     std::vector<std::array<int, 2>> near;
     find_box_pairs(boxes, ids, 0, near);
     auto add = [&](int t, int r) {
-      for (const auto& h : held[t])
-        if (h[0] == r) return;
-      held[t].push_back({r, layers + 1});
+      if (std::find(held[t].begin(), held[t].end(), r) == held[t].end()) held[t].push_back(r);
     };
     for (const auto& p : near)
       if (part[p[0]] != part[p[1]]) add(p[0], part[p[1]]), add(p[1], part[p[0]]);
@@ -156,20 +147,17 @@ PartitionPlan plan_partition(const Model& g, const std::vector<int>& part, int l
   };
   const bool contact = reach > 0;
   for (int t = 0; t < nt; ++t)
-    for (const auto& h : held[t]) {
-      bool used = contact || part[t] == h[0];
-      for (int n : g.tet_nodes[t]) used = used || plan.node_owner[n] == h[0];
+    for (int r : held[t]) {
+      bool used = contact || part[t] == r;
+      for (int n : g.tet_nodes[t]) used = used || plan.node_owner[n] == r;
       if (used)
-        for (int n : g.tet_nodes[t]) need(n, h[0]);
+        for (int n : g.tet_nodes[t]) need(n, r);
     }
   if (!contact)
     for (std::size_t c = 0; c < g.ce6_nodes.size(); ++c) {
       const auto& ab = g.ce6_tets[c];
-      for (const auto& h : held[ab[0]]) {
-        const int r = h[0];
-        bool both = false;
-        for (const auto& hb : held[ab[1]]) both = both || hb[0] == r;
-        if (!both) continue;
+      for (int r : held[ab[0]]) {
+        if (std::find(held[ab[1]].begin(), held[ab[1]].end(), r) == held[ab[1]].end()) continue;
         bool used = part[std::min(ab[0], ab[1])] == r;
         for (int n : g.ce6_nodes[c]) used = used || plan.node_owner[n] == r;
         if (used)
@@ -180,13 +168,13 @@ PartitionPlan plan_partition(const Model& g, const std::vector<int>& part, int l
   return plan;
 }
 
-RankModel extract_rank(const Model& g, const std::vector<int>& part, int rank, int layers, real reach) {
-  return extract_rank(g, plan_partition(g, part, layers, reach), rank);
+RankModel extract_rank(const Model& g, const std::vector<int>& part, int rank, real reach) {
+  return extract_rank(g, plan_partition(g, part, reach), rank);
 }
 
 RankModel extract_rank(const Model& g, const PartitionPlan& plan, int rank) {
   const int nt = int(g.tet_nodes.size()), nn = int(g.X.size()), nc = int(g.ce6_nodes.size());
-  const int size = plan.size, layers = plan.layers;
+  const int size = plan.size;
   const real reach = plan.reach;
   const std::vector<int>& part = plan.part;
   const std::vector<int>& node_owner = plan.node_owner;
@@ -198,7 +186,6 @@ RankModel extract_rank(const Model& g, const PartitionPlan& plan, int rank) {
   Decomposition& dd = out.dd;
   dd.rank = rank;
   dd.size = size;
-  dd.layers = layers;
   dd.reach = reach;
   dd.global_nodes = nn;
   dd.global_tets = nt;
@@ -206,12 +193,10 @@ RankModel extract_rank(const Model& g, const PartitionPlan& plan, int rank) {
 
   std::vector<int> tets, tet_local(nt, -1);
   for (int t = 0; t < nt; ++t)
-    for (const auto& h : held[t])
-      if (h[0] == rank) {
-        tet_local[t] = int(tets.size());
-        tets.push_back(t);
-        dd.tet_layer.push_back(std::uint8_t(h[1]));
-      }
+    if (std::binary_search(held[t].begin(), held[t].end(), rank)) {
+      tet_local[t] = int(tets.size());
+      tets.push_back(t);
+    }
   std::vector<char> node_in(nn, 0);
   for (int t : tets)
     for (int n : g.tet_nodes[t]) node_in[n] = 1;
@@ -322,8 +307,8 @@ RankModel extract_rank(const Model& g, const PartitionPlan& plan, int rank) {
     }
   }
   for (std::size_t i = 0; i < tets.size(); ++i)
-    for (const auto& h : held[tets[i]])
-      if (h[0] != rank) nb[h[0]].shared_tets.push_back(int(i));
+    for (int r : held[tets[i]])
+      if (r != rank) nb[r].shared_tets.push_back(int(i));
   for (int r = 0; r < size; ++r)
     if (r != rank && (!nb[r].send_nodes.empty() || !nb[r].recv_nodes.empty() || !nb[r].shared_tets.empty()))
       dd.neighbours.push_back(std::move(nb[r]));
@@ -336,9 +321,8 @@ namespace {
 /// writes or reads it (so the writer and the reader cannot disagree on the layout).
 template <class F, class D>
 void decomposition_fields(F&& f, D& d) {
-  f(d.rank), f(d.size), f(d.layers), f(d.reach), f(d.global_nodes), f(d.global_tets), f(d.global_ce6);
+  f(d.rank), f(d.size), f(d.reach), f(d.global_nodes), f(d.global_tets), f(d.global_ce6);
   f(d.node_global), f(d.tet_global), f(d.ce6_global), f(d.node_owned), f(d.tet_owned), f(d.ce6_owned);
-  f(d.tet_layer);
 }
 template <class F, class M>
 void model_fields(F&& f, M& m) {
@@ -447,7 +431,7 @@ RankModel get_rank_model(CheckpointIn& in, std::uint64_t key) {
   };
   if (m.mass.size() != nn || m.node_vertex.size() != nn || rm.dd.node_global.size() != nn ||
       rm.dd.node_owned.size() != nn || rm.dd.tet_global.size() != nt || rm.dd.tet_owned.size() != nt ||
-      rm.dd.tet_layer.size() != nt || m.tet_Xinv.size() != nt || m.tet_V0.size() != nt || m.tet_eta.size() != nt ||
+      m.tet_Xinv.size() != nt || m.tet_V0.size() != nt || m.tet_eta.size() != nt ||
       m.ce6_tets.size() != m.ce6_nodes.size() || m.ce6_h.size() != m.ce6_nodes.size() ||
       rm.dd.ce6_owned.size() != m.ce6_nodes.size())
     bad("array sizes differ");

@@ -1,18 +1,19 @@
 #pragma once
 // Distributed memory: the tet partition (METIS on the dual graph), the per-rank model with its
-// ghost layers, and the halo plan. See docs/architecture.md, "Multi-rank runs".
+// ghosts, and the halo plan. See docs/architecture.md, "Multi-rank runs".
 //
 // Scheme: every tet belongs to one rank (Lagrangian partition); a node belongs to the rank of
-// the lowest-numbered tet holding it. A rank keeps its own tets plus `layers` layers of ghost
-// tets (tets sharing a mesh vertex with the layer before), and, with contact, every tet whose
+// the lowest-numbered tet holding it. A rank keeps its own tets plus one layer of ghost tets
+// (tets sharing a mesh vertex with one of its own), and, with contact, every tet whose
 // reference box comes within `reach` of one of its own (contact ghosts: a separate body
 // across the boundary too); their nodes; and every CE6 whose two tets it keeps. Contact is
 // exact while no node has moved more than reach/2 from its reference position (two tets
-// further apart than reach cannot touch before); the contact set checks that at each build. With at least one layer,
-// every element acting on an owned node is present, so a rank computes the complete force on each node it owns: no
-// force is sent back. After each step the owners send the positions and velocities of their nodes to the ranks that
-// hold them as ghosts. Energies and counts take each element once: a tet on its owner, a CE6 and a contact pair on the
-// owner of their lower-numbered tet, a node term on the node's owner.
+// further apart than reach cannot touch before); the contact set checks that at each build.
+// With the ghost layer every element acting on an owned node is present, so a rank computes
+// the complete force on each node it owns: no force is sent back. After each step the owners
+// send the positions and velocities of their nodes to the ranks that read them. Energies and
+// counts take each element once: a tet on its owner, a CE6 and a contact pair on the owner of
+// their lower-numbered tet, a node term on the node's owner.
 #include <array>
 #include <cstdint>
 #include <string>
@@ -37,12 +38,11 @@ struct Neighbour {
 /// A rank's part of the model: local -> global ids, what it owns, and its neighbours.
 /// Default-constructed: one rank that owns everything.
 struct Decomposition {
-  int rank = 0, size = 1, layers = 0;
+  int rank = 0, size = 1;
   real reach = 0;  // m, contact ghosts: tets within this distance of an owned tet (0 without contact)
   long global_nodes = 0, global_tets = 0, global_ce6 = 0;
   std::vector<long> node_global, tet_global, ce6_global;
   std::vector<std::uint8_t> node_owned, tet_owned, ce6_owned;
-  std::vector<std::uint8_t> tet_layer;  // 0 owned, k = k-th ghost layer (contact ghosts: layers + 1)
   std::vector<Neighbour> neighbours;
   bool distributed() const { return size > 1; }
 
@@ -55,26 +55,26 @@ struct Decomposition {
 /// part comes out empty, naming the counts and the fix.
 std::vector<int> partition_tets(const Model& m, int parts);
 
-/// Rank `rank`'s model (its tets, `layers` ghost layers and the contact ghosts within `reach`
+/// Rank `rank`'s model (its tets, one ghost layer and the contact ghosts within `reach`
 /// m, nodes, CE6s, surfaces and node groups, renumbered in global order; platen nodes only
 /// where owned) and its decomposition. part[t] is the rank of global tet t.
 struct RankModel {
   Model model;
   Decomposition dd;
 };
-RankModel extract_rank(const Model& global, const std::vector<int>& part, int rank, int layers, real reach = 0);
+RankModel extract_rank(const Model& global, const std::vector<int>& part, int rank, real reach = 0);
 
 /// What every rank's extraction needs, computed once for all ranks (fdem partition cuts out
 /// N ranks from one plan): the partition, node owners, and which ranks hold each tet (with its
-/// ghost layer) and which ranks need each node sent to them every step.
+/// own or as a ghost) and which ranks need each node sent to them every step.
 struct PartitionPlan {
-  int size = 0, layers = 0;
+  int size = 0;
   real reach = 0;
   std::vector<int> part, node_owner;
-  std::vector<std::vector<std::array<int, 2>>> held;  // per tet: (rank, layer), ranks ascending
-  std::vector<std::vector<int>> node_ranks;           // per node: the ranks that need it (ascending)
+  std::vector<std::vector<int>> held;        // per tet: the ranks holding it, ascending
+  std::vector<std::vector<int>> node_ranks;  // per node: the ranks that need it (ascending)
 };
-PartitionPlan plan_partition(const Model& global, const std::vector<int>& part, int layers, real reach = 0);
+PartitionPlan plan_partition(const Model& global, const std::vector<int>& part, real reach = 0);
 RankModel extract_rank(const Model& global, const PartitionPlan& plan, int rank);
 
 /// The default contact reach: two mean edge lengths (0 without contact).

@@ -17,6 +17,7 @@
 #include "io/checkpoint.hpp"
 #include "io/mesh_io.hpp"
 #include "model/model.hpp"
+#include "partition/halo.hpp"
 #include "partition/partition.hpp"
 #include "scene/scene.hpp"
 #include "solver/run.hpp"
@@ -80,14 +81,10 @@ struct NullBuffer : std::streambuf {
 };
 
 int world_rank() {
-  int r = 0;
-  MPI_Comm_rank(MPI_COMM_WORLD, &r);
-  return r;
+  return fdem::rank_in(MPI_COMM_WORLD);
 }
 int world_size() {
-  int n = 1;
-  MPI_Comm_size(MPI_COMM_WORLD, &n);
-  return n;
+  return fdem::size_of(MPI_COMM_WORLD);
 }
 
 /// The mesh and model of a scene, InputError naming the scene and the mesh.
@@ -229,7 +226,7 @@ int run_main(int argc, char** argv) {
     std::filesystem::create_directories(output);
     std::cout << "partition of " << model.tet_nodes.size() << " tets, " << model.ce6_nodes.size() << " CE6, "
               << model.X.size() << " nodes for " << parts << " ranks, contact reach " << reach << " m:\n";
-    const fdem::PartitionPlan plan = fdem::plan_partition(model, part, 1, reach);
+    const fdem::PartitionPlan plan = fdem::plan_partition(model, part, reach);
     for (int r = 0; r < parts; ++r) {
       const fdem::RankModel rm = fdem::extract_rank(model, plan, r);
       const std::string path = rank_file(output, r);
@@ -305,7 +302,7 @@ int run_main(int argc, char** argv) {
       const double reach = !scene.contact.enabled() ? 0
                            : contact_reach > 0      ? contact_reach
                                                     : fdem::default_reach(global, scene);
-      const fdem::PartitionPlan plan = fdem::plan_partition(global, part, 1, reach);
+      const fdem::PartitionPlan plan = fdem::plan_partition(global, part, reach);
       for (int r = 1; r < size; ++r) {
         fdem::CheckpointOut o;
         fdem::put_rank_model(o, fdem::extract_rank(global, plan, r), key);

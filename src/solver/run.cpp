@@ -114,24 +114,16 @@ FrameState save_state(const Solver& s, real stress) {
   return f;
 }
 
-void save_frame_state(CheckpointOut& o, const FrameState& f) {
-  o.put(f.time);
-  o.put(f.stress);
-  o.put(f.step);
-  o.put(f.x);
-  o.put(f.v);
-  o.put(f.ce6);
-  o.put(f.active);
+/// Every field of a FrameState in checkpoint order, for one visitor (put or get).
+template <class F, class S>
+void frame_state_fields(F&& f, S& s) {
+  f(s.time), f(s.stress), f(s.step), f(s.x), f(s.v), f(s.ce6), f(s.active);
 }
-
+void save_frame_state(CheckpointOut& o, const FrameState& f) {
+  frame_state_fields([&](const auto& v) { o.put(v); }, f);
+}
 void load_frame_state(CheckpointIn& in, FrameState& f) {
-  in.get(f.time);
-  in.get(f.stress);
-  in.get(f.step);
-  in.get(f.x);
-  in.get(f.v);
-  in.get(f.ce6);
-  in.get(f.active);
+  frame_state_fields([&](auto& v) { in.get(v); }, f);
 }
 
 /// One ParaView frame of the state (x, v, ce6, activation flags). `more` adds per-tet fields; a

@@ -38,8 +38,7 @@ Solver::Solver(const Scene& scene, Model model, Decomposition dd, MPI_Comm comm)
     platen_anchor[i] = {p.x, p.y, 0};
   }
   if (dd_.distributed()) {
-    int size = 1;
-    MPI_Comm_size(comm_, &size);
+    const int size = size_of(comm_);
     if (size != dd_.size || dd_.node_owned.size() != nn || dd_.tet_owned.size() != model_.tet_nodes.size() ||
         dd_.ce6_owned.size() != model_.ce6_nodes.size())
       throw InputError("the model is partitioned for " + std::to_string(dd_.size) + " ranks but runs on " +

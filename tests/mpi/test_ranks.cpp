@@ -14,6 +14,7 @@
 
 #include "core/error.hpp"
 #include "model/structured.hpp"
+#include "partition/halo.hpp"
 #include "partition/partition.hpp"
 #include "support.hpp"
 
@@ -22,28 +23,22 @@ using namespace fdem;
 namespace {
 
 int world_rank() {
-  int r = 0;
-  MPI_Comm_rank(MPI_COMM_WORLD, &r);
-  return r;
+  return rank_in(MPI_COMM_WORLD);
 }
 int world_size() {
-  int n = 1;
-  MPI_Comm_size(MPI_COMM_WORLD, &n);
-  return n;
+  return size_of(MPI_COMM_WORLD);
 }
 double max_over_ranks(double v) {
-  MPI_Allreduce(MPI_IN_PLACE, &v, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
-  return v;
+  return fdem::max_over_ranks(MPI_COMM_WORLD, v);
 }
 double sum_over_ranks(double v) {
-  MPI_Allreduce(MPI_IN_PLACE, &v, 1, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
-  return v;
+  return fdem::sum_over_ranks(MPI_COMM_WORLD, v);
 }
 
 /// This rank's solver of the model: METIS (or the given partition) over the world's ranks.
 std::unique_ptr<Solver> decomposed(const Scene& scene, const Model& global, std::vector<int> part = {}) {
   if (part.empty()) part = partition_tets(global, world_size());
-  RankModel rm = extract_rank(global, part, world_rank(), 1, default_reach(global, scene));
+  RankModel rm = extract_rank(global, part, world_rank(), default_reach(global, scene));
   return std::make_unique<Solver>(scene, std::move(rm.model), std::move(rm.dd), MPI_COMM_WORLD);
 }
 
@@ -241,7 +236,7 @@ TEST(Ranks, ContactReachGuardStopsARunBeforeAPartnerIsMissed) {
   // after they have moved 0.05 mm every rank stops the run (with one rank nothing is missing).
   const Scene scene = two_blocks_scene();
   const Model global = build_model(two_blocks(), scene);
-  RankModel rm = extract_rank(global, block_per_rank(global), world_rank(), 1, 1e-4);
+  RankModel rm = extract_rank(global, block_per_rank(global), world_rank(), 1e-4);
   Solver d(scene, std::move(rm.model), std::move(rm.dd), MPI_COMM_WORLD);
   for (Vec3& v : d.v) v = {50, 0, 0};
   std::string message;
@@ -274,7 +269,7 @@ TEST(Ranks, PrepartitionedFilesGiveTheSameRun) {
     std::filesystem::create_directories(dir);
     for (int r = 0; r < world_size(); ++r)
       write_rank_file(dir + "/rank_" + std::to_string(r) + ".fdp",
-                      extract_rank(global, part, r, 1, default_reach(global, scene)), model_key(scene));
+                      extract_rank(global, part, r, default_reach(global, scene)), model_key(scene));
   }
   MPI_Barrier(MPI_COMM_WORLD);
   RankModel rm = read_rank_file(file, model_key(scene));
@@ -309,7 +304,7 @@ TEST(Ranks, PartitionIsBalancedAndCoversEveryTet) {
     // receives.
     long tets = 0, nodes = 0;
     for (real reach : {real(0), default_reach(global, scene)}) {
-      const PartitionPlan plan = plan_partition(global, part, 1, reach);
+      const PartitionPlan plan = plan_partition(global, part, reach);
       std::vector<std::vector<long>> sent(parts, std::vector<long>(parts, 0)), got = sent;
       for (int r = 0; r < parts; ++r) {
         const RankModel rm = extract_rank(global, plan, r);
