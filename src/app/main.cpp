@@ -137,6 +137,11 @@ int run_main(int argc, char** argv) {
   std::string activation;
   run->add_option("--contact", activation, "Contact activation (overrides contact.activation)")
       ->check(CLI::IsMember({"adaptive", "full", "none"}));
+  std::string backend;
+  run->add_option("--backend", backend,
+                  "Time loop (overrides solver.backend): cpu (OpenMP), cuda (the GPU), or debug (the GPU's loop on "
+                  "the CPU with separate device memory, for checking)")
+      ->check(CLI::IsMember({"cpu", "cuda", "debug"}));
   std::string partitioned;
   double contact_reach = 0;
   run->add_option("--partitioned", partitioned,
@@ -273,6 +278,7 @@ int run_main(int argc, char** argv) {
   if (threads > 0) scene.solver.threads = threads;
   if (quiet) scene.output.progress_interval = 0;
   if (!activation.empty()) scene.contact.activation = activation;
+  if (!backend.empty()) scene.solver.backend = backend;
   fdem::Model model;
   fdem::Decomposition dd;
   if (!partitioned.empty()) {
@@ -336,6 +342,7 @@ int run_main(int argc, char** argv) {
     if (contact_reach > 0) cmd += " --contact-reach " + fdem::fmt(contact_reach, 10);
     if (threads > 0) cmd += " -t " + std::to_string(threads);
     if (!activation.empty()) cmd += " --contact " + activation;
+    if (!backend.empty()) cmd += " --backend " + backend;
     throw fdem::Interrupted(std::string(e.what()) + "; continue with: " + cmd + " --restart " + q(scene.output.folder));
   }
   if (rank != 0) return 0;

@@ -467,13 +467,14 @@ class Reader {
     const std::string p = "solver";
     if (!check_map(n, p,
                    {"time_step_safety", "time_step", "mass_scaling", "damping_scale", "threads", "max_energy_error",
-                    "end"}))
+                    "backend", "end"}))
       return;
     number(n, p, "time_step_safety", Range{0, 10, true, false}, s.time_step_safety);
     number(n, p, "time_step", at_least(0), s.time_step);
     number(n, p, "mass_scaling", closed(1, 1e6), s.mass_scaling);
     number(n, p, "damping_scale", closed(0, 100), s.damping_scale);
     number(n, p, "threads", count_at_least(0, 65536), s.threads);
+    choice(n, p, "backend", {"cpu", "cuda", "debug"}, s.backend);
     number(n, p, "max_energy_error", closed(0, 1e3), s.max_energy_error);
     const std::string need = "give at least one of axial_strain, post_peak_fraction, time, steps > 0";
     const YAML::Node e = n["end"];

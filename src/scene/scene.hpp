@@ -100,6 +100,9 @@ struct SolverSettings {
   real damping_scale = 1;       // factor on the critical damping eta = 2 h sqrt(m rho E); 0 = undamped
   EndCondition end;
   int threads = 0;  // OpenMP threads; 0 = as set by OMP_NUM_THREADS or all cores
+  // Time loop: "cpu" (OpenMP), "cuda" (one GPU per rank) or "debug" (the device loop on the CPU
+  // with separate device memory, for checking that every copy is in place).
+  std::string backend = "cpu";
   /// Stop the run when the energy balance error (monitors.csv energy_error) exceeds this once
   /// the work put in is above the noise floor; 0 = never. A stable run stays below a few 0.01.
   real max_energy_error = 0.1;

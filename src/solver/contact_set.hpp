@@ -90,6 +90,8 @@ class ContactSet {
   void load(CheckpointIn& in);
 
  private:
+  template <class>
+  friend class DeviceLoopImpl;  // the device loop's narrow phase works on these arrays
   void rebuild(const Model& m, const std::vector<Vec3>& x);
   bool moved_too_far(const std::vector<Vec3>& x) const;
 

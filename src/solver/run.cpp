@@ -103,6 +103,7 @@ struct FrameState {
 };
 
 FrameState save_state(const Solver& s, real stress) {
+  s.sync_host();
   FrameState f;
   f.time = s.time();
   f.step = s.step_count();
@@ -191,6 +192,7 @@ void write_frame(FieldWriter& w, const Solver& s, real time, long step, const st
 }
 
 void write_frame(FieldWriter& w, const Solver& s, const std::string& label) {
+  s.sync_host();
   write_frame(w, s, s.time(), s.step_count(), s.x, s.v, s.ce6, s.contacts.enabled() ? &s.contacts.active() : nullptr,
               label);
 }
@@ -205,6 +207,7 @@ void write_frame(FieldWriter& w, const Solver& s, const FrameState& f, const std
 /// "inverted" (volume ratio J <= 0). Never throws: the frames written before stay valid.
 void write_diagnostic(FieldWriter& w, const Solver& s) {
   try {
+    s.sync_host();
     const Model& m = s.model();
     std::vector<Vec3> x = s.x, v = s.v;
     std::vector<char> bad(x.size(), 0);
@@ -495,6 +498,8 @@ void report_model(const Solver& solver, std::ostream& out) {
       << "  stable step " << st.dt / solver.scene().solver.time_step_safety << " s limited by " << st.limit << " (TET4 "
       << st.dt_tet << " s, CE6 " << st.dt_ce6 << " s, platens " << st.dt_platen << " s, contact " << st.dt_contact
       << " s)\n"
+      << "  backend " << backend_name(solver.backend())
+      << (solver.backend() == Backend::cuda ? " (" + cuda_device_description() + ")" : std::string()) << "\n"
       << "  time step " << solver.dt() << " s (safety " << solver.scene().solver.time_step_safety << ", mass scaling "
       << solver.scene().solver.mass_scaling << ")\n";
 }
@@ -823,6 +828,7 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
     // The broken CE6s by id (the fracture pattern, for comparisons such as `fdem study`).
     // Global CE6 ids; several ranks send theirs (owned ones) to rank 0.
     std::vector<long> broken;  // id, mode
+    solver.sync_host();
     for (std::size_t i = 0; i < solver.ce6.size(); ++i)
       if (solver.ce6[i].mode != 0 && solver.owned_ce6()[i])
         broken.insert(broken.end(), {dist ? solver.decomposition().ce6_global[i] : long(i), long(solver.ce6[i].mode)});

@@ -108,7 +108,39 @@ Solver::Solver(const Scene& scene, Model model, Decomposition dd, MPI_Comm comm)
   for (std::size_t t = 0; t < model_.tet_V0.size(); ++t) volume += own_tet_[t] * model_.tet_V0[t];
   sum(&volume, 1);
   energy_floor_ = 1e-3 * mat.tensile_strength * mat.tensile_strength / (2 * mat.youngs_modulus) * volume;
-  compute_forces();
+  compute_forces();  // on the host; the first step uploads the state
+  backend_ = parse_backend(sol.backend, scene_.file + ": solver.backend");
+  if (backend_ != Backend::cpu) {
+    if (dd_.distributed())
+      throw InputError(scene_.file + ": solver.backend " + sol.backend +
+                       " runs on one rank only for now (the halo exchange works on host arrays). Fix: run with "
+                       "--backend cpu on several ranks, or on one rank");
+    dev_ = make_device_loop(backend_, *this);
+  }
+}
+
+void Solver::sync_host() const {
+  if (!dev_ || host_current_) return;
+  // The host copy is a cache of the device state: bringing it up to date does not change the
+  // solver's state, so it is allowed on a const solver.
+  dev_->download(const_cast<Solver&>(*this));
+  host_current_ = true;
+}
+
+void Solver::report_inverted() const {
+  sync_host();
+  const Model& m = model_;
+  for (std::size_t t = 0; t < m.tet_nodes.size(); ++t) {
+    Vec3 xe[4], ve[4], fe[4];
+    gather(x, m.tet_nodes[t], xe);
+    gather(v, m.tet_nodes[t], ve);
+    const Tet4Eval r = tet4_forces(xe, ve, m.tet_Xinv[t], m.tet_V0[t], lambda_, mu_, m.tet_eta[t], fe);
+    if (!(r.J > 0))
+      throw RunError("step " + std::to_string(step_) + " (t = " + fmt(time_, 3) + " s): TET4 #" +
+                     std::to_string(model_.tet_input[t] + 1) + " inverted (J = " + fmt(r.J, 3) +
+                     "). The run is unstable. " + instability_advice());
+  }
+  throw RunError("step " + std::to_string(step_) + ": a TET4 inverted on the device but not in the host copy");
 }
 
 StableStep Solver::stable_step_bound() const {
@@ -199,11 +231,17 @@ void Solver::prescribe(int node, int mask, Vec3 velocity) {
   fixed_node_.push_back(node);
   fixed_mask_.push_back(mask);
   fixed_velocity_.push_back(velocity);
+  sync_host();
   for (int d = 0; d < 3; ++d)
     if (mask >> d & 1) v[node][d] = velocity[d];
+  host_changed();
 }
 
 void Solver::compute_forces() {
+  if (dev_ && device_current_) {
+    dev_->compute_forces(*this);
+    return;
+  }
   const Model& m = model_;
   const std::size_t nn = x.size();
   const Vec3 g = scene_.gravity;
@@ -240,10 +278,8 @@ void Solver::compute_forces() {
       if (own_tet_[t]) p_visc += r.viscous_power;
     }
   }
-  if (jmin_tet >= 0)
-    throw RunError("step " + std::to_string(step_) + " (t = " + fmt(time_, 3) + " s): TET4 #" +
-                   std::to_string(model_.tet_input[jmin_tet] + 1) + " inverted (J = " + fmt(jmin, 3) +
-                   "). The run is unstable. " + instability_advice());
+  if (jmin_tet >= 0) report_inverted();
+  (void)jmin;
 
   real p_coh = 0, p_fric = 0;
   long breaks = 0;
@@ -413,26 +449,10 @@ std::string Solver::instability_advice() const {
          fmt(s.mass_scaling, 3) + ")";
 }
 
-void Solver::step() {
-  const real dt = dt_;
-  if (step_ == 0) {  // velocities given as initial conditions bring their own energy
-    real ke = 0;
-    const int n_nodes = int(x.size());
-#pragma omp parallel for reduction(+ : ke)
-    for (int n = 0; n < n_nodes; ++n) ke += own_node_[n] * 0.5 * model_.mass[n] * dot(v[n], v[n]);
-    sum(&ke, 1);
-    initial_kinetic_ = ke;
-  }
-  // Energies of the interval [t, t+dt] from the forces at t.
-  const real speed = scene_.platens.enabled ? ramped_speed(time_ + 0.5 * dt, scene_.platens.velocity, ramp_) : 0;
-  w_external_ += force_top_ * (-speed * dt);
-  w_viscous_ += p_viscous_ * dt;
-  w_cohesive_ += p_cohesive_ * dt;
-  w_friction_ += p_friction_ * dt;
-
-  long bad = 0;  // NaN passes through max(), so count non-finite nodes instead
-  real ke = 0;   // for the runaway check of every step (the loop is memory-bound: this is free)
+void Solver::advance_host(real dt, long& bad_out, real& ke_out, real& w_con, real& w_pre, real& w_grav) {
   const int nn = int(x.size());
+  long bad = 0;
+  real ke = 0;
 #pragma omp parallel for schedule(static) reduction(+ : bad, ke)
   for (int n = 0; n < nn; ++n) {
     central_difference(x[n], v[n], f[n], inv_mass_[n], dt);  // ghosts too: overwritten below
@@ -440,6 +460,8 @@ void Solver::step() {
     bad += !std::isfinite(v[n].x + v[n].y + v[n].z);
     ke += model_.mass[n] * dot(v[n], v[n]);
   }
+  bad_out = bad;
+  ke_out = ke;
   for (std::size_t i = 0; i < fixed_node_.size(); ++i) {
     const int n = fixed_node_[i];
     for (int d = 0; d < 3; ++d)
@@ -456,7 +478,6 @@ void Solver::step() {
   // Contact forces are stiff and act over few steps: their work over the step is taken with
   // the mean of the velocities before and after it, which is exact for central differences.
   // Pressure and gravity the same way: their force at t with the mean of the two velocities.
-  real w_con = 0, w_pre = 0, w_grav = 0;
   if (contacts.enabled()) w_con = 0.5 * dt * (p_contact_ + contacts.power(model_, v));
   if (scene_.confinement.enabled) w_pre = 0.5 * dt * (p_pressure_ + pressure_power(v));
   const Vec3 g = scene_.gravity;
@@ -467,8 +488,51 @@ void Solver::step() {
       if (own_node_[n]) p_new += model_.mass[n] * dot(g, v[n]);
     w_grav = 0.5 * dt * (p_gravity_ + p_new);
   }
+}
+
+void Solver::step() {
+  const real dt = dt_;
+  if (dev_ && !device_current_) {
+    dev_->upload(*this);
+    device_current_ = true;
+  }
+  if (step_ == 0) {  // velocities given as initial conditions bring their own energy
+    real ke = 0;
+    if (dev_) {
+      ke = 0.5 * dev_->kinetic2();
+    } else {
+      const int n_nodes = int(x.size());
+#pragma omp parallel for reduction(+ : ke)
+      for (int n = 0; n < n_nodes; ++n) ke += own_node_[n] * 0.5 * model_.mass[n] * dot(v[n], v[n]);
+    }
+    sum(&ke, 1);
+    initial_kinetic_ = ke;
+  }
+  // Energies of the interval [t, t+dt] from the forces at t.
+  const real speed = scene_.platens.enabled ? ramped_speed(time_ + 0.5 * dt, scene_.platens.velocity, ramp_) : 0;
+  w_external_ += force_top_ * (-speed * dt);
+  w_viscous_ += p_viscous_ * dt;
+  w_cohesive_ += p_cohesive_ * dt;
+  w_friction_ += p_friction_ * dt;
+
+  long bad = 0;  // NaN passes through max(), so count non-finite nodes instead
+  real ke = 0;   // for the runaway check of every step (the loop is memory-bound: this is free)
+  real w_con = 0, w_pre = 0, w_grav = 0;
+  if (dev_) {
+    host_current_ = false;
+    const AdvanceSums a = dev_->advance(*this, dt);
+    bad = long(a.bad);
+    ke = a.kinetic2;
+    if (contacts.enabled()) w_con = 0.5 * dt * (p_contact_ + a.contact_power);
+    if (scene_.confinement.enabled) w_pre = 0.5 * dt * (p_pressure_ + a.pressure_power);
+    const Vec3 g = scene_.gravity;
+    if (g.x != 0 || g.y != 0 || g.z != 0) w_grav = 0.5 * dt * (p_gravity_ + a.gravity_power);
+  } else {
+    advance_host(dt, bad, ke, w_con, w_pre, w_grav);
+  }
   real sums[] = {real(bad), ke, w_con, w_pre, w_grav};
   sum(sums, 5);
+  if (sums[0] > 0) sync_host();
   check_finite(long(sums[0]));
   ke = sums[1];
   w_contact_ += sums[2];
@@ -479,9 +543,11 @@ void Solver::step() {
   time_ += dt;
   ++step_;
   compute_forces();
+  if (dev_ && dev_->backend() == Backend::debug) dev_->poison_host(*this);
 }
 
 Monitors Solver::measure() {
+  sync_host();
   const Model& m = model_;
   Monitors r;
   r.step = step_;
@@ -665,6 +731,7 @@ void Solver::crack_faces(const std::vector<Ce6State>& cs, std::vector<std::array
 }
 
 void Solver::broken_faces(std::vector<std::array<Vec3, 3>>& corners, std::vector<int>& mode) const {
+  sync_host();
   corners.clear();
   mode.clear();
   for (std::size_t i = 0; i < ce6.size(); ++i) {
@@ -740,6 +807,7 @@ std::uint64_t physics_fingerprint(const Scene& s, const Model& m, real dt) {
 }  // namespace
 
 void Solver::save(CheckpointOut& out) const {
+  sync_host();
   out.put(physics_fingerprint(scene_, model_, dt_));
   out.put(std::uint64_t(fixed_node_.size()));
   out.put(step_);
@@ -790,6 +858,8 @@ void Solver::load(CheckpointIn& in) {
   in.get(lateral_force_);
   if (lateral_force_.size() != nl) in.mismatch("the lateral surface differs");
   contacts.load(in);
+  host_current_ = true;
+  host_changed();
 }
 
 }  // namespace fdem

@@ -7,12 +7,14 @@
 #include <string>
 #include <vector>
 
+#include "core/device_memory.hpp"
 #include "model/model.hpp"
 #include "partition/halo.hpp"
 #include "partition/partition.hpp"
 #include "physics/cohesive6.hpp"
 #include "scene/scene.hpp"
 #include "solver/contact_set.hpp"
+#include "solver/device_loop.hpp"
 
 namespace fdem {
 
@@ -84,6 +86,17 @@ class Solver {
   void save(CheckpointOut& out) const;
   void load(CheckpointIn& in);
 
+  /// The backend running the time loop (scene solver.backend). With debug or cuda the state
+  /// lives in device arrays during steps; x, v, f, ce6, platen_anchor and the contact flags and
+  /// springs here are the host copy, brought up to date by sync_host() (measure(), save() and
+  /// the output functions call it). Code that writes the host copy between steps calls
+  /// host_changed() so the next step uploads it.
+  Backend backend() const { return backend_; }
+  const DeviceLoop* device_loop() const { return dev_.get(); }
+  DeviceLoop* device_loop() { return dev_.get(); }
+  void sync_host() const;
+  void host_changed() { device_current_ = false; }
+
   /// Prescribe velocity components (mask bit 0 = x, 1 = y, 2 = z) of a node.
   void prescribe(int node, int mask, Vec3 velocity);
 
@@ -105,7 +118,15 @@ class Solver {
   real top_offset = 0;              // m, downward travel of the top platen from its start
 
  private:
+  template <class>
+  friend class DeviceLoopImpl;  // the device loop's passes read and write this state
+  /// Names the first inverted TET4 of the current state (host copy) and throws RunError.
+  [[noreturn]] void report_inverted() const;
   void compute_forces();
+  /// The CPU backend's integration: central difference, prescribed velocities, the halo, and
+  /// this rank's sums (non-finite nodes, 2 x kinetic energy, the works of contact, pressure and
+  /// gravity over the step).
+  void advance_host(real dt, long& bad, real& ke, real& w_con, real& w_pre, real& w_grav);
   StableStep stable_step_bound() const;
   void check_finite(long bad_nodes) const;
   /// Throws RunError when the kinetic energy ke (J) far exceeds the work put in.
@@ -155,6 +176,10 @@ class Solver {
   std::vector<std::uint8_t> ce6_broke_;  // set by the CE6 loop on the step a CE6 breaks
   real platen_stored_ = 0;
   real energy_floor_ = 0;
+  Backend backend_ = Backend::cpu;
+  std::unique_ptr<DeviceLoop> dev_;
+  bool device_current_ = false;       // the device arrays hold the newest state
+  mutable bool host_current_ = true;  // the host copy holds it
 };
 
 }  // namespace fdem

@@ -1,0 +1,74 @@
+// The CUDA side of core/device_memory.cpp: allocation, copies and device queries.
+#include <cuda_runtime.h>
+
+#include <string>
+
+#include "core/error.hpp"
+#include "cuda_exec.cuh"
+
+namespace fdem {
+namespace cuda_impl {
+
+bool built() {
+  return true;
+}
+
+int device_count() {
+  int n = 0;
+  if (cudaGetDeviceCount(&n) != cudaSuccess) {
+    cudaGetLastError();  // clear the error of a machine without a driver or GPU
+    return 0;
+  }
+  return n;
+}
+
+std::string description() {
+  if (device_count() == 0) return "";
+  int dev = 0;
+  cudaGetDevice(&dev);
+  cudaDeviceProp p{};
+  if (cudaGetDeviceProperties(&p, dev) != cudaSuccess) return "";
+  return std::string(p.name) + ", " + std::to_string(p.totalGlobalMem >> 30) + " GiB, " +
+         std::to_string(p.multiProcessorCount) + " SMs, sm_" + std::to_string(p.major) + std::to_string(p.minor);
+}
+
+void* allocate(std::size_t bytes) {
+  if (device_count() == 0)
+    throw InputError(
+        "backend cuda: no CUDA device is visible (cudaGetDeviceCount = 0). Fix: run on a machine with an NVIDIA "
+        "GPU and its driver (check nvidia-smi and CUDA_VISIBLE_DEVICES), or run with --backend cpu");
+  void* p = nullptr;
+  const cudaError_t e = cudaMalloc(&p, bytes);
+  if (e != cudaSuccess)
+    throw RunError("CUDA: cannot allocate " + std::to_string(bytes) + " bytes of device memory (" +
+                   cudaGetErrorString(e) + "). Fix: a smaller model per GPU, or more ranks");
+  return p;
+}
+
+void release(void* p) noexcept {
+  cudaFree(p);
+}
+
+void to_device(void* dst, const void* src, std::size_t bytes) {
+  cuda_check(cudaMemcpy(dst, src, bytes, cudaMemcpyHostToDevice), "copy to the device");
+}
+
+void to_host(void* dst, const void* src, std::size_t bytes) {
+  cuda_check(cudaMemcpy(dst, src, bytes, cudaMemcpyDeviceToHost), "copy to the host");
+}
+
+void synchronize() {
+  cuda_check(cudaDeviceSynchronize(), "cudaDeviceSynchronize");
+}
+
+}  // namespace cuda_impl
+
+namespace cuda_detail {
+real* sum_buffer() {
+  static thread_local real* buf = nullptr;
+  if (!buf) cuda_check(cudaMalloc(&buf, 16 * sizeof(real)), "cudaMalloc of the sum buffer");
+  return buf;
+}
+}  // namespace cuda_detail
+
+}  // namespace fdem

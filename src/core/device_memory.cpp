@@ -1,0 +1,145 @@
+#include "core/device_memory.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <cstdlib>
+#include <cstring>
+
+#include "core/error.hpp"
+
+namespace fdem {
+
+// The CUDA side (cuda/device_memory.cu where nvcc is found; otherwise the refusals below).
+namespace cuda_impl {
+bool built();
+int device_count();
+std::string description();
+void* allocate(std::size_t bytes);
+void release(void* p) noexcept;
+void to_device(void* dst, const void* src, std::size_t bytes);
+void to_host(void* dst, const void* src, std::size_t bytes);
+void synchronize();
+}  // namespace cuda_impl
+
+#ifndef FDEM_HAVE_CUDA
+namespace cuda_impl {
+namespace {
+[[noreturn]] void refuse() {
+  throw InputError(
+      "backend cuda: this fdem was built without CUDA (nvcc was not found at build time). Fix: build where "
+      "nvcc is installed (cmake -DFDEM_ENABLE_CUDA=ON), or run with --backend cpu");
+}
+}  // namespace
+bool built() {
+  return false;
+}
+int device_count() {
+  return 0;
+}
+std::string description() {
+  return "";
+}
+void* allocate(std::size_t) {
+  refuse();
+}
+void release(void*) noexcept {}
+void to_device(void*, const void*, std::size_t) {
+  refuse();
+}
+void to_host(void*, const void*, std::size_t) {
+  refuse();
+}
+void synchronize() {}
+}  // namespace cuda_impl
+#endif
+
+const char* backend_name(Backend b) {
+  switch (b) {
+    case Backend::cpu:
+      return "cpu";
+    case Backend::debug:
+      return "debug";
+    case Backend::cuda:
+      return "cuda";
+  }
+  return "?";
+}
+
+Backend parse_backend(const std::string& name, const std::string& where) {
+  if (name == "cpu") return Backend::cpu;
+  if (name == "debug") return Backend::debug;
+  if (name == "cuda") return Backend::cuda;
+  throw InputError(where + ": unknown backend '" + name + "'. Fix: give cpu, cuda, or debug (the device loop on the " +
+                   "CPU with separate device memory, for checking)");
+}
+
+bool cuda_built() {
+  return cuda_impl::built();
+}
+int cuda_device_count() {
+  return cuda_impl::device_count();
+}
+std::string cuda_device_description() {
+  return cuda_impl::description();
+}
+
+namespace device {
+namespace {
+std::atomic<std::size_t> in_use{0}, peak{0};
+}  // namespace
+
+void* allocate(Backend b, std::size_t bytes) {
+  if (bytes == 0) return nullptr;
+  void* p = nullptr;
+  if (b == Backend::cuda) {
+    p = cuda_impl::allocate(bytes);
+  } else {
+    p = std::malloc(bytes);
+    if (!p) throw RunError("device memory (debug backend): cannot allocate " + std::to_string(bytes) + " bytes");
+  }
+  const std::size_t now = in_use += bytes;
+  std::size_t seen = peak.load();
+  while (now > seen && !peak.compare_exchange_weak(seen, now)) {
+  }
+  return p;
+}
+
+void release(Backend b, void* p, std::size_t bytes) noexcept {
+  if (!p) return;
+  in_use -= std::min<std::size_t>(bytes, in_use.load());
+  if (b == Backend::cuda) {
+    cuda_impl::release(p);
+  } else {
+    std::free(p);
+  }
+}
+
+void to_device(Backend b, void* dst, const void* src, std::size_t bytes) {
+  if (b == Backend::cuda) {
+    cuda_impl::to_device(dst, src, bytes);
+  } else {
+    std::memcpy(dst, src, bytes);
+  }
+}
+
+void to_host(Backend b, void* dst, const void* src, std::size_t bytes) {
+  if (b == Backend::cuda) {
+    cuda_impl::to_host(dst, src, bytes);
+  } else {
+    std::memcpy(dst, src, bytes);
+  }
+}
+
+void synchronize(Backend b) {
+  if (b == Backend::cuda) cuda_impl::synchronize();
+}
+
+std::size_t bytes_in_use() {
+  return in_use.load();
+}
+std::size_t peak_bytes() {
+  return peak.load();
+}
+}  // namespace device
+
+}  // namespace fdem

@@ -1,0 +1,104 @@
+#pragma once
+// Where the time loop runs and the memory it runs in.
+//   cpu   : the CPU backend (solver/solver.cpp, OpenMP over host vectors).
+//   debug : the device time loop (solver/device_loop.hpp) on the host, with its "device" arrays
+//           in separate host buffers and the Solver's host copies poisoned (NaN) while the
+//           device holds the newer state, so a missing copy shows up without a GPU (as MFEM's
+//           debug device).
+//   cuda  : the same device time loop as CUDA kernels (built where nvcc is found).
+#include <algorithm>
+#include <cstddef>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace fdem {
+
+enum class Backend { cpu, debug, cuda };
+
+/// "cpu", "debug" or "cuda".
+const char* backend_name(Backend b);
+/// The backend named `name`; throws InputError naming `where` and the choices.
+Backend parse_backend(const std::string& name, const std::string& where);
+/// True when this build has the CUDA backend (nvcc was found at build time).
+bool cuda_built();
+/// Number of CUDA devices visible (0 without the CUDA backend or without a GPU).
+int cuda_device_count();
+/// "NVIDIA H100 80GB HBM3, 79 GiB, 132 SMs" or "" (for logs and benchmarks).
+std::string cuda_device_description();
+
+namespace device {
+// Raw memory of a backend (debug: host buffers kept apart from the host copies). Errors throw
+// RunError naming the call and the byte count.
+void* allocate(Backend b, std::size_t bytes);
+void release(Backend b, void* p, std::size_t bytes) noexcept;
+void to_device(Backend b, void* dst, const void* src, std::size_t bytes);
+void to_host(Backend b, void* dst, const void* src, std::size_t bytes);
+/// Blocks until the backend's queued work is done (CUDA: cudaDeviceSynchronize; for timings).
+void synchronize(Backend b);
+/// Bytes allocated now and at most so far, over all arrays of all backends but cpu.
+std::size_t bytes_in_use();
+std::size_t peak_bytes();
+}  // namespace device
+
+/// An array in a backend's memory. Its capacity grows geometrically (x 1.5), and growth after the
+/// first allocation is counted so runs can report it (contact pairs). Move-only.
+template <class T>
+class DeviceArray {
+ public:
+  DeviceArray() = default;
+  explicit DeviceArray(Backend b) : b_(b) {}
+  DeviceArray(DeviceArray&& o) noexcept { swap(o); }
+  DeviceArray& operator=(DeviceArray&& o) noexcept {
+    swap(o);
+    return *this;
+  }
+  DeviceArray(const DeviceArray&) = delete;
+  DeviceArray& operator=(const DeviceArray&) = delete;
+  ~DeviceArray() { device::release(b_, p_, cap_ * sizeof(T)); }
+
+  void set_backend(Backend b) {
+    device::release(b_, p_, cap_ * sizeof(T));
+    p_ = nullptr, n_ = cap_ = 0, b_ = b;
+  }
+  /// n elements; the contents are kept only when no reallocation happens.
+  void resize(std::size_t n) {
+    if (n > cap_) {
+      const std::size_t cap = cap_ == 0 ? n : std::max(n, cap_ + cap_ / 2);
+      if (cap_ > 0) ++grown_;
+      device::release(b_, p_, cap_ * sizeof(T));
+      p_ = nullptr, n_ = cap_ = 0;
+      p_ = static_cast<T*>(device::allocate(b_, cap * sizeof(T)));
+      cap_ = cap;
+    }
+    n_ = n;
+  }
+  void upload(const T* h, std::size_t n) {
+    resize(n);
+    if (n) device::to_device(b_, p_, h, n * sizeof(T));
+  }
+  void upload(const std::vector<T>& h) { upload(h.data(), h.size()); }
+  void download(T* h) const {
+    if (n_) device::to_host(b_, h, p_, n_ * sizeof(T));
+  }
+  void download(std::vector<T>& h) const {
+    h.resize(n_);
+    download(h.data());
+  }
+  T* data() { return p_; }
+  const T* data() const { return p_; }
+  std::size_t size() const { return n_; }
+  /// How often the array was reallocated larger after its first allocation.
+  long times_grown() const { return grown_; }
+
+ private:
+  void swap(DeviceArray& o) {
+    std::swap(b_, o.b_), std::swap(p_, o.p_), std::swap(n_, o.n_), std::swap(cap_, o.cap_), std::swap(grown_, o.grown_);
+  }
+  Backend b_ = Backend::debug;
+  T* p_ = nullptr;
+  std::size_t n_ = 0, cap_ = 0;
+  long grown_ = 0;
+};
+
+}  // namespace fdem

@@ -1,0 +1,36 @@
+// The debug backend's device loop (HostExec) and the choice of backend.
+#include "solver/device_loop.hpp"
+
+#include "core/error.hpp"
+#include "solver/device_loop_impl.hpp"
+
+namespace fdem {
+
+// cuda/device_loop.cu where nvcc is found.
+std::unique_ptr<DeviceLoop> make_cuda_device_loop();
+
+#ifndef FDEM_HAVE_CUDA
+std::unique_ptr<DeviceLoop> make_cuda_device_loop() {
+  throw InputError(
+      "solver.backend cuda: this fdem was built without CUDA (nvcc was not found at build time). Fix: build where "
+      "nvcc is installed (cmake -DFDEM_ENABLE_CUDA=ON), or run with --backend cpu");
+}
+#endif
+
+std::unique_ptr<DeviceLoop> make_device_loop(Backend b, const Solver&) {
+  switch (b) {
+    case Backend::debug:
+      return std::make_unique<DeviceLoopImpl<HostExec>>(Backend::debug);
+    case Backend::cuda:
+      if (cuda_built() && cuda_device_count() == 0)
+        throw InputError(
+            "solver.backend cuda: no CUDA device is visible. Fix: run on a machine with an NVIDIA GPU and its "
+            "driver (check nvidia-smi and CUDA_VISIBLE_DEVICES), or run with --backend cpu");
+      return make_cuda_device_loop();
+    case Backend::cpu:
+      break;
+  }
+  throw InputError("the cpu backend has no device loop");
+}
+
+}  // namespace fdem

@@ -1,0 +1,69 @@
+#pragma once
+// The device time loop: the Solver's per-step array passes (forces, activation, contact narrow
+// phase, platens, pressure, integration) written once over raw device arrays with
+// Exec::forall / Exec::sum (core/forall.hpp), run by the debug backend on the host and by the
+// CUDA backend as kernels. The Solver keeps the scalar bookkeeping (energies, checks, loading)
+// and its host vectors as the host copy, brought up to date at monitor rows and output.
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/device_memory.hpp"
+#include "core/vec.hpp"
+
+namespace fdem {
+
+class Solver;
+
+/// Wall time per pass, s (with `timing` on, each pass waits for the device before the clock).
+struct DeviceTimes {
+  double tet4 = 0, ce6 = 0, activation = 0, broad = 0, narrow = 0, friction = 0, contact_sum = 0, platens = 0,
+         pressure = 0, integrate = 0, energy = 0, copies = 0;
+  long steps = 0, rebuilds = 0, pair_growth = 0;
+  double total() const {
+    return tet4 + ce6 + activation + broad + narrow + friction + contact_sum + platens + pressure + integrate + energy +
+           copies;
+  }
+};
+
+/// What integration returns to the Solver's bookkeeping (this rank's sums).
+struct AdvanceSums {
+  real bad = 0;             // nodes whose velocity is not finite
+  real kinetic2 = 0;        // sum of m v.v (twice the kinetic energy), J
+  real contact_power = 0;   // -sum f.v of the last contact forces with the new velocities, W
+  real pressure_power = 0;  // the same for the confining pressure, W
+  real gravity_power = 0;   // sum m g.v with the new velocities, W
+};
+
+class DeviceLoop {
+ public:
+  virtual ~DeviceLoop() = default;
+  virtual Backend backend() const = 0;
+  /// The whole state and the model's constants, host to device.
+  virtual void upload(const Solver& s) = 0;
+  /// The evolving state, device to host (x, v, f, CE6 state, platen anchors, pressure forces,
+  /// contact flags, springs and pair forces).
+  virtual void download(Solver& s) = 0;
+  /// Debug backend: fill the host copies of the evolving state with NaN (flags with 0xAA), so a
+  /// read without download() is caught. Nothing elsewhere.
+  virtual void poison_host(Solver& s) = 0;
+  /// Kinetic energy x 2 of the state on the device (the first step's initial energy).
+  virtual real kinetic2() = 0;
+  /// Solver::compute_forces on the device.
+  virtual void compute_forces(Solver& s) = 0;
+  /// Central difference with time step dt, prescribed velocities, and the powers with the new
+  /// velocities.
+  virtual AdvanceSums advance(Solver& s, real dt) = 0;
+  /// Wait for the device before each pass's clock (benchmarks).
+  virtual void set_timing(bool on) = 0;
+  virtual const DeviceTimes& times() const = 0;
+  /// Bytes the passes of one step read and write (the step's floor at a memory bandwidth), by
+  /// this model's array sizes and the contact pairs now.
+  virtual double bytes_per_step() const = 0;
+};
+
+/// The device loop of backend b (debug or cuda) for solver s. Throws InputError when the
+/// CUDA backend was not built or no GPU is visible.
+std::unique_ptr<DeviceLoop> make_device_loop(Backend b, const Solver& s);
+
+}  // namespace fdem

@@ -1,0 +1,94 @@
+#pragma once
+// Scenes and comparisons shared by the backend tests: tests/regression/test_backends.cpp (the
+// debug backend against the CPU backend, everywhere) and tests/gpu/test_cuda_backend.cpp (CUDA
+// against the CPU backend, where a GPU exists).
+#include <algorithm>
+#include <cmath>
+#include <memory>
+
+#include "model/structured.hpp"
+#include "support.hpp"
+
+namespace fdem::test {
+
+/// A structured 6 x 6 x 12 mm box (3 x 3 x 6 cells, 324 tets) between platens at 0.5 m/s:
+/// elastic over the first steps.
+inline Scene backend_elastic_scene(const std::string& backend) {
+  Scene s = test_scene();
+  s.solver.backend = backend;
+  s.solver.threads = 1;
+  s.platens.velocity = 0.5;
+  s.contact.activation = "none";
+  return s;
+}
+
+/// The same box loaded fast (4 m/s) with weak CE6s, adaptive contact and a constant 0.2 MPa confining
+/// pressure: damage, breaking, activation, broad phase, narrow phase and friction all run.
+inline Scene backend_fracture_scene(const std::string& backend) {
+  Scene s = backend_elastic_scene(backend);
+  s.platens.velocity = 4.0;
+  s.material.tensile_strength = 0.3e6;
+  s.material.cohesion = 1.0e6;
+  s.contact.activation = "adaptive";
+  s.confinement.enabled = true;
+  s.confinement.pressure = 0.2e6;
+  s.confinement.path = "constant";
+  s.solver.max_energy_error = 0;  // violent on purpose (see test_determinism)
+  return s;
+}
+
+inline std::unique_ptr<Solver> backend_solver(const Scene& s) {
+  return std::make_unique<Solver>(s, build_model(structured_box_mesh({0.006, 0.006, 0.012}, 3, 3, 6), s));
+}
+
+/// The elastic box with gravity, a hydrostatic confining pressure (it follows the measured
+/// axial stress, up to 2 MPa) and node 0 held at a prescribed horizontal velocity.
+inline std::unique_ptr<Solver> backend_gravity_solver(const std::string& backend) {
+  Scene s = backend_elastic_scene(backend);
+  s.gravity = {0, 0, -9.81};
+  s.confinement.enabled = true;
+  s.confinement.pressure = 2e6;
+  s.confinement.path = "hydrostatic";
+  auto solver = backend_solver(s);
+  solver->prescribe(0, 0b011, Vec3{0.01, -0.02, 0});
+  return solver;
+}
+
+/// Largest |a - b| / max(|a|, |b|, floor) over the components of two node arrays.
+inline real max_rel_diff(const std::vector<Vec3>& a, const std::vector<Vec3>& b, real floor) {
+  real m = a.size() == b.size() ? 0 : 1e300;
+  for (std::size_t i = 0; i < std::min(a.size(), b.size()); ++i)
+    for (int d = 0; d < 3; ++d) {
+      const real s = std::max({std::fabs(a[i][d]), std::fabs(b[i][d]), floor});
+      const real r = std::fabs(a[i][d] - b[i][d]) / s;
+      m = std::max(m, std::isfinite(r) ? r : real(1e300));
+    }
+  return m;
+}
+
+/// The largest node force magnitude, N (a scale for comparing forces).
+inline real max_force(const std::vector<Vec3>& f) {
+  real m = 0;
+  for (const Vec3& v : f) m = std::max(m, norm(v));
+  return m;
+}
+
+/// Peak axial stress (Pa) and broken CE6 count of a run of `steps` steps, measured every 50.
+struct FractureResult {
+  real peak = 0;
+  long broken = 0;
+};
+inline FractureResult run_fracture(Solver& s, int steps) {
+  FractureResult r;
+  for (int i = 0; i < steps; ++i) {
+    s.step();
+    if (s.step_count() % 50 == 0) {
+      const Monitors m = s.measure();
+      r.peak = std::max(r.peak, m.axial_stress);
+      r.broken = m.broken;
+    }
+  }
+  return r;
+}
+
+}  // namespace fdem::test

@@ -1,0 +1,68 @@
+// The CUDA backend against the CPU backend (issue 5): the same scenes as test_backends.cpp.
+// Built where nvcc is found; every test skips where no GPU is visible. The device sums forces
+// colour by colour as the CPU does, but its kernels are compiled by nvcc (contractions into
+// fused multiply-adds differ), so agreement is to round-off, not bit for bit.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "backend_support.hpp"
+
+using namespace fdem;
+using namespace fdem::test;
+
+namespace {
+
+void need_gpu() {
+  if (cuda_device_count() == 0) GTEST_SKIP() << "no CUDA device visible";
+}
+
+}  // namespace
+
+TEST(CudaBackend, ElasticBoxMatchesCpuTo1e10) {
+  need_gpu();
+  if (IsSkipped()) return;
+  auto cpu = backend_solver(backend_elastic_scene("cpu"));
+  auto gpu = backend_solver(backend_elastic_scene("cuda"));
+  ASSERT_EQ(gpu->backend(), Backend::cuda);
+  for (int i = 0; i < 3000; ++i) cpu->step(), gpu->step();
+  gpu->sync_host();
+  const real dx = max_rel_diff(cpu->x, gpu->x, 1e-6);
+  const real df = max_rel_diff(cpu->f, gpu->f, 1e-6 * max_force(cpu->f));
+  RecordProperty("max_rel_diff_x", std::to_string(dx));
+  RecordProperty("max_rel_diff_f", std::to_string(df));
+  EXPECT_LT(dx, 1e-10);
+  EXPECT_LT(df, 1e-10);
+  const Monitors a = cpu->measure(), b = gpu->measure();
+  EXPECT_GT(a.axial_stress, 1e6);
+  EXPECT_NEAR(a.axial_stress, b.axial_stress, 1e-10 * a.axial_stress);
+  EXPECT_NEAR(a.external_work, b.external_work, 1e-9 * a.external_work);
+}
+
+TEST(CudaBackend, FracturingBoxPeakWithin1PercentBrokenWithin5Percent) {
+  need_gpu();
+  if (IsSkipped()) return;
+  auto cpu = backend_solver(backend_fracture_scene("cpu"));
+  auto gpu = backend_solver(backend_fracture_scene("cuda"));
+  const FractureResult a = run_fracture(*cpu, 4000), b = run_fracture(*gpu, 4000);
+  RecordProperty("peak_cpu_Pa", std::to_string(a.peak));
+  RecordProperty("peak_cuda_Pa", std::to_string(b.peak));
+  RecordProperty("broken_cpu", std::to_string(a.broken));
+  RecordProperty("broken_cuda", std::to_string(b.broken));
+  EXPECT_GT(a.broken, 20);
+  EXPECT_NEAR(b.peak, a.peak, 0.01 * a.peak);
+  EXPECT_LE(std::abs(b.broken - a.broken), std::max(1.0, 0.05 * a.broken));
+  EXPECT_GT(gpu->measure().contacts, 0);
+}
+
+TEST(CudaBackend, GravityHydrostaticPressureAndPrescribedNodesMatchCpu) {
+  need_gpu();
+  if (IsSkipped()) return;
+  auto cpu = backend_gravity_solver("cpu"), gpu = backend_gravity_solver("cuda");
+  for (int i = 0; i < 1500; ++i) cpu->step(), gpu->step();
+  gpu->sync_host();
+  EXPECT_LT(max_rel_diff(cpu->x, gpu->x, 1e-6), 1e-10);
+  EXPECT_EQ(gpu->v[0].x, 0.01);
+  const Monitors a = cpu->measure(), b = gpu->measure();
+  EXPECT_NEAR(a.confining_pressure, b.confining_pressure, 1e-9 * a.confining_pressure);
+}

@@ -1,0 +1,161 @@
+// The device time loop (solver/device_loop_impl.hpp) run by the debug backend on the host,
+// against the CPU backend: the same colour order makes every node force the same sum, so the
+// states agree bit for bit; energies come from other reduction trees and agree to round-off.
+// The debug backend poisons the host copy while the device holds the state, so a missing copy
+// shows up here without a GPU.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+
+#include "backend_support.hpp"
+#include "cli_support.hpp"
+#include "io/checkpoint.hpp"
+
+using namespace fdem;
+using namespace fdem::test;
+
+namespace {
+
+bool same_bits(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
+  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(Vec3)) == 0;
+}
+
+}  // namespace
+
+TEST(DebugBackend, ElasticBoxIsBitIdenticalToCpu) {
+  auto cpu = backend_solver(backend_elastic_scene("cpu"));
+  auto dbg = backend_solver(backend_elastic_scene("debug"));
+  ASSERT_EQ(dbg->backend(), Backend::debug);
+  for (int i = 0; i < 3000; ++i) cpu->step(), dbg->step();
+  dbg->sync_host();
+  EXPECT_TRUE(same_bits(cpu->x, dbg->x));
+  EXPECT_TRUE(same_bits(cpu->v, dbg->v));
+  EXPECT_TRUE(same_bits(cpu->f, dbg->f));
+  const Monitors a = cpu->measure(), b = dbg->measure();
+  EXPECT_GT(a.axial_stress, 1e6) << "the box should be loaded";
+  EXPECT_EQ(a.axial_stress, b.axial_stress);
+  EXPECT_NEAR(a.strain, b.strain, 1e-12 * a.strain);
+  EXPECT_NEAR(a.external_work, b.external_work, 1e-12 * a.external_work);
+  EXPECT_NEAR(a.viscous, b.viscous, 1e-10 * a.viscous);
+}
+
+TEST(DebugBackend, FracturingBoxWithContactAndPressureMatchesCpu) {
+  auto cpu = backend_solver(backend_fracture_scene("cpu"));
+  auto dbg = backend_solver(backend_fracture_scene("debug"));
+  const FractureResult ra = run_fracture(*cpu, 4000), rb = run_fracture(*dbg, 4000);
+  EXPECT_GT(ra.broken, 20) << "the run should fracture";
+  RecordProperty("broken_ce6", std::to_string(ra.broken));
+  RecordProperty("peak_Pa", std::to_string(ra.peak));
+  EXPECT_EQ(ra.broken, rb.broken);
+  EXPECT_EQ(ra.peak, rb.peak);
+  dbg->sync_host();
+  EXPECT_TRUE(same_bits(cpu->x, dbg->x)) << "max relative difference " << max_rel_diff(cpu->x, dbg->x, 1e-9);
+  EXPECT_TRUE(same_bits(cpu->v, dbg->v));
+  for (std::size_t i = 0; i < cpu->ce6.size(); ++i) {
+    ASSERT_EQ(cpu->ce6[i].mode, dbg->ce6[i].mode) << "CE6 " << i;
+    for (int k = 0; k < 3; ++k) ASSERT_EQ(cpu->ce6[i].D[k], dbg->ce6[i].D[k]) << "CE6 " << i;
+  }
+  EXPECT_EQ(cpu->contacts.active(), dbg->contacts.active());
+  EXPECT_EQ(cpu->contacts.pair_count(), dbg->contacts.pair_count());
+  EXPECT_GT(cpu->contacts.times.rebuilds, 1);
+  const Monitors a = cpu->measure(), b = dbg->measure();
+  EXPECT_GT(a.contacts, 0) << "fragments should touch";
+  EXPECT_EQ(a.contacts, b.contacts);
+  EXPECT_NEAR(a.contact_friction, b.contact_friction, 1e-9 * std::fabs(a.contact_friction) + 1e-15);
+  EXPECT_NEAR(a.cohesive_dissipated, b.cohesive_dissipated, 1e-10 * a.cohesive_dissipated);
+  EXPECT_NEAR(a.confining_pressure, b.confining_pressure, 0);
+}
+
+TEST(DebugBackend, GravityHydrostaticPressureAndPrescribedNodesMatchCpu) {
+  // The parts the boxes above leave out. Hydrostatic pressure follows the platen reaction,
+  // a sum whose order differs between the backends, so agreement is to round-off.
+  auto cpu = backend_gravity_solver("cpu"), dbg = backend_gravity_solver("debug");
+  for (int i = 0; i < 1500; ++i) cpu->step(), dbg->step();
+  dbg->sync_host();
+  EXPECT_LT(max_rel_diff(cpu->x, dbg->x, 1e-6), 1e-12);
+  EXPECT_LT(max_rel_diff(cpu->v, dbg->v, 1e-3), 1e-9);
+  EXPECT_EQ(dbg->v[0].x, 0.01);
+  EXPECT_EQ(dbg->v[0].y, -0.02);
+  const Monitors a = cpu->measure(), b = dbg->measure();
+  EXPECT_GT(a.confining_pressure, 1e5) << "the pressure should follow the axial stress";
+  EXPECT_NEAR(a.confining_pressure, b.confining_pressure, 1e-9 * a.confining_pressure);
+  EXPECT_NEAR(a.external_work, b.external_work, 1e-9 * std::fabs(a.external_work));
+}
+
+TEST(DebugBackend, HostCopyIsPoisonedUntilSynced) {
+  auto dbg = backend_solver(backend_elastic_scene("debug"));
+  dbg->step();
+  // The device holds the state: the host copy must not be read as if current.
+  EXPECT_TRUE(std::isnan(dbg->x[0].x));
+  EXPECT_TRUE(std::isnan(dbg->v[5].z));
+  EXPECT_TRUE(std::isnan(dbg->ce6[0].D[0]));
+  dbg->sync_host();
+  EXPECT_EQ(dbg->x[0].x, dbg->model().X[0].x + 0 * dbg->x[0].x);  // node 0 is on the bottom: still in place
+  for (const Vec3& p : dbg->x) ASSERT_TRUE(std::isfinite(p.x + p.y + p.z));
+  // measure() brings the copy up to date itself.
+  dbg->step();
+  const Monitors m = dbg->measure();
+  EXPECT_TRUE(std::isfinite(m.kinetic));
+  EXPECT_TRUE(std::isfinite(dbg->x[3].z));
+}
+
+TEST(DebugBackend, HostChangesAndCheckpointsReachTheDevice) {
+  // A velocity set on the host between steps (host_changed), and a checkpoint written by one
+  // debug solver and loaded into another, continue exactly as the CPU backend does.
+  auto cpu = backend_solver(backend_fracture_scene("cpu"));
+  auto dbg = backend_solver(backend_fracture_scene("debug"));
+  for (int i = 0; i < 1000; ++i) cpu->step(), dbg->step();
+  dbg->sync_host();
+  for (Solver* s : {cpu.get(), dbg.get()}) {
+    s->v[7] = s->v[7] + Vec3{0.01, 0, 0};
+    s->host_changed();
+  }
+  for (int i = 0; i < 1000; ++i) cpu->step(), dbg->step();
+  CheckpointOut out;
+  dbg->save(out);
+  auto resumed = backend_solver(backend_fracture_scene("debug"));
+  CheckpointIn in(out.payload(), "(test checkpoint)");
+  resumed->load(in);
+  for (int i = 0; i < 2000; ++i) cpu->step(), dbg->step(), resumed->step();
+  dbg->sync_host();
+  resumed->sync_host();
+  EXPECT_GT(cpu->measure().broken, 0);
+  EXPECT_TRUE(same_bits(cpu->x, dbg->x));
+  EXPECT_TRUE(same_bits(cpu->x, resumed->x));
+  EXPECT_TRUE(same_bits(cpu->v, resumed->v));
+}
+
+TEST(DebugBackend, CliRunGivesTheCpuFiles) {
+  using namespace cli_test;
+  TempDir dir("backend_debug");
+  const std::string scene = quote((kData / "cli" / "restart_box.yaml").string());
+  const Outcome a = cli_test::fdem("run " + scene + " -q -o " + quote((dir.path / "cpu").string()));
+  const Outcome b = cli_test::fdem("run " + scene + " -q --backend debug -o " + quote((dir.path / "debug").string()));
+  ASSERT_EQ(a.code, 0) << a.text;
+  ASSERT_EQ(b.code, 0) << b.text;
+  EXPECT_TRUE(has(b.text, "backend debug"));
+  auto read = [](const fs::path& p) {
+    std::ifstream f(p);
+    std::stringstream ss;
+    ss << f.rdbuf();
+    return ss.str();
+  };
+  const std::string ma = read(dir.path / "cpu" / "monitors.csv"), mb = read(dir.path / "debug" / "monitors.csv");
+  EXPECT_GT(ma.size(), 1000u);
+  EXPECT_EQ(ma, mb);
+  EXPECT_EQ(read(dir.path / "cpu" / "broken_ce6.csv"), read(dir.path / "debug" / "broken_ce6.csv"));
+  EXPECT_EQ(read(dir.path / "cpu" / "fields.xdmf").size(), read(dir.path / "debug" / "fields.xdmf").size());
+}
+
+TEST(DebugBackend, CudaWithoutAGpuIsAClearInputError) {
+  if (cuda_device_count() > 0) GTEST_SKIP() << "a GPU is visible here: tests/gpu covers the CUDA backend";
+  using namespace cli_test;
+  TempDir dir("backend_cuda");
+  const Outcome o = cli_test::fdem("run " + quote((kData / "cli" / "restart_box.yaml").string()) +
+                                   " -q --backend cuda -o " + quote((dir.path / "out").string()));
+  EXPECT_EQ(o.code, 2) << o.text;
+  EXPECT_TRUE(has(o.text, cuda_built() ? "no CUDA device is visible" : "built without CUDA")) << o.text;
+  EXPECT_TRUE(has(o.text, "--backend cpu")) << o.text;
+  EXPECT_FALSE(fs::exists(dir.path / "out" / "monitors.csv"));
+}
