@@ -1,6 +1,9 @@
 #pragma once
 // CudaExec: the device time loop's forall and sum (core/forall.hpp) as CUDA kernels.
 #include <cuda_runtime.h>
+#include <thrust/execution_policy.h>
+#include <thrust/scan.h>
+#include <thrust/sort.h>
 
 #include <array>
 #include <string>
@@ -42,6 +45,24 @@ __global__ void sum_kernel(int n, Body body, real* out) {
     for (int k = 0; k < N; ++k) atomicAdd(&out[k], part[k][0]);
 }
 
+__device__ inline void atomic_max(real* a, real v) {
+  unsigned long long* p = reinterpret_cast<unsigned long long*>(a);
+  unsigned long long old = *p, seen;
+  do {
+    seen = old;
+    if (__longlong_as_double(seen) >= v) return;
+    old = atomicCAS(p, seen, __double_as_longlong(v));
+  } while (old != seen);
+}
+
+template <int N, class Body>
+__global__ void max_kernel(int n, Body body, real* out) {
+  real acc[N];
+  for (int k = 0; k < N; ++k) acc[k] = -INFINITY;
+  for (int i = blockIdx.x * blockDim.x + threadIdx.x; i < n; i += gridDim.x * blockDim.x) body(i, acc);
+  for (int k = 0; k < N; ++k) atomic_max(&out[k], acc[k]);
+}
+
 /// A small device buffer for the sums, allocated once per thread of the host program.
 real* sum_buffer();
 }  // namespace cuda_detail
@@ -75,6 +96,34 @@ struct CudaExec {
     if (blocks > 1024) blocks = 1024;
     cuda_detail::sum_kernel<N><<<blocks, cuda_detail::kBlock>>>(n, body, out);
     cuda_check(cudaGetLastError(), "kernel launch");
+  }
+  template <int N, class Body>
+  static std::array<real, N> max(int n, Body body) {
+    static_assert(N <= 16, "at most 16 maxima per pass");
+    std::array<real, N> out;
+    out.fill(-INFINITY);
+    if (n <= 0) return out;
+    real* buf = cuda_detail::sum_buffer();
+    cuda_check(cudaMemcpy(buf, out.data(), N * sizeof(real), cudaMemcpyHostToDevice), "cudaMemcpy");
+    int blocks = (n + cuda_detail::kBlock - 1) / cuda_detail::kBlock;
+    if (blocks > 1024) blocks = 1024;
+    cuda_detail::max_kernel<N><<<blocks, cuda_detail::kBlock>>>(n, body, buf);
+    cuda_check(cudaGetLastError(), "kernel launch");
+    cuda_check(cudaMemcpy(out.data(), buf, N * sizeof(real), cudaMemcpyDeviceToHost), "cudaMemcpy of maxima");
+    return out;
+  }
+  static long scan(long n, const long* in, long* out) {
+    if (n <= 0) return 0;
+    thrust::exclusive_scan(thrust::device, in, in + n, out);
+    long last[2];
+    cuda_check(cudaMemcpy(&last[0], in + n - 1, sizeof(long), cudaMemcpyDeviceToHost), "cudaMemcpy");
+    cuda_check(cudaMemcpy(&last[1], out + n - 1, sizeof(long), cudaMemcpyDeviceToHost), "cudaMemcpy");
+    return last[0] + last[1];
+  }
+  template <class T, class Less>
+  static void sort(T* first, long n, Less less) {
+    if (n > 1) thrust::sort(thrust::device, first, first + n, less);
+    cuda_check(cudaGetLastError(), "thrust::sort");
   }
   static void synchronize() { cuda_check(cudaDeviceSynchronize(), "cudaDeviceSynchronize"); }
 };

@@ -61,6 +61,31 @@ void synchronize() {
   cuda_check(cudaDeviceSynchronize(), "cudaDeviceSynchronize");
 }
 
+double copy_bandwidth(std::size_t bytes) {
+  void *a = nullptr, *b = nullptr;
+  cuda_check(cudaMalloc(&a, bytes), "cudaMalloc (bandwidth)");
+  cuda_check(cudaMalloc(&b, bytes), "cudaMalloc (bandwidth)");
+  cuda_check(cudaMemset(a, 1, bytes), "cudaMemset (bandwidth)");
+  cudaEvent_t e0, e1;
+  cudaEventCreate(&e0);
+  cudaEventCreate(&e1);
+  float best = 1e30f;
+  for (int rep = 0; rep < 10; ++rep) {
+    cudaEventRecord(e0);
+    cudaMemcpy(b, a, bytes, cudaMemcpyDeviceToDevice);
+    cudaEventRecord(e1);
+    cudaEventSynchronize(e1);
+    float ms = 0;
+    cudaEventElapsedTime(&ms, e0, e1);
+    if (rep > 0 && ms < best) best = ms;
+  }
+  cudaEventDestroy(e0);
+  cudaEventDestroy(e1);
+  cudaFree(a);
+  cudaFree(b);
+  return 2.0 * double(bytes) / (double(best) * 1e-3) / 1e9;
+}
+
 }  // namespace cuda_impl
 
 namespace cuda_detail {

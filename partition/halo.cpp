@@ -4,74 +4,90 @@ namespace fdem {
 
 Halo::Halo(MPI_Comm comm, const Decomposition& dd) : comm_(comm), dd_(&dd) {
   const std::size_t k = dd.neighbours.size();
-  send_.resize(k);
-  recv_.resize(k);
-  fsend_.resize(k);
-  frecv_.resize(k);
+  send_off_.assign(1, 0);
+  recv_off_.assign(1, 0);
+  flag_off_.assign(1, 0);
   for (std::size_t i = 0; i < k; ++i) {
-    send_[i].resize(2 * dd.neighbours[i].send_nodes.size());
-    recv_[i].resize(2 * dd.neighbours[i].recv_nodes.size());
-    fsend_[i].resize(dd.neighbours[i].shared_tets.size());
-    frecv_[i].resize(dd.neighbours[i].shared_tets.size());
+    send_off_.push_back(send_off_.back() + 2 * dd.neighbours[i].send_nodes.size());
+    recv_off_.push_back(recv_off_.back() + 2 * dd.neighbours[i].recv_nodes.size());
+    flag_off_.push_back(flag_off_.back() + dd.neighbours[i].shared_tets.size());
   }
+  send_.resize(send_size());
+  recv_.resize(recv_size());
+  fsend_.resize(flag_size());
+  frecv_.resize(flag_size());
   req_.reserve(2 * k);
 }
 
-void Halo::update_nodes(std::vector<Vec3>& x, std::vector<Vec3>& v) {
+void Halo::exchange_nodes(const Vec3* send, Vec3* recv) {
   constexpr int kTag = 101;
   const auto& nbs = dd_->neighbours;
   req_.clear();
   for (std::size_t i = 0; i < nbs.size(); ++i)
-    if (!recv_[i].empty()) {
+    if (recv_off_[i + 1] > recv_off_[i]) {  // receives posted before the sends
       req_.emplace_back();
-      MPI_Irecv(recv_[i].data(), int(recv_[i].size() * sizeof(Vec3)), MPI_BYTE, nbs[i].rank, kTag, comm_, &req_.back());
+      MPI_Irecv(recv + recv_off_[i], int((recv_off_[i + 1] - recv_off_[i]) * sizeof(Vec3)), MPI_BYTE, nbs[i].rank, kTag,
+                comm_, &req_.back());
     }
-  for (std::size_t i = 0; i < nbs.size(); ++i) {
-    const auto& s = nbs[i].send_nodes;
-    if (s.empty()) continue;
-    const std::size_t n = s.size();
-    for (std::size_t j = 0; j < n; ++j) send_[i][j] = x[s[j]], send_[i][n + j] = v[s[j]];
-    req_.emplace_back();
-    MPI_Isend(send_[i].data(), int(send_[i].size() * sizeof(Vec3)), MPI_BYTE, nbs[i].rank, kTag, comm_, &req_.back());
-  }
+  for (std::size_t i = 0; i < nbs.size(); ++i)
+    if (send_off_[i + 1] > send_off_[i]) {
+      req_.emplace_back();
+      MPI_Isend(send + send_off_[i], int((send_off_[i + 1] - send_off_[i]) * sizeof(Vec3)), MPI_BYTE, nbs[i].rank, kTag,
+                comm_, &req_.back());
+    }
   MPI_Waitall(int(req_.size()), req_.data(), MPI_STATUSES_IGNORE);
+}
+
+void Halo::exchange_flags(const std::uint8_t* send, std::uint8_t* recv) {
+  constexpr int kTag = 102;
+  const auto& nbs = dd_->neighbours;
+  req_.clear();
+  for (std::size_t i = 0; i < nbs.size(); ++i)
+    if (flag_off_[i + 1] > flag_off_[i]) {
+      req_.emplace_back();
+      MPI_Irecv(recv + flag_off_[i], int(flag_off_[i + 1] - flag_off_[i]), MPI_BYTE, nbs[i].rank, kTag, comm_,
+                &req_.back());
+    }
+  for (std::size_t i = 0; i < nbs.size(); ++i)
+    if (flag_off_[i + 1] > flag_off_[i]) {
+      req_.emplace_back();
+      MPI_Isend(send + flag_off_[i], int(flag_off_[i + 1] - flag_off_[i]), MPI_BYTE, nbs[i].rank, kTag, comm_,
+                &req_.back());
+    }
+  MPI_Waitall(int(req_.size()), req_.data(), MPI_STATUSES_IGNORE);
+}
+
+void Halo::update_nodes(std::vector<Vec3>& x, std::vector<Vec3>& v) {
+  const auto& nbs = dd_->neighbours;
   for (std::size_t i = 0; i < nbs.size(); ++i) {
-    const auto& r = nbs[i].recv_nodes;
-    const std::size_t n = r.size();
-    for (std::size_t j = 0; j < n; ++j) x[r[j]] = recv_[i][j], v[r[j]] = recv_[i][n + j];
+    const auto& sn = nbs[i].send_nodes;
+    Vec3* out = send_.data() + send_off_[i];
+    for (std::size_t j = 0; j < sn.size(); ++j) out[j] = x[sn[j]], out[sn.size() + j] = v[sn[j]];
+  }
+  exchange_nodes(send_.data(), recv_.data());
+  for (std::size_t i = 0; i < nbs.size(); ++i) {
+    const auto& rn = nbs[i].recv_nodes;
+    const Vec3* in = recv_.data() + recv_off_[i];
+    for (std::size_t j = 0; j < rn.size(); ++j) x[rn[j]] = in[j], v[rn[j]] = in[rn.size() + j];
   }
 }
 
 bool Halo::merge_flags(std::vector<std::uint8_t>& flags) {
-  constexpr int kTag = 102;
   const auto& nbs = dd_->neighbours;
-  req_.clear();
-  for (std::size_t i = 0; i < nbs.size(); ++i) {
-    if (nbs[i].shared_tets.empty()) continue;
-    req_.emplace_back();
-    MPI_Irecv(frecv_[i].data(), int(frecv_[i].size()), MPI_BYTE, nbs[i].rank, kTag, comm_, &req_.back());
-  }
-  for (std::size_t i = 0; i < nbs.size(); ++i) {
-    const auto& s = nbs[i].shared_tets;
-    if (s.empty()) continue;
-    for (std::size_t j = 0; j < s.size(); ++j) fsend_[i][j] = flags[s[j]];
-    req_.emplace_back();
-    MPI_Isend(fsend_[i].data(), int(fsend_[i].size()), MPI_BYTE, nbs[i].rank, kTag, comm_, &req_.back());
-  }
-  MPI_Waitall(int(req_.size()), req_.data(), MPI_STATUSES_IGNORE);
+  for (std::size_t i = 0; i < nbs.size(); ++i)
+    for (std::size_t j = 0; j < nbs[i].shared_tets.size(); ++j) fsend_[flag_off_[i] + j] = flags[nbs[i].shared_tets[j]];
+  exchange_flags(fsend_.data(), frecv_.data());
   bool raised = false;
-  for (std::size_t i = 0; i < nbs.size(); ++i) {
-    const auto& s = nbs[i].shared_tets;
-    for (std::size_t j = 0; j < s.size(); ++j)
-      if (frecv_[i][j] && !flags[s[j]]) flags[s[j]] = 1, raised = true;
-  }
+  for (std::size_t i = 0; i < nbs.size(); ++i)
+    for (std::size_t j = 0; j < nbs[i].shared_tets.size(); ++j) {
+      const int t = nbs[i].shared_tets[j];
+      if (frecv_[flag_off_[i] + j] && !flags[t]) flags[t] = 1, raised = true;
+    }
   return raised;
 }
 
 std::size_t Halo::node_bytes_sent() const {
-  std::size_t b = 0;
-  for (const auto& s : send_) b += s.size() * sizeof(Vec3);
-  return b;
+  return send_.size() * sizeof(Vec3);
 }
 
 void sum_over_ranks(MPI_Comm comm, double* values, int n) {

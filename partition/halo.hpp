@@ -23,11 +23,26 @@ class Halo {
   std::size_t node_bytes_sent() const;
   MPI_Comm comm() const { return comm_; }
 
+  // The same exchanges on packed buffers, for backends that pack and unpack themselves (the
+  // device loop packs on the device and stages through the host). Node buffers hold, neighbour
+  // after neighbour, the x of its nodes then their v: neighbour i's send part starts at
+  // send_offset(i) and holds 2 x neighbours[i].send_nodes.size() values (recv likewise with
+  // recv_nodes). Flag buffers hold the flags of neighbours[i].shared_tets at flag_offset(i).
+  std::size_t send_size() const { return send_off_.back(); }
+  std::size_t recv_size() const { return recv_off_.back(); }
+  std::size_t flag_size() const { return flag_off_.back(); }
+  std::size_t send_offset(std::size_t i) const { return send_off_[i]; }
+  std::size_t recv_offset(std::size_t i) const { return recv_off_[i]; }
+  std::size_t flag_offset(std::size_t i) const { return flag_off_[i]; }
+  void exchange_nodes(const Vec3* send, Vec3* recv);
+  void exchange_flags(const std::uint8_t* send, std::uint8_t* recv);
+
  private:
   MPI_Comm comm_;
   const Decomposition* dd_;
-  std::vector<std::vector<Vec3>> send_, recv_;
-  std::vector<std::vector<std::uint8_t>> fsend_, frecv_;
+  std::vector<std::size_t> send_off_, recv_off_, flag_off_;
+  std::vector<Vec3> send_, recv_;
+  std::vector<std::uint8_t> fsend_, frecv_;
   std::vector<MPI_Request> req_;
 };
 

@@ -2,8 +2,10 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cstdlib>
 #include <cstring>
+#include <vector>
 
 #include "core/error.hpp"
 
@@ -19,6 +21,7 @@ void release(void* p) noexcept;
 void to_device(void* dst, const void* src, std::size_t bytes);
 void to_host(void* dst, const void* src, std::size_t bytes);
 void synchronize();
+double copy_bandwidth(std::size_t bytes);
 }  // namespace cuda_impl
 
 #ifndef FDEM_HAVE_CUDA
@@ -50,6 +53,9 @@ void to_host(void*, const void*, std::size_t) {
   refuse();
 }
 void synchronize() {}
+double copy_bandwidth(std::size_t) {
+  refuse();
+}
 }  // namespace cuda_impl
 #endif
 
@@ -132,6 +138,18 @@ void to_host(Backend b, void* dst, const void* src, std::size_t bytes) {
 
 void synchronize(Backend b) {
   if (b == Backend::cuda) cuda_impl::synchronize();
+}
+
+double copy_bandwidth(Backend b, std::size_t bytes) {
+  if (b == Backend::cuda) return cuda_impl::copy_bandwidth(bytes);
+  std::vector<char> src(bytes, 1), dst(bytes, 0);
+  double best = 1e300;
+  for (int rep = 0; rep < 5; ++rep) {
+    const auto t0 = std::chrono::steady_clock::now();
+    std::memcpy(dst.data(), src.data(), bytes);
+    best = std::min(best, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  }
+  return 2.0 * double(bytes) / best / 1e9;
 }
 
 std::size_t bytes_in_use() {

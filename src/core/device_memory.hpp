@@ -36,6 +36,9 @@ void to_device(Backend b, void* dst, const void* src, std::size_t bytes);
 void to_host(Backend b, void* dst, const void* src, std::size_t bytes);
 /// Blocks until the backend's queued work is done (CUDA: cudaDeviceSynchronize; for timings).
 void synchronize(Backend b);
+/// Measured copy bandwidth of the backend's memory, GB/s (bytes read + written per second),
+/// from copying `bytes` within it a few times (the best run). For benchmarks.
+double copy_bandwidth(Backend b, std::size_t bytes);
 /// Bytes allocated now and at most so far, over all arrays of all backends but cpu.
 std::size_t bytes_in_use();
 std::size_t peak_bytes();

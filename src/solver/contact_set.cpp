@@ -115,32 +115,35 @@ bool ContactSet::moved_too_far(const std::vector<Vec3>& x) const {
   return far != 0;
 }
 
+void ContactSet::check_reach(const Model& m, const std::vector<Vec3>& x, const std::vector<int>& ids) const {
+  if (!tet_owned_) return;
+  // A rank holds the tets within reach_ of its own (reference configuration): a tet it lacks
+  // can touch one of its own only after some node has moved reach_/2.
+  const real lim2 = 0.25 * reach_ * reach_;
+  for (int t : ids) {
+    if (!(*tet_owned_)[t]) continue;
+    for (int n : m.tet_nodes[t]) {
+      const Vec3 d = x[n] - m.X[n];
+      if (dot(d, d) >= lim2)
+        throw RunError("tet-tet contact across ranks: a node of tet #" + std::to_string(m.tet_input[t] + 1) +
+                       " has moved " + std::to_string(std::sqrt(dot(d, d))) +
+                       " m from its reference position, "
+                       "half the contact reach " +
+                       std::to_string(reach_) +
+                       " m of the partition: partners "
+                       "beyond the reach, which this rank does not hold, could touch it. Fix: partition with a "
+                       "larger reach (--contact-reach of fdem run or fdem partition) or run on fewer ranks");
+    }
+  }
+}
+
 void ContactSet::rebuild(const Model& m, const std::vector<Vec3>& x) {
   const int nt = int(m.tet_nodes.size());
   std::vector<int> ids;
   ids.reserve(active_count_);
   for (int t = 0; t < nt; ++t)
     if (active_[t]) ids.push_back(t);
-  if (tet_owned_) {
-    // A rank holds the tets within reach_ of its own (reference configuration): a tet it lacks
-    // can touch one of its own only after some node has moved reach_/2.
-    const real lim2 = 0.25 * reach_ * reach_;
-    for (int t : ids) {
-      if (!(*tet_owned_)[t]) continue;
-      for (int n : m.tet_nodes[t]) {
-        const Vec3 d = x[n] - m.X[n];
-        if (dot(d, d) >= lim2)
-          throw RunError("tet-tet contact across ranks: a node of tet #" + std::to_string(m.tet_input[t] + 1) +
-                         " has moved " + std::to_string(std::sqrt(dot(d, d))) +
-                         " m from its reference position, "
-                         "half the contact reach " +
-                         std::to_string(reach_) +
-                         " m of the partition: partners "
-                         "beyond the reach, which this rank does not hold, could touch it. Fix: partition with a "
-                         "larger reach (--contact-reach of fdem run or fdem partition) or run on fewer ranks");
-      }
-    }
-  }
+  check_reach(m, x, ids);
   std::vector<Aabb> boxes(nt);
   const real half = 0.5 * buffer_;
   const int na = int(ids.size());

@@ -93,6 +93,9 @@ class ContactSet {
   template <class>
   friend class DeviceLoopImpl;  // the device loop's narrow phase works on these arrays
   void rebuild(const Model& m, const std::vector<Vec3>& x);
+  /// Several ranks: throws RunError when a node of an owned tet among `ids` has moved half the
+  /// contact reach from its reference position (a partner this rank lacks could touch it).
+  void check_reach(const Model& m, const std::vector<Vec3>& x, const std::vector<int>& ids) const;
   bool moved_too_far(const std::vector<Vec3>& x) const;
 
   const std::vector<std::uint8_t>* node_owned_ = nullptr;

@@ -1,9 +1,10 @@
 #pragma once
-// The device time loop: the Solver's per-step array passes (forces, activation, contact narrow
-// phase, platens, pressure, integration) written once over raw device arrays with
-// Exec::forall / Exec::sum (core/forall.hpp), run by the debug backend on the host and by the
-// CUDA backend as kernels. The Solver keeps the scalar bookkeeping (energies, checks, loading)
-// and its host vectors as the host copy, brought up to date at monitor rows and output.
+// The device time loop: the Solver's per-step array passes (forces, activation, the contact
+// candidate list, narrow phase and friction, platens, pressure, integration, the halo's packing) written once over raw
+// device arrays with Exec::forall / Exec::sum (core/forall.hpp), run by the debug backend on the host and by the CUDA
+// backend as kernels. The Solver keeps the scalar bookkeeping (energies, checks, loading) and its host vectors as the
+// host copy, brought up to date at monitor rows and output.
+#include <array>
 #include <memory>
 #include <string>
 #include <vector>
@@ -18,7 +19,7 @@ class Solver;
 /// Wall time per pass, s (with `timing` on, each pass waits for the device before the clock).
 struct DeviceTimes {
   double tet4 = 0, ce6 = 0, activation = 0, broad = 0, narrow = 0, friction = 0, contact_sum = 0, platens = 0,
-         pressure = 0, integrate = 0, energy = 0, copies = 0;
+         pressure = 0, integrate = 0, energy = 0, copies = 0, monitor = 0;
   long steps = 0, rebuilds = 0, pair_growth = 0;
   double total() const {
     return tet4 + ce6 + activation + broad + narrow + friction + contact_sum + platens + pressure + integrate + energy +
@@ -54,6 +55,11 @@ class DeviceLoop {
   /// Central difference with time step dt, prescribed velocities, and the powers with the new
   /// velocities.
   virtual AdvanceSums advance(Solver& s, real dt) = 0;
+  /// A monitor row's sums from the device state, without copying it to the host: lateral
+  /// displacement ratio, lateral node count, kinetic energy, strain energy, lateral stress x
+  /// volume and volume (middle third), CE6 stored energy (intact, broken), damaged, broken,
+  /// broken in mode I, II, mixed, platen stored energy, active tets, candidate pairs.
+  virtual std::array<real, 16> measure_sums(const Solver& s) = 0;
   /// Wait for the device before each pass's clock (benchmarks).
   virtual void set_timing(bool on) = 0;
   virtual const DeviceTimes& times() const = 0;

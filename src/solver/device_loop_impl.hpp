@@ -8,7 +8,9 @@
 #include <cstdint>
 #include <cstring>
 #include <limits>
+#include <utility>
 
+#include "contact/broad_phase.hpp"
 #include "core/forall.hpp"
 #include "physics/cohesive6.hpp"
 #include "physics/contact.hpp"
@@ -25,16 +27,60 @@ FDEM_HD bool finite_value(real a) {
   return a - a == 0;
 }
 
+namespace device_build {
+/// One (cell, box) entry of the broad phase's multi-insertion (contact/broad_phase.cpp).
+struct BinEntry {
+  std::int64_t ix, iy, iz;
+  int box;
+};
+/// A (node, pair-force slot) record of the contact gather index.
+struct NodeSlot {
+  int node, slot;
+};
+/// The broad phase's uniform grid (the same cell function as contact/broad_phase.cpp).
+struct Grid {
+  Vec3 origin;
+  real cell;
+  FDEM_HD std::int64_t index(real x, int axis) const {
+    return static_cast<std::int64_t>(floor((x - origin[axis]) / cell));
+  }
+  /// Cells covered by box b, saturated at cap + 1.
+  FDEM_HD long cells_of(const Aabb& b, long cap) const {
+    long count = 1;
+    for (int d = 0; d < 3; ++d) {
+      std::int64_t r = index(b.hi[d], d) - index(b.lo[d], d) + 1;
+      if (r <= 0) return 0;
+      if (r > cap / count) return cap + 1;
+      count *= static_cast<long>(r);
+    }
+    return count;
+  }
+};
+FDEM_HD bool boxes_overlap(const Aabb& a, const Aabb& b) {
+  return a.lo.x <= b.hi.x && b.lo.x <= a.hi.x && a.lo.y <= b.hi.y && b.lo.y <= a.hi.y && a.lo.z <= b.hi.z &&
+         b.lo.z <= a.hi.z;
+}
+FDEM_HD real max3(real a, real b, real c) {
+  return a > b ? (a > c ? a : c) : (b > c ? b : c);
+}
+}  // namespace device_build
+
 template <class Exec>
 class DeviceLoopImpl final : public DeviceLoop {
  public:
   explicit DeviceLoopImpl(Backend b) : b_(b) {
     auto set = [&](auto&... a) { (a.set_backend(b), ...); };
     set(tet_nodes_, tet_order_, ce6_nodes_, ce6_order_, platen_nodes_, fixed_node_, fixed_mask_, lat_faces_, lat_ptr_,
-        lat_face_, lat_node_, node_vertex_, vt_ptr_, vt_tets_, watch_nodes_, gather_node_, gather_ptr_, gather_slot_);
+        lat_face_, lat_node_, node_vertex_, vt_ptr_, vt_tets_, watch_nodes_, gather_node_, gather_ptr_, gather_slot_,
+        lateral_nodes_);
     set(Xinv_, V0_, eta_, ce6_h_, mass_, inv_mass_, platen_k_, sums_);
-    set(x_, v_, f_, anchor_, fixed_v_, lat_force_, watch_x_, spring_, pair_force_);
-    set(ce6_, broke_, active_, pairs_, eval_);
+    set(X_, x_, v_, f_, anchor_, fixed_v_, lat_force_, watch_x_, spring_, pair_force_);
+    set(ce6_, broke_, active_, mid_third_, own_node_, own_tet_, own_ce6_, pairs_, eval_);
+    set(flags_, offsets_, counts_, entry_offsets_, head_, head_offsets_, cell_start_, cell_counts_, cell_offsets_);
+    set(ids_, tet_ce6_, ce6_tets_, boxes_, entries_, node_slots_, next_pairs_, next_spring_);
+    set(halo_send_node_, halo_send_x_, halo_send_v_, halo_recv_node_, halo_recv_x_, halo_recv_v_, halo_flag_tet_,
+        halo_send_, halo_recv_, flag_send_, flag_recv_);
+    sums_.resize(kSums);
   }
 
   Backend backend() const override { return b_; }
@@ -58,6 +104,22 @@ class DeviceLoopImpl final : public DeviceLoop {
       platen_nodes_.upload(m.platen_nodes);
       platen_k_.upload(s.platen_k_);
       node_vertex_.upload(m.node_vertex);
+      X_.upload(m.X);
+      lateral_nodes_.upload(m.lateral_nodes);
+      own_node_.upload(s.own_node_);
+      own_tet_.upload(s.own_tet_);
+      own_ce6_.upload(s.own_ce6_);
+      if (s.halo_) plan_halo(s);
+      // Monitor rows: the tets whose reference centroid lies in the middle third of the height.
+      std::vector<std::uint8_t> mid(m.tet_nodes.size());
+      const real z_lo = m.box_min.z + (m.box_max.z - m.box_min.z) / 3,
+                 z_hi = m.box_max.z - (m.box_max.z - m.box_min.z) / 3;
+      for (std::size_t t = 0; t < mid.size(); ++t) {
+        const auto& q = m.tet_nodes[t];
+        const real zc = 0.25 * (m.X[q[0]].z + m.X[q[1]].z + m.X[q[2]].z + m.X[q[3]].z);
+        mid[t] = zc >= z_lo && zc <= z_hi;
+      }
+      mid_third_.upload(mid);
       if (s.contacts.enabled()) {
         vt_ptr_.upload(s.contacts.vertex_tet_ptr_);
         vt_tets_.upload(s.contacts.vertex_tets_);
@@ -96,6 +158,7 @@ class DeviceLoopImpl final : public DeviceLoop {
       const ContactSet& c = s.contacts;
       active_.upload(c.active_);
       upload_pairs(c);
+      pairs_on_host_ = true;
       eval_.upload(c.eval_);
       pair_force_.upload(c.pair_force_);
     }
@@ -118,6 +181,15 @@ class DeviceLoopImpl final : public DeviceLoop {
       spring_.download(c.spring);
       eval_.download(c.eval_);
       pair_force_.download(c.pair_force_);
+      if (!pairs_on_host_) {  // built on the device since the last copy
+        pairs_.download(c.pairs_);
+        gather_node_.download(c.gather_node_);
+        gather_ptr_.download(c.gather_ptr_);
+        gather_slot_.download(c.gather_slot_);
+        watch_nodes_.download(c.watch_nodes_);
+        watch_x_.download(c.watch_x_);
+        pairs_on_host_ = true;
+      }
     }
     t_.copies += seconds_since(t0);
   }
@@ -140,9 +212,39 @@ class DeviceLoopImpl final : public DeviceLoop {
   real kinetic2() override {
     const Vec3* v = v_.data();
     const real* mass = mass_.data();
-    return Exec::template sum<1>(int(v_.size()),
-                                 [=] FDEM_LAMBDA(int n, real* acc) { acc[0] += mass[n] * dot(v[n], v[n]); })[0];
+    const std::uint8_t* own_n = own_node_.data();
+    return Exec::template sum<1>(int(v_.size()), [=] FDEM_LAMBDA(int n, real* acc) {
+      if (own_n[n]) acc[0] += mass[n] * dot(v[n], v[n]);
+    })[0];
   }
+
+  // Sums of a step stay in device memory (sums_) and come to the host three times per step:
+  // after the CE6 pass (breaks, activation, the broad-phase watch), at the end of the forces,
+  // and after integration.
+  enum Slot {
+    kVisc,
+    kInverted,
+    kCoh,
+    kFric,
+    kBreaks,
+    kAdded,
+    kMoved,
+    kGravity,  // forces, first read
+    kTouching,
+    kConDiss,
+    kConStored,
+    kConPower,
+    kTop,
+    kBottom,
+    kPlatenFric,
+    kPressurePower,  // second
+    kBad,
+    kKinetic2,
+    kConPowerNew,
+    kPressurePowerNew,
+    kGravityNew,  // integration
+    kSums = 24
+  };
 
   void compute_forces(Solver& s) override {
     const Model& m = s.model_;
@@ -152,18 +254,25 @@ class DeviceLoopImpl final : public DeviceLoop {
     const Vec3* v = v_.data();
     Vec3* f = f_.data();
     const real* mass = mass_.data();
+    real* sums = sums_.data();
+    const std::uint8_t* own_n = own_node_.data();
+    const std::uint8_t* own_t = own_tet_.data();
+    const std::uint8_t* own_c = own_ce6_.data();
     auto t0 = now();
+    clear_sums(0, kBad);
 
     // Gravity (or zero) starts the sum.
     const Vec3 g = scene.gravity;
     if (g.x == 0 && g.y == 0 && g.z == 0) {
       Exec::forall(nn, [=] FDEM_LAMBDA(int n) { f[n] = Vec3{0, 0, 0}; });
-      s.p_gravity_ = 0;
     } else {
-      s.p_gravity_ = Exec::template sum<1>(nn, [=] FDEM_LAMBDA(int n, real* acc) {
-        f[n] = mass[n] * g;
-        acc[0] += dot(f[n], v[n]);
-      })[0];
+      Exec::template sum_to<1>(
+          nn,
+          [=] FDEM_LAMBDA(int n, real* acc) {
+            f[n] = mass[n] * g;
+            if (own_n[n]) acc[0] += dot(f[n], v[n]);
+          },
+          sums + kGravity);
     }
 
     // TET4, colour by colour (no two elements of a colour share a node).
@@ -173,9 +282,6 @@ class DeviceLoopImpl final : public DeviceLoop {
     const real* V0 = V0_.data();
     const real* eta = eta_.data();
     const real lambda = s.lambda_, mu = s.mu_;
-    // Sums over all colours stay on the device and are read once: [viscous power, inverted].
-    clear_sums();
-    real* tet_sums = sums_.data();
     for (int c = 0; c < m.tet_colours.colours(); ++c) {
       const int b = m.tet_colours.offsets[c], e = m.tet_colours.offsets[c + 1];
       Exec::template sum_to<2>(
@@ -188,9 +294,9 @@ class DeviceLoopImpl final : public DeviceLoop {
             const Tet4Eval ev = tet4_forces(xe, ve, Xinv[t], V0[t], lambda, mu, eta[t], fe);
             if (!(ev.J > 0)) acc[1] += 1;
             for (int i = 0; i < 4; ++i) f[q[i]] += fe[i];
-            acc[0] += ev.viscous_power;
+            if (own_t[t]) acc[0] += ev.viscous_power;
           },
-          tet_sums);
+          sums + kVisc);
     }
     t0 = lap(t0, t_.tet4);
 
@@ -201,8 +307,6 @@ class DeviceLoopImpl final : public DeviceLoop {
     Ce6State* st = ce6_.data();
     std::uint8_t* broke = broke_.data();
     const Ce6Params p = s.ce6p_;
-    // [cohesive power, friction power of broken CE6s, breaks], after the TET4 sums.
-    real* ce6_sums = sums_.data() + 2;
     for (int c = 0; c < m.ce6_colours.colours(); ++c) {
       const int b = m.ce6_colours.offsets[c], e = m.ce6_colours.offsets[c + 1];
       Exec::template sum_to<3>(
@@ -215,71 +319,66 @@ class DeviceLoopImpl final : public DeviceLoop {
             const bool was_broken = ce6_broken(st[i]);
             const Ce6Eval ev = cohesive6_forces(p, xe, ve, h[i], st[i], fe);
             for (int j = 0; j < 6; ++j) f[q[j]] += fe[j];
-            acc[was_broken ? 1 : 0] += ev.power;
+            if (own_c[i]) acc[was_broken ? 1 : 0] += ev.power;
             if (!was_broken && ce6_broken(st[i])) broke[i] = 1, acc[2] += 1;
           },
-          ce6_sums);
+          sums + kCoh);
     }
-    const std::array<real, 5> fs = read_sums<5>();
-    const real p_visc = fs[0], inverted = fs[1], p_coh = fs[2], p_fric = fs[3], breaks = fs[4];
     t0 = lap(t0, t_.ce6);
-    if (inverted > 0) {  // rare: the host finds and names the element
+
+    // Adaptive activation: the vicinity of each CE6 that broke on this step (every tet sharing a
+    // vertex of its face); a pass over the flags every step, so the host need not know first.
+    // Flags only rise, so concurrent writes of 1 agree.
+    const int nc = int(ce6_.size());
+    ContactSet& cs = s.contacts;
+    if (cs.enabled()) {
+      const int* nv = node_vertex_.data();
+      const int* vptr = vt_ptr_.data();
+      const int* vtets = vt_tets_.data();
+      std::uint8_t* active = active_.data();
+      Exec::template sum_to<1>(
+          nc,
+          [=] FDEM_LAMBDA(int i, real* acc) {
+            if (!broke[i]) return;
+            broke[i] = 0;
+            for (int a = 0; a < 3; ++a) {
+              const int vtx = nv[cn[6 * i + a]];
+              for (int k = vptr[vtx]; k < vptr[vtx + 1]; ++k)
+                if (!active[vtets[k]]) active[vtets[k]] = 1, acc[0] += 1;
+            }
+          },
+          sums + kAdded);
+      // The broad phase's watch: has a node of an active tet moved half the buffer?
+      const int* wn = watch_nodes_.data();
+      const Vec3* wx = watch_x_.data();
+      const real lim2 = 0.25 * cs.buffer_ * cs.buffer_;
+      Exec::template sum_to<1>(
+          int(watch_nodes_.size()),
+          [=] FDEM_LAMBDA(int i, real* acc) {
+            const Vec3 d = x[wn[i]] - wx[i];
+            if (dot(d, d) > lim2) acc[0] += 1;
+          },
+          sums + kMoved);
+    } else {
+      Exec::forall(nc, [=] FDEM_LAMBDA(int i) { broke[i] = 0; });
+    }
+    const std::array<real, kTouching> a = read_sums<kTouching>(0);
+    t0 = lap(t0, t_.activation);
+    if (a[kInverted] > 0) {  // rare: the host finds and names the element
       download(s);
       s.report_inverted();
     }
+    s.p_gravity_ = a[kGravity];
+    // Several ranks: a flag raised on any rank holding a tet reaches the others before the broad
+    // phase looks at the flags.
+    if (s.halo_ && cs.enabled() && merge_flags(s)) cs.dirty_ = true;
 
-    // Adaptive activation: the vicinity of each CE6 that broke on this step (every tet sharing a
-    // vertex of its face). Flags only rise, so concurrent writes of 1 agree.
-    if (breaks > 0) {
-      const int nc = int(ce6_.size());
-      if (s.contacts.enabled()) {
-        const int* nv = node_vertex_.data();
-        const int* vptr = vt_ptr_.data();
-        const int* vtets = vt_tets_.data();
-        std::uint8_t* active = active_.data();
-        const real added = Exec::template sum<1>(nc, [=] FDEM_LAMBDA(int i, real* acc) {
-          if (!broke[i]) return;
-          broke[i] = 0;
-          for (int a = 0; a < 3; ++a) {
-            const int vtx = nv[cn[6 * i + a]];
-            for (int k = vptr[vtx]; k < vptr[vtx + 1]; ++k)
-              if (!active[vtets[k]]) active[vtets[k]] = 1, acc[0] += 1;
-          }
-        })[0];
-        if (added > 0) s.contacts.dirty_ = true;
-      } else {
-        Exec::forall(nc, [=] FDEM_LAMBDA(int i) { broke[i] = 0; });
-      }
-    }
-    t0 = lap(t0, t_.activation);
-
-    // Tet-tet contact: pairs from the host's broad phase when flags changed or a node moved half
-    // the buffer; narrow phase, friction and the deterministic per-node sum here.
-    real c_power = 0, c_dissipated = 0, c_stored = 0, c_touching = 0;
-    if (s.contacts.enabled()) {
-      ContactSet& cs = s.contacts;
-      bool rebuild = cs.dirty_;
-      if (!rebuild && watch_nodes_.size() > 0) {
-        const int* wn = watch_nodes_.data();
-        const Vec3* wx = watch_x_.data();
-        const real lim2 = 0.25 * cs.buffer_ * cs.buffer_;
-        rebuild = Exec::template sum<1>(int(watch_nodes_.size()), [=] FDEM_LAMBDA(int i, real* acc) {
-                    const Vec3 d = x[wn[i]] - wx[i];
-                    if (dot(d, d) > lim2) acc[0] += 1;
-                  })[0] > 0;
-      }
-      if (rebuild) {
-        // The host's broad phase needs positions and flags; springs carry over by pair.
-        x_.download(s.x);
-        active_.download(cs.active_);
-        cs.active_count_ = std::count(cs.active_.begin(), cs.active_.end(), 1);
-        spring_.download(cs.spring);
-        const long before = pairs_capacity_grown();
-        cs.rebuild(m, s.x);
-        upload_pairs(cs);
-        eval_.resize(cs.pairs_.size());
-        pair_force_.resize(8 * cs.pairs_.size());
-        t_.pair_growth += pairs_capacity_grown() - before;
+    // Tet-tet contact: the candidate list rebuilt on the device when flags changed or a node
+    // moved half the buffer; narrow phase, friction and the deterministic per-node sum.
+    if (cs.enabled()) {
+      if (a[kAdded] > 0) cs.dirty_ = true;
+      if (cs.dirty_ || a[kMoved] > 0) {
+        rebuild_pairs(s);
         ++t_.rebuilds;
       }
       t0 = lap(t0, t_.broad);
@@ -290,40 +389,48 @@ class DeviceLoopImpl final : public DeviceLoop {
       Vec3* pf = pair_force_.data();
       Vec3* spring = spring_.data();
       const real P = cs.penalty_, mu_rock = cs.mu_, dt = s.dt_;
-      c_touching = Exec::template sum<1>(np, [=] FDEM_LAMBDA(int k, real* acc) {
-        const ContactPair cp = pairs[k];
-        Vec3* fp = pf + 8 * k;
-        if (cp.joint >= 0 && !ce6_broken(st[cp.joint])) {
-          for (int i = 0; i < 8; ++i) fp[i] = Vec3{0, 0, 0};
-          ev[k] = ContactEval{{0, 0, 0}, {0, 0, 0}, 0};
-          return;
-        }
-        Vec3 xa[4], xb[4], fa[4], fb[4];
-        for (int i = 0; i < 4; ++i) xa[i] = x[tn[4 * cp.a + i]], xb[i] = x[tn[4 * cp.b + i]];
-        ev[k] = contact_tet_pair(xa, xb, P, fa, fb);
-        if (ev[k].weight > 0) acc[0] += 1;
-        for (int i = 0; i < 4; ++i) fp[i] = fa[i], fp[4 + i] = fb[i];
-      })[0];
+      Exec::template sum_to<1>(
+          np,
+          [=] FDEM_LAMBDA(int k, real* acc) {
+            const ContactPair cp = pairs[k];
+            Vec3* fp = pf + 8 * k;
+            if (cp.joint >= 0 && !ce6_broken(st[cp.joint])) {
+              for (int i = 0; i < 8; ++i) fp[i] = Vec3{0, 0, 0};
+              ev[k] = ContactEval{{0, 0, 0}, {0, 0, 0}, 0};
+              return;
+            }
+            Vec3 xa[4], xb[4], fa[4], fb[4];
+            for (int i = 0; i < 4; ++i) xa[i] = x[tn[4 * cp.a + i]], xb[i] = x[tn[4 * cp.b + i]];
+            ev[k] = contact_tet_pair(xa, xb, P, fa, fb);
+            if (ev[k].weight > 0 && own_t[cp.a]) acc[0] += 1;
+            for (int i = 0; i < 4; ++i) fp[i] = fa[i], fp[4 + i] = fb[i];
+          },
+          sums + kTouching);
       t0 = lap(t0, t_.narrow);
-      const auto fr = Exec::template sum<2>(np, [=] FDEM_LAMBDA(int k, real* acc) {
-        if (!(ev[k].weight > 0)) {
-          spring[k] = Vec3{0, 0, 0};
-          return;
-        }
-        const ContactPair cp = pairs[k];
-        Vec3 xa[4], xb[4], va[4], vb[4], fa[4], fb[4];
-        for (int i = 0; i < 4; ++i) {
-          const int na = tn[4 * cp.a + i], nb = tn[4 * cp.b + i];
-          xa[i] = x[na], xb[i] = x[nb], va[i] = v[na], vb[i] = v[nb];
-          fa[i] = fb[i] = Vec3{0, 0, 0};
-        }
-        const real k_t = contact_tangential_stiffness(xa, xb, P);
-        acc[0] += contact_friction(xa, xb, va, vb, ev[k], mu_rock, k_t, dt, spring[k], fa, fb);
-        acc[1] += 0.5 * k_t * dot(spring[k], spring[k]);
-        Vec3* fp = pf + 8 * k;
-        for (int i = 0; i < 4; ++i) fp[i] += fa[i], fp[4 + i] += fb[i];
-      });
-      c_dissipated = fr[0], c_stored = fr[1];
+      Exec::template sum_to<2>(
+          np,
+          [=] FDEM_LAMBDA(int k, real* acc) {
+            if (!(ev[k].weight > 0)) {
+              spring[k] = Vec3{0, 0, 0};
+              return;
+            }
+            const ContactPair cp = pairs[k];
+            Vec3 xa[4], xb[4], va[4], vb[4], fa[4], fb[4];
+            for (int i = 0; i < 4; ++i) {
+              const int na = tn[4 * cp.a + i], nb = tn[4 * cp.b + i];
+              xa[i] = x[na], xb[i] = x[nb], va[i] = v[na], vb[i] = v[nb];
+              fa[i] = fb[i] = Vec3{0, 0, 0};
+            }
+            const real k_t = contact_tangential_stiffness(xa, xb, P);
+            const real d = contact_friction(xa, xb, va, vb, ev[k], mu_rock, k_t, dt, spring[k], fa, fb);
+            if (own_t[cp.a]) {
+              acc[0] += d;
+              acc[1] += 0.5 * k_t * dot(spring[k], spring[k]);
+            }
+            Vec3* fp = pf + 8 * k;
+            for (int i = 0; i < 4; ++i) fp[i] += fa[i], fp[4 + i] += fb[i];
+          },
+          sums + kConDiss);
       t0 = lap(t0, t_.friction);
       const int* gn = gather_node_.data();
       const int* gp = gather_ptr_.data();
@@ -333,50 +440,65 @@ class DeviceLoopImpl final : public DeviceLoop {
         for (int j = gp[k]; j < gp[k + 1]; ++j) sum += pf[gs[j]];
         f[gn[k]] += sum;
       });
-      c_power = contact_power(v);
+      contact_power(v, sums + kConPower);
       t0 = lap(t0, t_.contact_sum);
-      cs.times.broad = t_.broad;
+      cs.times.broad = t_.broad;  // the run's report reads the contact set's clocks
       cs.times.narrow = t_.narrow + t_.contact_sum;
       cs.times.friction = t_.friction;
     }
-    s.p_contact_ = c_power;
-    s.w_contact_slip_ += c_dissipated;
-    s.contact_spring_ = c_stored;
-    s.touching_ = long(c_touching);
 
     // Platens: each node against the nearer one.
-    real ftop = 0, fbot = 0, dfric = 0;
     if (scene.platens.enabled) {
       const int* pn = platen_nodes_.data();
       const real* pk = platen_k_.data();
       Vec3* anchor = anchor_.data();
       const real ztop = s.top_z0_ - s.top_offset, zbot = s.bottom_z0_, mu_p = scene.material.friction_platen;
-      const auto r = Exec::template sum<3>(int(platen_nodes_.size()), [=] FDEM_LAMBDA(int i, real* acc) {
-        const int n = pn[i];
-        const bool near_top = x[n].z > 0.5 * (ztop + zbot);
-        const Vec3 xr = x[n] - Vec3{0, 0, near_top ? ztop : zbot};
-        const PlatenEval pe = platen_node_force(xr, Vec3{0, 0, near_top ? -1.0 : 1.0}, pk[i], mu_p, anchor[i]);
-        f[n] += pe.force;
-        acc[near_top ? 0 : 1] += pe.force.z;
-        acc[2] += pe.dissipated;
-      });
-      ftop = r[0], fbot = r[1], dfric = r[2];
+      Exec::template sum_to<3>(
+          int(platen_nodes_.size()),
+          [=] FDEM_LAMBDA(int i, real* acc) {
+            const int n = pn[i];
+            const bool near_top = x[n].z > 0.5 * (ztop + zbot);
+            const Vec3 xr = x[n] - Vec3{0, 0, near_top ? ztop : zbot};
+            const PlatenEval pe = platen_node_force(xr, Vec3{0, 0, near_top ? -1.0 : 1.0}, pk[i], mu_p, anchor[i]);
+            f[n] += pe.force;
+            acc[near_top ? 0 : 1] += pe.force.z;
+            acc[2] += pe.dissipated;
+          },
+          sums + kTop);
     }
-    s.force_top_ = ftop;
-    s.force_bottom_ = fbot;
     t0 = lap(t0, t_.platens);
 
-    // Confining pressure, a follower load: -p a / 3 per node of each lateral face.
-    if (scene.confinement.enabled) {
-      const Confinement& cf = scene.confinement;
-      const real pr = s.hydrostatic_ ? std::min(cf.pressure, std::max(real(0), s.axial_stress()))
-                                     : ramped_speed(s.time_, cf.pressure, s.confine_ramp_);
-      s.pressure_ = pr;
+    // Several ranks: the whole model's sums, as the CPU backend takes them (one reduction);
+    // the platen reactions go back to the device for the hydrostatic pressure.
+    const bool dist = s.dd_.distributed();
+    const int whole[] = {kTop, kBottom, kPlatenFric, kVisc, kCoh, kFric, kConDiss, kConStored, kTouching};
+    std::array<real, kBad> reduced{};
+    if (dist) {
+      reduced = read_sums<kBad>(0);
+      real vals[9];
+      for (int k = 0; k < 9; ++k) vals[k] = reduced[whole[k]];
+      s.sum(vals, 9);
+      for (int k = 0; k < 9; ++k) reduced[whole[k]] = vals[k];
+      device::to_device(b_, sums_.data() + kTop, &vals[0], 2 * sizeof(real));
+    }
+
+    // Confining pressure, a follower load: -p a / 3 per node of each lateral face. On the
+    // hydrostatic path p follows this evaluation's platen reactions, read where they were summed.
+    const Confinement& cf = scene.confinement;
+    if (cf.enabled) {
+      const bool hydrostatic = s.hydrostatic_;
+      const real p_set = hydrostatic ? cf.pressure : ramped_speed(s.time_, cf.pressure, s.confine_ramp_);
+      const real area0 = m.area0;
       const int* lf = lat_faces_.data();
       Vec3* lforce = lat_force_.data();
       Exec::forall(int(lat_force_.size()), [=] FDEM_LAMBDA(int i) {
-        const Vec3 a = 0.5 * cross(x[lf[3 * i + 1]] - x[lf[3 * i]], x[lf[3 * i + 2]] - x[lf[3 * i]]);
-        lforce[i] = (-pr / 3) * a;
+        real pr = p_set;
+        if (hydrostatic) {
+          const real axial = area0 > 0 ? 0.5 * (-sums[kTop] + sums[kBottom]) / area0 : 0;
+          pr = axial < 0 ? 0 : (axial < p_set ? axial : p_set);
+        }
+        const Vec3 ar = 0.5 * cross(x[lf[3 * i + 1]] - x[lf[3 * i]], x[lf[3 * i + 2]] - x[lf[3 * i]]);
+        lforce[i] = (-pr / 3) * ar;
       });
       const int* ln = lat_node_.data();
       const int* lp = lat_ptr_.data();
@@ -384,13 +506,27 @@ class DeviceLoopImpl final : public DeviceLoop {
       Exec::forall(int(lat_node_.size()), [=] FDEM_LAMBDA(int k) {
         for (int j = lp[k]; j < lp[k + 1]; ++j) f[ln[k]] += lforce[lfa[j]];
       });
-      s.p_pressure_ = pressure_power(v);
+      pressure_power(v, sums + kPressurePower);
     }
+    std::array<real, kBad> b = read_sums<kBad>(0);
+    if (dist)
+      for (int k : whole) b[k] = reduced[k];
     t0 = lap(t0, t_.pressure);
-    s.p_viscous_ = p_visc;
-    s.p_cohesive_ = p_coh;
-    s.p_friction_ = p_fric;
-    s.w_platen_friction_ += dfric;
+    s.p_contact_ = b[kConPower];
+    s.w_contact_slip_ += b[kConDiss];
+    s.contact_spring_ = b[kConStored];
+    s.touching_ = long(b[kTouching]);
+    s.force_top_ = b[kTop];
+    s.force_bottom_ = b[kBottom];
+    if (cf.enabled) {
+      s.pressure_ = s.hydrostatic_ ? std::min(cf.pressure, std::max(real(0), s.axial_stress()))
+                                   : ramped_speed(s.time_, cf.pressure, s.confine_ramp_);
+      s.p_pressure_ = b[kPressurePower];
+    }
+    s.p_viscous_ = b[kVisc];
+    s.p_cohesive_ = b[kCoh];
+    s.p_friction_ = b[kFric];
+    s.w_platen_friction_ += b[kPlatenFric];
   }
 
   AdvanceSums advance(Solver& s, real dt) override {
@@ -400,13 +536,18 @@ class DeviceLoopImpl final : public DeviceLoop {
     const Vec3* f = f_.data();
     const real* inv_mass = inv_mass_.data();
     const real* mass = mass_.data();
-    AdvanceSums out;
-    const auto r = Exec::template sum<2>(int(x_.size()), [=] FDEM_LAMBDA(int n, real* acc) {
-      central_difference(x[n], v[n], f[n], inv_mass[n], dt);
-      acc[0] += !finite_value(v[n].x + v[n].y + v[n].z);
-      acc[1] += mass[n] * dot(v[n], v[n]);
-    });
-    out.bad = r[0], out.kinetic2 = r[1];
+    real* sums = sums_.data();
+    const std::uint8_t* own_n = own_node_.data();
+    clear_sums(kBad, kSums);
+    Exec::template sum_to<2>(
+        int(x_.size()),
+        [=] FDEM_LAMBDA(int n, real* acc) {
+          central_difference(x[n], v[n], f[n], inv_mass[n], dt);  // ghosts too: overwritten below
+          if (!own_n[n]) return;
+          acc[0] += !finite_value(v[n].x + v[n].y + v[n].z);
+          acc[1] += mass[n] * dot(v[n], v[n]);
+        },
+        sums + kBad);
     const int* fn = fixed_node_.data();
     const int* fm = fixed_mask_.data();
     const Vec3* fv = fixed_v_.data();
@@ -419,14 +560,116 @@ class DeviceLoopImpl final : public DeviceLoop {
         }
     });
     t0 = lap(t0, t_.integrate);
-    if (s.contacts.enabled()) out.contact_power = contact_power(v);
-    if (s.scene_.confinement.enabled) out.pressure_power = pressure_power(v);
+    if (s.halo_) halo_update(s);  // ghosts take their owners' new positions and velocities
+    if (s.contacts.enabled()) contact_power(v, sums + kConPowerNew);
+    if (s.scene_.confinement.enabled) pressure_power(v, sums + kPressurePowerNew);
     const Vec3 g = s.scene_.gravity;
     if (g.x != 0 || g.y != 0 || g.z != 0)
-      out.gravity_power = Exec::template sum<1>(
-          int(x_.size()), [=] FDEM_LAMBDA(int n, real* acc) { acc[0] += mass[n] * dot(g, v[n]); })[0];
+      Exec::template sum_to<1>(
+          int(x_.size()),
+          [=] FDEM_LAMBDA(int n, real* acc) {
+            if (own_n[n]) acc[0] += mass[n] * dot(g, v[n]);
+          },
+          sums + kGravityNew);
+    const std::array<real, kSums> r = read_sums<kSums>(0);
     lap(t0, t_.energy);
     ++t_.steps;
+    AdvanceSums out;
+    out.bad = r[kBad], out.kinetic2 = r[kKinetic2], out.contact_power = r[kConPowerNew];
+    out.pressure_power = r[kPressurePowerNew], out.gravity_power = r[kGravityNew];
+    return out;
+  }
+
+  std::array<real, 16> measure_sums(const Solver& s) override {
+    const auto t0 = now();
+    const Model& m = s.model_;
+    const Vec3* x = x_.data();
+    const Vec3* v = v_.data();
+    const Vec3* X = X_.data();
+    std::array<real, 16> out{};
+    const Vec3 axis = m.axis_point;
+    const bool disc = m.line_loaded;
+    const int* ln = lateral_nodes_.data();
+    const std::uint8_t* own_n = own_node_.data();
+    const std::uint8_t* own_t = own_tet_.data();
+    const std::uint8_t* own_c = own_ce6_.data();
+    const auto lat = Exec::template sum<2>(int(lateral_nodes_.size()), [=] FDEM_LAMBDA(int i, real* acc) {
+      const int n = ln[i];
+      if (!own_n[n]) return;
+      acc[1] += 1;
+      Vec3 rr = X[n] - axis;
+      rr.z = 0;
+      if (disc) rr.y = 0;
+      const real r2 = dot(rr, rr);
+      if (r2 > 0) acc[0] += dot(x[n] - X[n], rr) / r2;
+    });
+    out[0] = lat[0], out[1] = lat[1];
+    out[2] = 0.5 * kinetic2();
+    const int* tn = tet_nodes_.data();
+    const Mat3* Xinv = Xinv_.data();
+    const real* V0 = V0_.data();
+    const real* eta = eta_.data();
+    const std::uint8_t* mid = mid_third_.data();
+    const real lambda = s.lambda_, mu = s.mu_;
+    const auto te = Exec::template sum<3>(int(V0_.size()), [=] FDEM_LAMBDA(int t, real* acc) {
+      if (!own_t[t]) return;
+      Vec3 xe[4], ve[4], fe[4];
+      for (int i = 0; i < 4; ++i) xe[i] = x[tn[4 * t + i]], ve[i] = v[tn[4 * t + i]];
+      const Tet4Eval e = tet4_forces(xe, ve, Xinv[t], V0[t], lambda, mu, eta[t], fe);
+      acc[0] += e.strain_energy;
+      if (mid[t]) {
+        const real vol = dot(cross(xe[1] - xe[0], xe[2] - xe[0]), xe[3] - xe[0]) / 6;
+        acc[1] += -0.5 * (e.stress.xx + e.stress.yy) * vol;
+        acc[2] += vol;
+      }
+    });
+    out[3] = te[0], out[4] = te[1], out[5] = te[2];
+    const int* cn = ce6_nodes_.data();
+    const real* h = ce6_h_.data();
+    const Ce6State* st = ce6_.data();
+    const Ce6Params p = s.ce6p_;
+    const auto ce = Exec::template sum<7>(int(ce6_.size()), [=] FDEM_LAMBDA(int i, real* acc) {
+      if (!own_c[i]) return;
+      Vec3 xe[6], ve[6], fe[6];
+      for (int j = 0; j < 6; ++j) xe[j] = x[cn[6 * i + j]], ve[j] = v[cn[6 * i + j]];
+      Ce6State copy = st[i];  // measuring must not advance the state
+      const real stored = cohesive6_forces(p, xe, ve, h[i], copy, fe).stored;
+      const int mode = st[i].mode;
+      if (mode != 0) {
+        acc[1] += stored;
+        acc[3] += 1;
+        acc[4] += mode == 1;
+        acc[5] += mode == 2;
+        acc[6] += mode == 3;
+      } else {
+        acc[0] += stored;
+        acc[2] += ce6_max_damage(st[i]) > 0;
+      }
+    });
+    for (int k = 0; k < 7; ++k) out[6 + k] = ce[k];
+    if (s.scene_.platens.enabled) {
+      const int* pn = platen_nodes_.data();
+      const real* pk = platen_k_.data();
+      const Vec3* anchor = anchor_.data();
+      const real ztop = s.top_z0_ - s.top_offset, zbot = s.bottom_z0_, mu_p = s.scene_.material.friction_platen;
+      out[13] = Exec::template sum<1>(int(platen_nodes_.size()), [=] FDEM_LAMBDA(int i, real* acc) {
+        const int n = pn[i];
+        const bool near_top = x[n].z > 0.5 * (ztop + zbot);
+        Vec3 a = anchor[i];
+        acc[0] += platen_node_force(x[n] - Vec3{0, 0, near_top ? ztop : zbot}, Vec3{0, 0, near_top ? -1.0 : 1.0}, pk[i],
+                                    mu_p, a)
+                      .stored;
+      })[0];
+    }
+    if (s.contacts.enabled()) {
+      const std::uint8_t* active = active_.data();
+      const ContactPair* pairs = pairs_.data();
+      out[14] = Exec::template sum<1>(int(active_.size()),
+                                      [=] FDEM_LAMBDA(int t, real* acc) { acc[0] += active[t] == 1 && own_t[t]; })[0];
+      out[15] = Exec::template sum<1>(int(pairs_.size()),
+                                      [=] FDEM_LAMBDA(int k, real* acc) { acc[0] += own_t[pairs[k].a]; })[0];
+    }
+    t_.monitor += seconds_since(t0);
     return out;
   }
 
@@ -456,19 +699,24 @@ class DeviceLoopImpl final : public DeviceLoop {
     into += std::chrono::duration<double>(t1 - t0).count();
     return t1;
   }
-  void clear_sums() {
-    const real zero[kSums] = {};
-    sums_.upload(zero, kSums);
+
+ public:  // (nvcc's device lambdas cannot live in private member functions)
+  /// Zero sums_[from, to) on the device.
+  void clear_sums(int from, int to) {
+    real* p = sums_.data();
+    Exec::forall(to - from, [=] FDEM_LAMBDA(int k) { p[from + k] = 0; });
   }
+
+ private:
+  /// sums_[from, from + N) on the host (one copy).
   template <int N>
-  std::array<real, N> read_sums() const {
+  std::array<real, N> read_sums(int from) const {
     real all[kSums];
     sums_.download(all);
     std::array<real, N> out;
-    for (int k = 0; k < N; ++k) out[k] = all[k];
+    for (int k = 0; k < N; ++k) out[k] = all[from + k];
     return out;
   }
-  long pairs_capacity_grown() const { return pairs_.times_grown() + pair_force_.times_grown(); }
 
   void upload_pairs(const ContactSet& c) {
     pairs_.upload(c.pairs_);
@@ -481,39 +729,442 @@ class DeviceLoopImpl final : public DeviceLoop {
   }
 
  public:  // (public: nvcc's device lambdas cannot live in private member functions)
-  /// -sum f.v of the last contact pair forces with velocities v (ContactSet::power).
-  real contact_power(const Vec3* v) {
+  /// The contact candidate list built on the device, as ContactSet::rebuild builds it on the
+  /// host (contact/broad_phase.cpp's passes: bounds, count, scan, fill, sort, runs, pair test),
+  /// with the same filters (a joining CE6, shared nodes), springs carried over by (a, b), the
+  /// gather index and the watch list. Only counts come back to the host.
+  void rebuild_pairs(Solver& s) {
+    using namespace device_build;
+    ContactSet& cs = s.contacts;
+    const Model& m = s.model_;
+    if (!tet_ce6_ready_) {
+      tet_ce6_.upload(reinterpret_cast<const int*>(cs.tet_ce6_.data()), 4 * cs.tet_ce6_.size());
+      ce6_tets_.upload(reinterpret_cast<const int*>(m.ce6_tets.data()), 2 * m.ce6_tets.size());
+      tet_ce6_ready_ = true;
+    }
+    const int nt = int(V0_.size()), nn = int(x_.size());
+    const Vec3* x = x_.data();
+    const int* tn = tet_nodes_.data();
+    const std::uint8_t* active = active_.data();
+
+    // Active tets, ascending.
+    flags_.resize(std::max(nt, nn));
+    offsets_.resize(std::max(nt, nn));
+    long* fl = flags_.data();
+    long* of = offsets_.data();
+    Exec::forall(nt, [=] FDEM_LAMBDA(int t) { fl[t] = active[t] == 1; });
+    const int na = int(Exec::scan(nt, fl, of));
+    ids_.resize(na);
+    int* ids = ids_.data();
+    Exec::forall(nt, [=] FDEM_LAMBDA(int t) {
+      if (active[t] == 1) ids[of[t]] = t;
+    });
+
+    // Several ranks: a rank holds the tets within the contact reach of its own; stop before a
+    // node of an owned active tet has moved half the reach (the host names it and the fix).
+    const std::uint8_t* own_n = own_node_.data();
+    if (s.dd_.distributed()) {
+      const std::uint8_t* own_t = own_tet_.data();
+      const Vec3* X = X_.data();
+      const real lim2 = 0.25 * s.dd_.reach * s.dd_.reach;
+      const real far = Exec::template sum<1>(na, [=] FDEM_LAMBDA(int k, real* acc) {
+        if (!own_t[ids[k]]) return;
+        for (int i = 0; i < 4; ++i) {
+          const int n = tn[4 * ids[k] + i];
+          const Vec3 d = x[n] - X[n];
+          if (dot(d, d) >= lim2) acc[0] += 1;
+        }
+      })[0];
+      if (far > 0) {
+        x_.download(s.x);
+        std::vector<int> host_ids(na);
+        ids_.download(host_ids.data());
+        cs.check_reach(m, s.x, host_ids);
+      }
+    }
+    const bool all_owned = !s.dd_.distributed();
+
+    // Boxes inflated by half the buffer.
+    boxes_.resize(na);
+    Aabb* boxes = boxes_.data();
+    const real half = 0.5 * cs.buffer_;
+    Exec::forall(na, [=] FDEM_LAMBDA(int k) {
+      const int* q = tn + 4 * ids[k];
+      Aabb b{x[q[0]], x[q[0]]};
+      for (int i = 1; i < 4; ++i)
+        for (int d = 0; d < 3; ++d) {
+          b.lo[d] = x[q[i]][d] < b.lo[d] ? x[q[i]][d] : b.lo[d];
+          b.hi[d] = x[q[i]][d] > b.hi[d] ? x[q[i]][d] : b.hi[d];
+        }
+      for (int d = 0; d < 3; ++d) b.lo[d] -= half, b.hi[d] += half;
+      boxes[k] = b;
+    });
+
+    long entries = 0, tested = 0, npairs = 0;
+    real cell = 0;
+    if (na > 0) {
+      const auto mx = Exec::template max<6>(na, [=] FDEM_LAMBDA(int k, real* acc) {
+        const Aabb& b = boxes[k];
+        for (int d = 0; d < 3; ++d) {
+          acc[d] = -b.lo[d] > acc[d] ? -b.lo[d] : acc[d];
+          acc[3 + d] = b.hi[d] > acc[3 + d] ? b.hi[d] : acc[3 + d];
+        }
+      });
+      const auto ex = Exec::template sum<2>(na, [=] FDEM_LAMBDA(int k, real* acc) {
+        const Aabb& b = boxes[k];
+        real e = max3(b.hi.x - b.lo.x, b.hi.y - b.lo.y, b.hi.z - b.lo.z);
+        acc[0] += e > 0 ? e : 0;
+        for (int d = 0; d < 3; ++d) acc[1] += !(finite_value(b.lo[d]) && finite_value(b.hi[d]));
+      });
+      if (ex[1] > 0) throw RunError("contact broad phase: a box has a non-finite coordinate (the run is unstable)");
+      Grid grid{{-mx[0], -mx[1], -mx[2]}, 0};
+      const real span = std::max({mx[3] + mx[0], mx[4] + mx[1], mx[5] + mx[2], real(0)});
+      cell = 2 * ex[0] / na;
+      if (!(cell > 0)) cell = span > 0 ? 1e-6 * span : 1;
+      grid.cell = cell;
+
+      // Cells per box; the cell grows until the boxes cover at most 64 cells each on average.
+      const long budget = 64L * na;
+      counts_.resize(na);
+      long* counts = counts_.data();
+      for (;;) {
+        while (span / grid.cell > std::ldexp(1.0, 50)) grid.cell *= 2;
+        const Grid g = grid;
+        const real total = Exec::template sum<1>(na, [=] FDEM_LAMBDA(int k, real* acc) {
+          counts[k] = g.cells_of(boxes[k], budget);
+          acc[0] += real(counts[k]);
+        })[0];
+        if (total <= real(budget)) break;
+        grid.cell *= 2;
+      }
+      cell = grid.cell;
+      entry_offsets_.resize(na);
+      long* eo = entry_offsets_.data();
+      entries = Exec::scan(na, counts, eo);
+      entries_.resize(entries);
+      BinEntry* en = entries_.data();
+      const Grid g = grid;
+      Exec::forall(na, [=] FDEM_LAMBDA(int k) {
+        const Aabb& b = boxes[k];
+        const std::int64_t lx = g.index(b.lo.x, 0), ly = g.index(b.lo.y, 1), lz = g.index(b.lo.z, 2);
+        const std::int64_t hx = g.index(b.hi.x, 0), hy = g.index(b.hi.y, 1), hz = g.index(b.hi.z, 2);
+        long w = eo[k];
+        for (std::int64_t ix = lx; ix <= hx; ++ix)
+          for (std::int64_t iy = ly; iy <= hy; ++iy)
+            for (std::int64_t iz = lz; iz <= hz; ++iz) en[w++] = BinEntry{ix, iy, iz, k};
+      });
+      Exec::sort(en, entries, [] FDEM_LAMBDA(const BinEntry& a, const BinEntry& b) {
+        if (a.ix != b.ix) return a.ix < b.ix;
+        if (a.iy != b.iy) return a.iy < b.iy;
+        if (a.iz != b.iz) return a.iz < b.iz;
+        return a.box < b.box;
+      });
+
+      // Runs of one cell: flag the first entry of each, scan, scatter the starts.
+      head_.resize(entries);
+      head_offsets_.resize(entries);
+      long* hd = head_.data();
+      long* ho = head_offsets_.data();
+      Exec::forall(int(entries), [=] FDEM_LAMBDA(int k) {
+        hd[k] = k == 0 || en[k - 1].ix != en[k].ix || en[k - 1].iy != en[k].iy || en[k - 1].iz != en[k].iz;
+      });
+      const long cells = Exec::scan(entries, hd, ho);
+      cell_start_.resize(cells + 1);
+      long* cst = cell_start_.data();
+      const long total_entries = entries;
+      Exec::forall(int(entries), [=] FDEM_LAMBDA(int k) {
+        if (hd[k]) cst[ho[k]] = k;
+        if (k == 0) cst[cells] = total_entries;
+      });
+
+      // Pair test per cell, twice: count, then write at the scanned offsets. A pair is kept by
+      // the cell of the low corner of the two boxes' intersection, once; pairs sharing a node
+      // are dropped unless a CE6 joins them.
+      const int* tce = tet_ce6_.data();
+      const int* cet = ce6_tets_.data();
+      auto test = [=] FDEM_LAMBDA(long c, ContactPair* out, long* tested_out) -> long {
+        const long b0 = cst[c], e0 = cst[c + 1];
+        const BinEntry key = en[b0];
+        long kept = 0, seen = 0;
+        for (long j = b0; j < e0; ++j) {
+          const Aabb& ba = boxes[en[j].box];
+          for (long k = j + 1; k < e0; ++k) {
+            const Aabb& bb = boxes[en[k].box];
+            ++seen;
+            if (!boxes_overlap(ba, bb)) continue;
+            if (g.index(ba.lo.x > bb.lo.x ? ba.lo.x : bb.lo.x, 0) != key.ix ||
+                g.index(ba.lo.y > bb.lo.y ? ba.lo.y : bb.lo.y, 1) != key.iy ||
+                g.index(ba.lo.z > bb.lo.z ? ba.lo.z : bb.lo.z, 2) != key.iz)
+              continue;
+            int ta = ids[en[j].box], tb = ids[en[k].box];
+            if (ta > tb) {
+              const int t = ta;
+              ta = tb, tb = t;
+            }
+            int joint = -1;
+            for (int i = 0; i < 4; ++i) {
+              const int ce = tce[4 * ta + i];
+              if (ce >= 0 && (cet[2 * ce] == tb || cet[2 * ce + 1] == tb)) joint = ce;
+            }
+            if (joint < 0) {
+              bool share = false;
+              for (int i = 0; i < 4; ++i)
+                for (int l = 0; l < 4; ++l) share = share || tn[4 * ta + i] == tn[4 * tb + l];
+              if (share) continue;
+            }
+            if (!all_owned) {  // a pair acting on no owned node does not matter on this rank
+              bool any = false;
+              for (int i = 0; i < 4; ++i) any = any || own_n[tn[4 * ta + i]] || own_n[tn[4 * tb + i]];
+              if (!any) continue;
+            }
+            if (out) out[kept] = ContactPair{ta, tb, joint};
+            ++kept;
+          }
+        }
+        if (tested_out) *tested_out = seen;
+        return kept;
+      };
+      cell_counts_.resize(cells);
+      cell_offsets_.resize(cells);
+      long* cc = cell_counts_.data();
+      long* co = cell_offsets_.data();
+      tested = long(Exec::template sum<1>(int(cells), [=] FDEM_LAMBDA(int c, real* acc) {
+        long seen = 0;
+        cc[c] = test(c, nullptr, &seen);
+        acc[0] += real(seen);
+      })[0]);
+      npairs = Exec::scan(cells, cc, co);
+      next_pairs_.resize(npairs);
+      ContactPair* np = next_pairs_.data();
+      Exec::forall(int(cells), [=] FDEM_LAMBDA(int c) { test(c, np + co[c], nullptr); });
+      Exec::sort(np, npairs, [] FDEM_LAMBDA(const ContactPair& a, const ContactPair& b) {
+        return a.a != b.a ? a.a < b.a : a.b < b.b;
+      });
+    } else {
+      next_pairs_.resize(0);
+    }
+
+    // Friction springs carry over to the pairs that stay (both lists sorted by (a, b)).
+    next_spring_.resize(npairs);
+    {
+      const ContactPair* oldp = pairs_.data();
+      const Vec3* olds = spring_.data();
+      const long nold = long(pairs_.size());
+      const ContactPair* np = next_pairs_.data();
+      Vec3* ns = next_spring_.data();
+      Exec::forall(int(npairs), [=] FDEM_LAMBDA(int i) {
+        long lo = 0, hi = nold;
+        while (lo < hi) {
+          const long mid = (lo + hi) / 2;
+          const bool less = oldp[mid].a != np[i].a ? oldp[mid].a < np[i].a : oldp[mid].b < np[i].b;
+          if (less)
+            lo = mid + 1;
+          else
+            hi = mid;
+        }
+        ns[i] = lo < nold && oldp[lo].a == np[i].a && oldp[lo].b == np[i].b ? olds[lo] : Vec3{0, 0, 0};
+      });
+    }
+    const long grown_before = pairs_.times_grown() + pair_force_.times_grown();
+    std::swap(pairs_, next_pairs_);
+    std::swap(spring_, next_spring_);
+    eval_.resize(npairs);
+    pair_force_.resize(8 * npairs);
+    t_.pair_growth += pairs_.times_grown() + pair_force_.times_grown() - grown_before;
+
+    // Gather index: (node, slot) records sorted by node then slot; runs per node.
+    const long nslots = 8 * npairs;
+    node_slots_.resize(nslots);
+    NodeSlot* rec = node_slots_.data();
+    const ContactPair* pp = pairs_.data();
+    Exec::forall(int(npairs), [=] FDEM_LAMBDA(int p) {
+      for (int i = 0; i < 4; ++i) {
+        rec[8 * p + i] = NodeSlot{tn[4 * pp[p].a + i], 8 * p + i};
+        rec[8 * p + 4 + i] = NodeSlot{tn[4 * pp[p].b + i], 8 * p + 4 + i};
+      }
+    });
+    Exec::sort(rec, nslots, [] FDEM_LAMBDA(const NodeSlot& a, const NodeSlot& b) {
+      return a.node != b.node ? a.node < b.node : a.slot < b.slot;
+    });
+    head_.resize(nslots);
+    head_offsets_.resize(nslots);
+    long* hd = head_.data();
+    long* ho = head_offsets_.data();
+    Exec::forall(int(nslots), [=] FDEM_LAMBDA(int k) { hd[k] = k == 0 || rec[k - 1].node != rec[k].node; });
+    const long ng = Exec::scan(nslots, hd, ho);
+    gather_node_.resize(ng);
+    gather_ptr_.resize(nslots > 0 ? ng + 1 : 1);
+    gather_slot_.resize(nslots);
+    int* gn = gather_node_.data();
+    int* gp = gather_ptr_.data();
+    int* gs = gather_slot_.data();
+    Exec::forall(int(nslots), [=] FDEM_LAMBDA(int k) {
+      if (hd[k]) gn[ho[k]] = rec[k].node, gp[ho[k]] = k;
+      gs[k] = rec[k].slot;
+    });
+    Exec::forall(1, [=] FDEM_LAMBDA(int) { gp[ng] = int(nslots); });
+
+    // Watch list: the nodes of the active tets (ascending) and their positions now.
+    Exec::forall(nn, [=] FDEM_LAMBDA(int n) { fl[n] = 0; });
+    Exec::forall(na, [=] FDEM_LAMBDA(int k) {
+      for (int i = 0; i < 4; ++i) fl[tn[4 * ids[k] + i]] = 1;
+    });
+    const long nw = Exec::scan(nn, fl, of);
+    watch_nodes_.resize(nw);
+    watch_x_.resize(nw);
+    int* wn = watch_nodes_.data();
+    Vec3* wx = watch_x_.data();
+    Exec::forall(nn, [=] FDEM_LAMBDA(int n) {
+      if (fl[n]) wn[of[n]] = n, wx[of[n]] = x[n];
+    });
+
+    cs.dirty_ = false;
+    ++cs.times.rebuilds;
+    cs.stats_ = BroadPhaseStats{na, entries, tested, npairs, cell};
+    pairs_on_host_ = false;
+  }
+
+  /// Several ranks: the halo's packed layout (partition/halo.hpp) as device index lists.
+  void plan_halo(const Solver& s) {
+    const Halo& h = *s.halo_;
+    const auto& nbs = s.dd_.neighbours;
+    std::vector<int> sn, sx, sv, rn, rx, rv, ft;
+    for (std::size_t i = 0; i < nbs.size(); ++i) {
+      const auto& a = nbs[i].send_nodes;
+      for (std::size_t j = 0; j < a.size(); ++j) sn.push_back(a[j]), sx.push_back(int(h.send_offset(i) + j));
+      const auto& b = nbs[i].recv_nodes;
+      for (std::size_t j = 0; j < b.size(); ++j) rn.push_back(b[j]), rx.push_back(int(h.recv_offset(i) + j));
+      for (int t : nbs[i].shared_tets) ft.push_back(t);
+      // The v of a neighbour's nodes follow their x: offset + count.
+      for (std::size_t j = 0; j < a.size(); ++j) sv.push_back(int(h.send_offset(i) + a.size() + j));
+      for (std::size_t j = 0; j < b.size(); ++j) rv.push_back(int(h.recv_offset(i) + b.size() + j));
+    }
+    halo_send_node_.upload(sn);
+    halo_send_x_.upload(sx);
+    halo_send_v_.upload(sv);
+    halo_recv_node_.upload(rn);
+    halo_recv_x_.upload(rx);
+    halo_recv_v_.upload(rv);
+    halo_flag_tet_.upload(ft);
+    halo_send_.resize(h.send_size());
+    halo_recv_.resize(h.recv_size());
+    flag_send_.resize(h.flag_size());
+    flag_recv_.resize(h.flag_size());
+    host_send_.resize(h.send_size());
+    host_recv_.resize(h.recv_size());
+    host_fsend_.resize(h.flag_size());
+    host_frecv_.resize(h.flag_size());
+  }
+
+  /// Ghost nodes take their owners' x and v: packed on the device, staged through the host for
+  /// MPI, unpacked on the device.
+  void halo_update(Solver& s) {
+    const double w0 = MPI_Wtime();
+    const Vec3* x = x_.data();
+    const Vec3* v = v_.data();
+    Vec3* buf = halo_send_.data();
+    const int* sn = halo_send_node_.data();
+    const int* sx = halo_send_x_.data();
+    const int* sv = halo_send_v_.data();
+    Exec::forall(int(halo_send_node_.size()), [=] FDEM_LAMBDA(int j) {
+      buf[sx[j]] = x[sn[j]];
+      buf[sv[j]] = v[sn[j]];
+    });
+    halo_send_.download(host_send_.data());
+    s.halo_->exchange_nodes(host_send_.data(), host_recv_.data());
+    halo_recv_.upload(host_recv_.data(), host_recv_.size());
+    Vec3* xw = x_.data();
+    Vec3* vw = v_.data();
+    const Vec3* in = halo_recv_.data();
+    const int* rn = halo_recv_node_.data();
+    const int* rx = halo_recv_x_.data();
+    const int* rv = halo_recv_v_.data();
+    Exec::forall(int(halo_recv_node_.size()), [=] FDEM_LAMBDA(int j) {
+      xw[rn[j]] = in[rx[j]];
+      vw[rn[j]] = in[rv[j]];
+    });
+    s.halo_seconds_ += MPI_Wtime() - w0;
+  }
+
+  /// Activation flags OR-ed among the ranks holding a tet; true when one was raised here.
+  bool merge_flags(Solver& s) {
+    const std::uint8_t* active = active_.data();
+    std::uint8_t* out = flag_send_.data();
+    const int* ft = halo_flag_tet_.data();
+    const int nf = int(halo_flag_tet_.size());
+    Exec::forall(nf, [=] FDEM_LAMBDA(int j) { out[j] = active[ft[j]]; });
+    flag_send_.download(host_fsend_.data());
+    s.halo_->exchange_flags(host_fsend_.data(), host_frecv_.data());
+    flag_recv_.upload(host_frecv_.data(), host_frecv_.size());
+    std::uint8_t* aw = active_.data();
+    const std::uint8_t* in = flag_recv_.data();
+    return Exec::template sum<1>(nf, [=] FDEM_LAMBDA(int j, real* acc) {
+             if (in[j] == 1 && aw[ft[j]] != 1) aw[ft[j]] = 1, acc[0] += 1;
+           })[0] > 0;
+  }
+
+  /// -sum f.v of the last contact pair forces with velocities v (ContactSet::power), added to
+  /// out[0] in device memory.
+  void contact_power(const Vec3* v, real* out) {
     const int* tn = tet_nodes_.data();
     const ContactPair* pairs = pairs_.data();
     const Vec3* pf = pair_force_.data();
-    return Exec::template sum<1>(int(pairs_.size()), [=] FDEM_LAMBDA(int k, real* acc) {
-      const Vec3* fp = pf + 8 * k;
-      for (int i = 0; i < 4; ++i)
-        acc[0] -= dot(fp[i], v[tn[4 * pairs[k].a + i]]) + dot(fp[4 + i], v[tn[4 * pairs[k].b + i]]);
-    })[0];
+    const std::uint8_t* own_n = own_node_.data();
+    Exec::template sum_to<1>(
+        int(pairs_.size()),
+        [=] FDEM_LAMBDA(int k, real* acc) {
+          const Vec3* fp = pf + 8 * k;
+          for (int i = 0; i < 4; ++i) {
+            const int na = tn[4 * pairs[k].a + i], nb = tn[4 * pairs[k].b + i];
+            if (own_n[na]) acc[0] -= dot(fp[i], v[na]);
+            if (own_n[nb]) acc[0] -= dot(fp[4 + i], v[nb]);
+          }
+        },
+        out);
   }
-  /// The power of the confining pressure's last forces with velocities v.
-  real pressure_power(const Vec3* v) {
+  /// The power of the confining pressure's last forces with velocities v, added to out[0].
+  void pressure_power(const Vec3* v, real* out) {
     const int* lf = lat_faces_.data();
     const Vec3* lforce = lat_force_.data();
-    return Exec::template sum<1>(int(lat_force_.size()), [=] FDEM_LAMBDA(int i, real* acc) {
-      for (int j = 0; j < 3; ++j) acc[0] += dot(lforce[i], v[lf[3 * i + j]]);
-    })[0];
+    const std::uint8_t* own_n = own_node_.data();
+    Exec::template sum_to<1>(
+        int(lat_force_.size()),
+        [=] FDEM_LAMBDA(int i, real* acc) {
+          for (int j = 0; j < 3; ++j)
+            if (own_n[lf[3 * i + j]]) acc[0] += dot(lforce[i], v[lf[3 * i + j]]);
+        },
+        out);
   }
 
  private:
-  static constexpr int kSums = 8;
   Backend b_;
-  bool constants_ = false, timing_ = false;
+  bool constants_ = false, timing_ = false, tet_ce6_ready_ = false;
+  bool pairs_on_host_ = true;  // the host ContactSet holds the current pair list and indices
+  // The broad phase's scratch arrays (kept between builds, so they are allocated once).
+  DeviceArray<long> flags_, offsets_, counts_, entry_offsets_, head_, head_offsets_, cell_start_, cell_counts_,
+      cell_offsets_;
+  DeviceArray<int> ids_, tet_ce6_, ce6_tets_;
+  DeviceArray<Aabb> boxes_;
+  DeviceArray<device_build::BinEntry> entries_;
+  DeviceArray<device_build::NodeSlot> node_slots_;
+  // Several ranks: the halo's packed buffers and their index lists (plan_halo), host staging.
+  DeviceArray<int> halo_send_node_, halo_send_x_, halo_send_v_, halo_recv_node_, halo_recv_x_, halo_recv_v_,
+      halo_flag_tet_;
+  DeviceArray<Vec3> halo_send_, halo_recv_;
+  DeviceArray<std::uint8_t> flag_send_, flag_recv_;
+  std::vector<Vec3> host_send_, host_recv_;
+  std::vector<std::uint8_t> host_fsend_, host_frecv_;
+  DeviceArray<ContactPair> next_pairs_;
+  DeviceArray<Vec3> next_spring_;
   DeviceTimes t_;
   DeviceArray<int> tet_nodes_, tet_order_, ce6_nodes_, ce6_order_, platen_nodes_, fixed_node_, fixed_mask_, lat_faces_,
       lat_ptr_, lat_face_, lat_node_, node_vertex_, vt_ptr_, vt_tets_, watch_nodes_, gather_node_, gather_ptr_,
-      gather_slot_;
+      gather_slot_, lateral_nodes_;
   DeviceArray<Mat3> Xinv_;
   DeviceArray<real> V0_, eta_, ce6_h_, mass_, inv_mass_, platen_k_, sums_;
-  DeviceArray<Vec3> x_, v_, f_, anchor_, fixed_v_, lat_force_, watch_x_, spring_, pair_force_;
+  DeviceArray<Vec3> X_, x_, v_, f_, anchor_, fixed_v_, lat_force_, watch_x_, spring_, pair_force_;
   DeviceArray<Ce6State> ce6_;
-  DeviceArray<std::uint8_t> broke_, active_;
+  DeviceArray<std::uint8_t> broke_, active_, mid_third_, own_node_, own_tet_, own_ce6_;
   DeviceArray<ContactPair> pairs_;
   DeviceArray<ContactEval> eval_;
 };

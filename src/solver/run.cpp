@@ -21,6 +21,7 @@
 #include <sstream>
 
 #include "core/error.hpp"
+#include "core/format.hpp"
 #include "io/atomic_file.hpp"
 #include "io/checkpoint.hpp"
 #include "io/fields.hpp"
@@ -698,7 +699,8 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
     return path;
   };
   SignalGuard signals;
-  int pending_request = 0;  // several ranks: a signal waits for the next monitor row
+  long pair_growth_seen = 0;  // device backends: growths of the contact pair buffers reported so far
+  int pending_request = 0;    // several ranks: a signal waits for the next monitor row
   if (options.restart.empty()) {
     mon = solver.measure();
     csv.put(monitor_row(mon));
@@ -713,6 +715,11 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
       if (monitor_now) {
         mon = solver.measure();
         csv.put(monitor_row(mon));
+        if (const DeviceLoop* d = solver.device_loop(); d && d->times().pair_growth != pair_growth_seen) {
+          pair_growth_seen = d->times().pair_growth;  // the buffers grow by half each time
+          log << "device: contact pair buffers grew to hold " << mon.contact_pairs << " pairs (device memory "
+              << fmt(double(device::bytes_in_use()) / 1e6, 4) << " MB)" << std::endl;
+        }
         csv.f.flush();
         if (!csv.f) throw OutputError("cannot write " + csv_path + " (disk full or file removed?)");
         if (mon.axial_stress > sum.peak_stress) {

@@ -3,6 +3,7 @@
 // integration, loading, measured outputs and the energy balance.
 #include <mpi.h>
 
+#include <array>
 #include <memory>
 #include <string>
 #include <vector>
@@ -123,6 +124,9 @@ class Solver {
   /// Names the first inverted TET4 of the current state (host copy) and throws RunError.
   [[noreturn]] void report_inverted() const;
   void compute_forces();
+  /// This rank's sums for a monitor row from the host state, in the order of
+  /// DeviceLoop::measure_sums.
+  std::array<real, 16> measure_sums_host() const;
   /// The CPU backend's integration: central difference, prescribed velocities, the halo, and
   /// this rank's sums (non-finite nodes, 2 x kinetic energy, the works of contact, pressure and
   /// gravity over the step).

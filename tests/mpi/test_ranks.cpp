@@ -66,6 +66,19 @@ Scene box_scene() {
   return s;
 }
 
+/// The box confined at 1 MPa and loaded at 1 m/s through fracture, with contact.
+Scene fracturing_scene() {
+  Scene scene = box_scene();
+  scene.platens.velocity = 1.0;
+  scene.platens.ramp_time = 2e-5;
+  scene.confinement.enabled = true;
+  scene.confinement.pressure = 1e6;
+  scene.confinement.path = "constant";
+  scene.confinement.ramp_time = 2e-5;
+  scene.solver.time_step_safety = 0.9;
+  return scene;
+}
+
 /// Two 0.01 m blocks of 48 tets, one on the other, offset sideways.
 Mesh two_blocks() {
   Mesh a = structured_box_mesh({0.01, 0.01, 0.01}, 2, 2, 2);
@@ -143,14 +156,7 @@ INSTANTIATE_TEST_SUITE_P(Contact, RanksElastic, ::testing::Values("adaptive", "n
 TEST(Ranks, FracturingBoxMatchesOneRank) {
   // Through the peak with contact: the same peak stress and broken-CE6 count, with CE6s
   // breaking on the partition boundary.
-  Scene scene = box_scene();
-  scene.platens.velocity = 1.0;
-  scene.platens.ramp_time = 2e-5;
-  scene.confinement.enabled = true;
-  scene.confinement.pressure = 1e6;
-  scene.confinement.path = "constant";
-  scene.confinement.ramp_time = 2e-5;
-  scene.solver.time_step_safety = 0.9;
+  const Scene scene = fracturing_scene();
   const Model global = build_model(structured_box_mesh({0.01, 0.01, 0.02}, 3, 3, 6), scene);
   Solver ref(scene, global);
   auto d = decomposed(scene, global);
@@ -182,6 +188,45 @@ TEST(Ranks, FracturingBoxMatchesOneRank) {
   if (world_rank() == 0)
     std::printf("fracturing, %d rank(s): peak %.6g against %.6g MPa, broken %ld against %ld, %g on the boundary\n",
                 world_size(), peak_d / 1e6, peak_r / 1e6, md.broken, mr.broken, on_boundary);
+}
+
+TEST(Ranks, DebugBackendGivesTheCpuBackendsRun) {
+  // The device loop (debug backend: halo packed and unpacked as on a GPU, staged through the
+  // host; flags merged from device arrays; candidate lists built on the device with the
+  // owned-node filter) against the CPU backend on the same partition, through fracture with
+  // contact: bit for bit.
+  const Scene scene = fracturing_scene();
+  Scene dscene = scene;
+  dscene.solver.backend = "debug";
+  const Model global = build_model(structured_box_mesh({0.01, 0.01, 0.02}, 3, 3, 6), scene);
+  auto c = decomposed(scene, global);
+  auto g = decomposed(dscene, global);
+  Monitors mc, mg;
+  double peak_c = 0, peak_g = 0;
+  for (int i = 1; i <= 3000; ++i) {
+    c->step();
+    g->step();
+    if (i % 50) continue;
+    mc = c->measure();
+    mg = g->measure();
+    peak_c = std::max(peak_c, mc.axial_stress);
+    peak_g = std::max(peak_g, mg.axial_stress);
+  }
+  ASSERT_GT(mc.broken, 20) << "the box fractured";
+  EXPECT_EQ(peak_g, peak_c);
+  EXPECT_EQ(mg.broken, mc.broken);
+  EXPECT_EQ(mg.contacts, mc.contacts);
+  EXPECT_EQ(mg.contact_pairs, mc.contact_pairs);
+  EXPECT_EQ(mg.active_tets, mc.active_tets);
+  g->sync_host();
+  double differing = 0;
+  for (std::size_t n = 0; n < c->x.size(); ++n)
+    differing += c->owned_nodes()[n] && std::memcmp(&c->x[n], &g->x[n], sizeof(Vec3)) != 0;
+  EXPECT_EQ(sum_over_ranks(differing), 0) << "owned node positions differing";
+  EXPECT_GT(g->halo_seconds(), world_size() > 1 ? 0 : -1);
+  if (world_rank() == 0)
+    std::printf("debug backend, %d rank(s): peak %.6g MPa, broken %ld, pairs %ld (cpu: %.6g, %ld, %ld)\n", world_size(),
+                peak_g / 1e6, mg.broken, mg.contact_pairs, peak_c / 1e6, mc.broken, mc.contact_pairs);
 }
 
 TEST(Ranks, ContactPairAcrossRanksGivesOneRankForces) {
@@ -234,22 +279,26 @@ TEST(Ranks, ContactPairAcrossRanksGivesOneRankForces) {
 TEST(Ranks, ContactReachGuardStopsARunBeforeAPartnerIsMissed) {
   // Both blocks fly at 50 m/s with a contact reach of 0.1 mm: at the first broad-phase build
   // after they have moved 0.05 mm every rank stops the run (with one rank nothing is missing).
-  const Scene scene = two_blocks_scene();
-  const Model global = build_model(two_blocks(), scene);
-  RankModel rm = extract_rank(global, block_per_rank(global), world_rank(), 1e-4);
-  Solver d(scene, std::move(rm.model), std::move(rm.dd), MPI_COMM_WORLD);
-  for (Vec3& v : d.v) v = {50, 0, 0};
-  std::string message;
-  try {
-    for (int i = 0; i < 400; ++i) d.step();
-  } catch (const RunError& e) {
-    message = e.what();
-  }
-  if (world_size() > 1) {
-    EXPECT_NE(message.find("contact reach"), std::string::npos) << message;
-    EXPECT_NE(message.find("--contact-reach"), std::string::npos) << message;
-  } else {
-    EXPECT_EQ(message, "");
+  // The same on the debug backend, whose guard runs on the device.
+  for (const std::string backend : {"cpu", "debug"}) {
+    Scene scene = two_blocks_scene();
+    scene.solver.backend = backend;
+    const Model global = build_model(two_blocks(), scene);
+    RankModel rm = extract_rank(global, block_per_rank(global), world_rank(), 1e-4);
+    Solver d(scene, std::move(rm.model), std::move(rm.dd), MPI_COMM_WORLD);
+    for (Vec3& v : d.v) v = {50, 0, 0};
+    std::string message;
+    try {
+      for (int i = 0; i < 400; ++i) d.step();
+    } catch (const RunError& e) {
+      message = e.what();
+    }
+    if (world_size() > 1) {
+      EXPECT_NE(message.find("contact reach"), std::string::npos) << backend << ": " << message;
+      EXPECT_NE(message.find("--contact-reach"), std::string::npos) << backend << ": " << message;
+    } else {
+      EXPECT_EQ(message, "") << backend;
+    }
   }
 }
 

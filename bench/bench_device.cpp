@@ -1,0 +1,166 @@
+// bench_device: the device time loop (solver/device_loop_impl.hpp) per pass and per step, against
+// the memory-bandwidth floor, on structured boxes of the paper's cylinder proportions
+// (57 x 57 x 129 mm, 6 tets per cell, CE6 on every internal face, Table 2 limestone, platens at
+// 0.02 m/s, adaptive contact, mass scaling --mass-scaling, default 1).
+//
+// For each size: build, warm up, then
+//  - step: wall time of --steps steps with nothing else in the loop (passes queued as a run
+//    queues them; the per-step sums the host reads are included);
+//  - per pass: --steps more steps with the device waited for after every pass;
+//  - floor: the bytes of one step (DeviceLoop::bytes_per_step, a traffic model that counts node
+//    data once per element corner) over the measured copy bandwidth of the backend's memory;
+//  - monitor row: Solver::measure() with the copy of the state to the host.
+// Then the projected wall time of the paper's UCS run (674,790 tets, 0.02 m/s, to the post-peak
+// stage: 4.5 million steps at m = 5, docs/validation.md, times sqrt(5 / m)) from the step time
+// per tet of the largest size, with its pre-peak contact (fracture adds pairs).
+//
+// Usage: bench_device [--backend cuda|debug] [--tets 10000,100000,700000] [--steps N]
+//                     [--mass-scaling m] [--contact adaptive|full|none]
+// Default backend: cuda where a GPU is visible, else debug (the same loop on the host).
+// Prints Markdown on stdout. A benchmark, not a test: it checks nothing.
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "core/device_memory.hpp"
+#include "model/structured.hpp"
+#include "solver/device_loop.hpp"
+#include "solver/solver.hpp"
+
+namespace {
+
+using namespace fdem;
+using Clock = std::chrono::steady_clock;
+
+double since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+std::vector<long> parse_list(const std::string& s) {
+  std::vector<long> out;
+  std::stringstream ss(s);
+  std::string item;
+  while (std::getline(ss, item, ',')) out.push_back(std::atol(item.c_str()));
+  return out;
+}
+
+struct Row {
+  long tets = 0, ce6 = 0, nodes = 0, pairs = 0;
+  double step_us = 0, floor_us = 0, bytes = 0, monitor_ms = 0, mem_mb = 0, dt = 0;
+  DeviceTimes pass;
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string backend = cuda_device_count() > 0 ? "cuda" : "debug", contact = "adaptive";
+  std::vector<long> sizes{10000, 100000, 700000};
+  int steps = 200;
+  double mass_scaling = 1;
+  for (int i = 1; i + 1 < argc; i += 2) {
+    const std::string a = argv[i], v = argv[i + 1];
+    if (a == "--backend")
+      backend = v;
+    else if (a == "--tets")
+      sizes = parse_list(v);
+    else if (a == "--steps")
+      steps = std::atoi(v.c_str());
+    else if (a == "--mass-scaling")
+      mass_scaling = std::atof(v.c_str());
+    else if (a == "--contact")
+      contact = v;
+    else {
+      std::fprintf(stderr, "unknown option %s\n", a.c_str());
+      return 2;
+    }
+  }
+  MPI_Init(&argc, &argv);
+  const Backend b = parse_backend(backend, "--backend");
+  const double bw = device::copy_bandwidth(b, std::size_t(1) << (b == Backend::cuda ? 30 : 27));
+  std::printf("# bench_device: backend %s%s, measured copy bandwidth %.0f GB/s\n\n", backend.c_str(),
+              b == Backend::cuda ? (" (" + cuda_device_description() + ")").c_str() : " (host memory)", bw);
+  std::printf("%d steps per measurement, mass scaling %g, contact %s\n\n", steps, mass_scaling, contact.c_str());
+
+  std::vector<Row> rows;
+  for (long target : sizes) {
+    // Cells n x n x round(2.26 n), 6 tets each.
+    const int n = std::max(2, int(std::lround(std::cbrt(double(target) / (6 * 2.263)))));
+    const int nz = std::max(2, int(std::lround(2.263 * n)));
+    Scene s;
+    s.name = "bench_device";
+    s.file = "(bench_device)";
+    s.platens.velocity = 0.02;
+    s.contact.activation = contact;
+    s.solver.mass_scaling = mass_scaling;
+    s.solver.backend = backend;
+    s.solver.max_energy_error = 0;
+    s.output.progress_interval = 0;
+    Solver solver(s, build_model(structured_box_mesh({0.057, 0.057, 0.129}, n, n, nz), s));
+    DeviceLoop* dev = solver.device_loop();
+    for (int i = 0; i < 20; ++i) solver.step();
+    solver.sync_host();
+    device::synchronize(b);
+    Row r;
+    r.tets = long(solver.model().tet_nodes.size());
+    r.ce6 = long(solver.model().ce6_nodes.size());
+    r.nodes = long(solver.model().X.size());
+    r.dt = solver.dt();
+    auto t0 = Clock::now();
+    for (int i = 0; i < steps; ++i) solver.step();
+    device::synchronize(b);
+    r.step_us = 1e6 * since(t0) / steps;
+    const DeviceTimes before = dev->times();
+    dev->set_timing(true);
+    for (int i = 0; i < steps; ++i) solver.step();
+    dev->set_timing(false);
+    const DeviceTimes after = dev->times();
+    auto per = [&](double DeviceTimes::*m) { return 1e6 * (after.*m - before.*m) / steps; };
+    r.pass.tet4 = per(&DeviceTimes::tet4), r.pass.ce6 = per(&DeviceTimes::ce6);
+    r.pass.activation = per(&DeviceTimes::activation), r.pass.broad = per(&DeviceTimes::broad);
+    r.pass.narrow = per(&DeviceTimes::narrow), r.pass.friction = per(&DeviceTimes::friction);
+    r.pass.contact_sum = per(&DeviceTimes::contact_sum), r.pass.platens = per(&DeviceTimes::platens);
+    r.pass.pressure = per(&DeviceTimes::pressure), r.pass.integrate = per(&DeviceTimes::integrate);
+    r.pass.energy = per(&DeviceTimes::energy), r.pass.copies = per(&DeviceTimes::copies);
+    r.bytes = dev->bytes_per_step();
+    r.floor_us = 1e6 * r.bytes / (bw * 1e9);
+    t0 = Clock::now();
+    const Monitors m = solver.measure();
+    r.monitor_ms = 1e3 * since(t0);
+    r.pairs = m.contact_pairs;
+    r.mem_mb = double(device::peak_bytes()) / 1e6;
+    rows.push_back(r);
+  }
+
+  std::printf(
+      "| tets | CE6 | nodes | pairs | step, us | floor, us | step / floor | GB/s | of measured | monitor row, ms | "
+      "device memory peak, MB |\n|---|---|---|---|---|---|---|---|---|---|---|\n");
+  for (const Row& r : rows)
+    std::printf("| %ld | %ld | %ld | %ld | %.1f | %.1f | %.2f | %.0f | %.0f %% | %.2f | %.0f |\n", r.tets, r.ce6,
+                r.nodes, r.pairs, r.step_us, r.floor_us, r.step_us / r.floor_us, r.bytes / (r.step_us * 1e3),
+                100 * r.bytes / (r.step_us * 1e3) / bw, r.monitor_ms, r.mem_mb);
+  std::printf(
+      "\nPer pass, us per step (device waited for after each pass):\n\n| tets | TET4 | CE6 | activation | broad "
+      "(host) | narrow | friction | contact sum | platens | pressure | integrate | energy sums | copies | "
+      "sum |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+  for (const Row& r : rows)
+    std::printf("| %ld | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f |\n",
+                r.tets, r.pass.tet4, r.pass.ce6, r.pass.activation, r.pass.broad, r.pass.narrow, r.pass.friction,
+                r.pass.contact_sum, r.pass.platens, r.pass.pressure, r.pass.integrate, r.pass.energy, r.pass.copies,
+                r.pass.total());
+  const Row& big = rows.back();
+  const double paper_tets = 674790, paper_steps = 4.5e6 * std::sqrt(5.0 / mass_scaling);
+  const double us_per_step = big.step_us * paper_tets / double(big.tets);
+  std::printf(
+      "\nPaper UCS (674,790 tets, 0.02 m/s, m = %g): %.3g steps to the post-peak stage; at %.1f us per step "
+      "(the largest size scaled by tets) %.0f s = %.1f min of steps (pre-peak contact; the floor alone "
+      "gives %.1f min)\n",
+      mass_scaling, paper_steps, us_per_step, us_per_step * 1e-6 * paper_steps, us_per_step * 1e-6 * paper_steps / 60,
+      big.floor_us * paper_tets / double(big.tets) * 1e-6 * paper_steps / 60);
+  MPI_Finalize();
+  return 0;
+}
