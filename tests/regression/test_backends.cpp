@@ -151,6 +151,9 @@ TEST(DebugBackend, CliRunGivesTheCpuFiles) {
   ASSERT_EQ(a.code, 0) << a.text;
   ASSERT_EQ(b.code, 0) << b.text;
   EXPECT_TRUE(has(b.text, "backend debug"));
+  // The pair buffers start at the first list's size and grow as fragments meet; each growth is
+  // reported.
+  EXPECT_TRUE(has(b.text, "device: contact pair buffers grew to hold")) << b.text;
   auto read = [](const fs::path& p) {
     std::ifstream f(p);
     std::stringstream ss;
