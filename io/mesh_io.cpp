@@ -2,7 +2,9 @@
 // the gmsh API, and mesh validation. See io/mesh_io.hpp.
 #include "io/mesh_io.hpp"
 
+#ifdef FDEM_HAVE_GMSH
 #include <gmsh.h>
+#endif
 #include <omp.h>
 
 #include <algorithm>
@@ -593,7 +595,8 @@ void validate(const Mesh& m, const Labels& L) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// gmsh session
+// gmsh session (builds without gmsh read .msh files only)
+#ifdef FDEM_HAVE_GMSH
 
 std::mutex g_gmsh_mutex;
 
@@ -709,6 +712,8 @@ Mesh mesh_with_gmsh(const MeshSpec& s, const std::string& what) {
     for (int k = 0; k < 4; ++k) mesh.tets[t][k] = used[index.at(tet_nodes[4 * t + k])];
   return mesh;
 }
+
+#endif  // FDEM_HAVE_GMSH
 
 }  // namespace
 
@@ -856,6 +861,7 @@ Mesh generate_mesh(const MeshSpec& s) {
     throw InputError(what + ": would give about " + fmt(estimate / 1e6) +
                      " million tetrahedra; increase element_size or mesh it outside fdem and give mesh.file");
 
+#ifdef FDEM_HAVE_GMSH
   std::lock_guard<std::mutex> lock(g_gmsh_mutex);
   Mesh mesh;
   try {
@@ -868,6 +874,11 @@ Mesh generate_mesh(const MeshSpec& s) {
   }
   validate_mesh(mesh);
   return mesh;
+#else
+  throw InputError(what +
+                   ": this fdem was built without gmsh, which generates meshes. Fix: give mesh.file (a .msh "
+                   "file meshed elsewhere), or build where gmsh is installed (apt-get install libgmsh-dev)");
+#endif
 }
 
 Mesh load_mesh(const MeshSpec& spec) {

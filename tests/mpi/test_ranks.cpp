@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <memory>
 
+#include "core/device_memory.hpp"
 #include "core/error.hpp"
 #include "model/structured.hpp"
 #include "partition/halo.hpp"
@@ -190,14 +191,20 @@ TEST(Ranks, FracturingBoxMatchesOneRank) {
                 world_size(), peak_d / 1e6, peak_r / 1e6, md.broken, mr.broken, on_boundary);
 }
 
-TEST(Ranks, DebugBackendGivesTheCpuBackendsRun) {
-  // The device loop (debug backend: halo packed and unpacked as on a GPU, staged through the
-  // host; flags merged from device arrays; candidate lists built on the device with the
-  // owned-node filter) against the CPU backend on the same partition, through fracture with
-  // contact: bit for bit.
+class RanksDevice : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(RanksDevice, DeviceLoopGivesTheCpuBackendsRun) {
+  // The device loop (halo packed and unpacked on the device, staged through the host; flags
+  // merged from device arrays; candidate lists built on the device with the owned-node filter)
+  // against the CPU backend on the same partition, through fracture with contact (which
+  // FracturingBoxMatchesOneRank holds to one rank's run). debug: bit for bit. cuda (where a GPU
+  // is visible; the ranks share it): the tolerances, peak within 0.5 % and broken CE6s
+  // within 2 %.
+  const std::string backend = GetParam();
+  if (backend == "cuda" && cuda_device_count() == 0) GTEST_SKIP() << "no CUDA device visible";
   const Scene scene = fracturing_scene();
   Scene dscene = scene;
-  dscene.solver.backend = "debug";
+  dscene.solver.backend = backend;
   const Model global = build_model(structured_box_mesh({0.01, 0.01, 0.02}, 3, 3, 6), scene);
   auto c = decomposed(scene, global);
   auto g = decomposed(dscene, global);
@@ -213,21 +220,29 @@ TEST(Ranks, DebugBackendGivesTheCpuBackendsRun) {
     peak_g = std::max(peak_g, mg.axial_stress);
   }
   ASSERT_GT(mc.broken, 20) << "the box fractured";
-  EXPECT_EQ(peak_g, peak_c);
-  EXPECT_EQ(mg.broken, mc.broken);
-  EXPECT_EQ(mg.contacts, mc.contacts);
-  EXPECT_EQ(mg.contact_pairs, mc.contact_pairs);
-  EXPECT_EQ(mg.active_tets, mc.active_tets);
-  g->sync_host();
-  double differing = 0;
-  for (std::size_t n = 0; n < c->x.size(); ++n)
-    differing += c->owned_nodes()[n] && std::memcmp(&c->x[n], &g->x[n], sizeof(Vec3)) != 0;
-  EXPECT_EQ(sum_over_ranks(differing), 0) << "owned node positions differing";
-  EXPECT_GT(g->halo_seconds(), world_size() > 1 ? 0 : -1);
+  EXPECT_LT(std::fabs(peak_g - peak_c), 0.005 * peak_c);
+  EXPECT_LE(std::fabs(double(mg.broken - mc.broken)), 0.02 * mc.broken);
+  if (backend == "debug") {
+    EXPECT_EQ(peak_g, peak_c);
+    EXPECT_EQ(mg.broken, mc.broken);
+    EXPECT_EQ(mg.contacts, mc.contacts);
+    EXPECT_EQ(mg.contact_pairs, mc.contact_pairs);
+    EXPECT_EQ(mg.active_tets, mc.active_tets);
+    g->sync_host();
+    double differing = 0;
+    for (std::size_t n = 0; n < c->x.size(); ++n)
+      differing += c->owned_nodes()[n] && std::memcmp(&c->x[n], &g->x[n], sizeof(Vec3)) != 0;
+    EXPECT_EQ(sum_over_ranks(differing), 0) << "owned node positions differing";
+  }
+  if (world_size() > 1) {
+    EXPECT_GT(g->halo_seconds(), 0);
+  }
   if (world_rank() == 0)
-    std::printf("debug backend, %d rank(s): peak %.6g MPa, broken %ld, pairs %ld (cpu: %.6g, %ld, %ld)\n", world_size(),
-                peak_g / 1e6, mg.broken, mg.contact_pairs, peak_c / 1e6, mc.broken, mc.contact_pairs);
+    std::printf("%s backend, %d rank(s): peak %.6g MPa, broken %ld, pairs %ld (cpu: %.6g, %ld, %ld)\n", backend.c_str(),
+                world_size(), peak_g / 1e6, mg.broken, mg.contact_pairs, peak_c / 1e6, mc.broken, mc.contact_pairs);
 }
+
+INSTANTIATE_TEST_SUITE_P(Backend, RanksDevice, ::testing::Values("debug", "cuda"));
 
 TEST(Ranks, ContactPairAcrossRanksGivesOneRankForces) {
   // Two continuous blocks, one on the other (offset sideways), the upper one moving down at
