@@ -32,6 +32,14 @@ std::string description() {
          std::to_string(p.multiProcessorCount) + " SMs, sm_" + std::to_string(p.major) + std::to_string(p.minor);
 }
 
+int select_device(int local_rank) {
+  const int n = device_count();
+  if (n == 0) return -1;
+  const int dev = local_rank % n;
+  cuda_check(cudaSetDevice(dev), "cudaSetDevice");
+  return dev;
+}
+
 void* allocate(std::size_t bytes) {
   if (device_count() == 0)
     throw InputError(

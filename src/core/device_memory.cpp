@@ -16,6 +16,7 @@ namespace cuda_impl {
 bool built();
 int device_count();
 std::string description();
+int select_device(int local_rank);
 void* allocate(std::size_t bytes);
 void release(void* p) noexcept;
 void to_device(void* dst, const void* src, std::size_t bytes);
@@ -41,6 +42,9 @@ int device_count() {
 }
 std::string description() {
   return "";
+}
+int select_device(int) {
+  refuse();
 }
 void* allocate(std::size_t) {
   refuse();
@@ -87,6 +91,9 @@ int cuda_device_count() {
 }
 std::string cuda_device_description() {
   return cuda_impl::description();
+}
+int select_cuda_device(int local_rank) {
+  return cuda_impl::select_device(local_rank);
 }
 
 namespace device {

@@ -26,6 +26,10 @@ bool cuda_built();
 int cuda_device_count();
 /// "NVIDIA H100 80GB HBM3, 79 GiB, 132 SMs" or "" (for logs and benchmarks).
 std::string cuda_device_description();
+/// Makes GPU (local_rank mod the visible count) this process's device, so ranks on one node
+/// spread over its GPUs (with one GPU bound per task, each sees one: device 0). Returns the
+/// device chosen.
+int select_cuda_device(int local_rank);
 
 namespace device {
 // Raw memory of a backend (debug: host buffers kept apart from the host copies). Errors throw

@@ -2,6 +2,7 @@
 #include "solver/device_loop.hpp"
 
 #include "core/error.hpp"
+#include "partition/halo.hpp"
 #include "solver/device_loop_impl.hpp"
 
 namespace fdem {
@@ -17,7 +18,7 @@ std::unique_ptr<DeviceLoop> make_cuda_device_loop() {
 }
 #endif
 
-std::unique_ptr<DeviceLoop> make_device_loop(Backend b, const Solver&) {
+std::unique_ptr<DeviceLoop> make_device_loop(Backend b, const Solver& s) {
   switch (b) {
     case Backend::debug:
       return std::make_unique<DeviceLoopImpl<HostExec>>(Backend::debug);
@@ -26,6 +27,12 @@ std::unique_ptr<DeviceLoop> make_device_loop(Backend b, const Solver&) {
         throw InputError(
             "solver.backend cuda: no CUDA device is visible. Fix: run on a machine with an NVIDIA GPU and its "
             "driver (check nvidia-smi and CUDA_VISIBLE_DEVICES), or run with --backend cpu");
+      if (cuda_built()) {  // ranks sharing a node take its GPUs in turn
+        MPI_Comm node;
+        MPI_Comm_split_type(s.comm(), MPI_COMM_TYPE_SHARED, 0, MPI_INFO_NULL, &node);
+        select_cuda_device(rank_in(node));
+        MPI_Comm_free(&node);
+      }
       return make_cuda_device_loop();
     case Backend::cpu:
       break;
