@@ -254,11 +254,11 @@ void Solver::compute_forces() {
   }
   p_gravity_ = p_grav;
 
-  real p_visc = 0, jmin = 1;
-  int jmin_tet = -1;
+  real p_visc = 0;
+  long inverted = 0;  // report_inverted() names the first one
   for (int c = 0; c < m.tet_colours.colours(); ++c) {
     const int b = m.tet_colours.offsets[c], e = m.tet_colours.offsets[c + 1];
-#pragma omp parallel for schedule(static) reduction(+ : p_visc)
+#pragma omp parallel for schedule(static) reduction(+ : p_visc, inverted)
     for (int k = b; k < e; ++k) {
       const int t = m.tet_colours.order[k];
       const auto& q = m.tet_nodes[t];
@@ -266,16 +266,12 @@ void Solver::compute_forces() {
       gather(x, q, xe);
       gather(v, q, ve);
       const Tet4Eval r = tet4_forces(xe, ve, m.tet_Xinv[t], m.tet_V0[t], lambda_, mu_, m.tet_eta[t], fe);
-      if (!(r.J > 0)) {
-#pragma omp critical(fdem_jmin)
-        if (jmin_tet < 0 || t < jmin_tet) jmin_tet = t, jmin = r.J;
-      }
+      inverted += !(r.J > 0);
       for (int i = 0; i < 4; ++i) f[q[i]] += fe[i];
       if (own_tet_[t]) p_visc += r.viscous_power;
     }
   }
-  if (jmin_tet >= 0) report_inverted();
-  (void)jmin;
+  if (inverted > 0) report_inverted();
 
   real p_coh = 0, p_fric = 0;
   long breaks = 0;
