@@ -5,8 +5,8 @@
 
 namespace fdem {
 
-std::unique_ptr<DeviceLoop> make_cuda_device_loop() {
-  return std::make_unique<DeviceLoopImpl<CudaExec>>(Backend::cuda);
+std::unique_ptr<DeviceLoop> make_cuda_device_loop(bool direct_mpi) {
+  return std::make_unique<DeviceLoopImpl<CudaExec>>(Backend::cuda, direct_mpi);
 }
 
 }  // namespace fdem

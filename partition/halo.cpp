@@ -1,6 +1,36 @@
 #include "partition/halo.hpp"
 
+#include <cstdlib>
+#include <string>
+
+#include "core/error.hpp"
+#if defined(OPEN_MPI) && __has_include(<mpi-ext.h>)
+#include <mpi-ext.h>  // Open MPI's extensions: MPIX_CUDA_AWARE_SUPPORT
+#endif
+
 namespace fdem {
+
+bool mpi_cuda_aware() {
+#if defined(MPIX_CUDA_AWARE_SUPPORT)
+  return MPIX_Query_cuda_support() == 1;  // the library's answer at run time
+#elif defined(MPICH_NUMVERSION) && MPICH_NUMVERSION >= 40000000
+  int yes = 0;
+  return MPIX_GPU_query_support(MPIX_GPU_SUPPORT_CUDA, &yes) == MPI_SUCCESS && yes == 1;
+#else
+  return false;
+#endif
+}
+
+bool device_buffers_to_mpi(bool on_gpu) {
+  const char* env = std::getenv("FDEM_GPU_AWARE_MPI");
+  const std::string v = env ? env : "auto";
+  if (v == "auto" || v.empty()) return on_gpu && mpi_cuda_aware();
+  if (v == "1") return true;
+  if (v == "0") return false;
+  throw InputError("FDEM_GPU_AWARE_MPI=" + v +
+                   ": use auto (the default: device buffers to MPI when the MPI library says it is CUDA-aware), 1 "
+                   "(always, for an MPI that cannot say) or 0 (stage through host memory)");
+}
 
 Halo::Halo(MPI_Comm comm, const Decomposition& dd) : comm_(comm), dd_(&dd) {
   const std::size_t k = dd.neighbours.size();

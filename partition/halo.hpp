@@ -46,6 +46,16 @@ class Halo {
   std::vector<MPI_Request> req_;
 };
 
+/// Whether the MPI library says it takes CUDA device pointers (Open MPI's
+/// MPIX_Query_cuda_support, MPICH's MPIX_GPU_query_support); false where it cannot say.
+bool mpi_cuda_aware();
+/// Whether a device loop hands its device buffers straight to MPI (GPU-aware MPI) instead of
+/// staging them through host memory. FDEM_GPU_AWARE_MPI: unset or "auto": direct on a GPU when
+/// mpi_cuda_aware(), staged otherwise (and on the debug backend, on_gpu false); "1": direct
+/// (an MPI that cannot say, e.g. MVAPICH2 with MV2_USE_CUDA=1); "0": staged. InputError for any
+/// other value, naming the variable and the values it takes.
+bool device_buffers_to_mpi(bool on_gpu);
+
 /// Sums n values over the ranks of comm in place (nothing to do on one rank).
 void sum_over_ranks(MPI_Comm comm, double* values, int n);
 /// A value's sum and maximum over the ranks of comm.

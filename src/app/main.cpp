@@ -140,7 +140,9 @@ int run_main(int argc, char** argv) {
   std::string backend;
   run->add_option("--backend", backend,
                   "Time loop (overrides solver.backend): cpu (OpenMP), cuda (the GPU), or debug (the GPU's loop on "
-                  "the CPU with separate device memory, for checking)")
+                  "the CPU with separate device memory, for checking). Several ranks: the halo hands device buffers "
+                  "to a CUDA-aware MPI, else stages them through host memory; FDEM_GPU_AWARE_MPI=auto|1|0 overrides "
+                  "(docs/cluster.md)")
       ->check(CLI::IsMember({"cpu", "cuda", "debug"}));
   std::string partitioned;
   double contact_reach = 0;

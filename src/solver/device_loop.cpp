@@ -8,10 +8,10 @@
 namespace fdem {
 
 // cuda/device_loop.cu where nvcc is found.
-std::unique_ptr<DeviceLoop> make_cuda_device_loop();
+std::unique_ptr<DeviceLoop> make_cuda_device_loop(bool direct_mpi);
 
 #ifndef FDEM_HAVE_CUDA
-std::unique_ptr<DeviceLoop> make_cuda_device_loop() {
+std::unique_ptr<DeviceLoop> make_cuda_device_loop(bool) {
   throw InputError(
       "solver.backend cuda: this fdem was built without CUDA (nvcc was not found at build time). Fix: build where "
       "nvcc is installed (cmake -DFDEM_ENABLE_CUDA=ON), or run with --backend cpu");
@@ -19,9 +19,11 @@ std::unique_ptr<DeviceLoop> make_cuda_device_loop() {
 #endif
 
 std::unique_ptr<DeviceLoop> make_device_loop(Backend b, const Solver& s) {
+  // Read (and checked) here, at the start, on every rank alike.
+  const bool direct_mpi = s.decomposition().distributed() && device_buffers_to_mpi(b == Backend::cuda);
   switch (b) {
     case Backend::debug:
-      return std::make_unique<DeviceLoopImpl<HostExec>>(Backend::debug);
+      return std::make_unique<DeviceLoopImpl<HostExec>>(Backend::debug, direct_mpi);
     case Backend::cuda:
       if (cuda_built() && cuda_device_count() == 0)
         throw InputError(
@@ -33,7 +35,7 @@ std::unique_ptr<DeviceLoop> make_device_loop(Backend b, const Solver& s) {
         select_cuda_device(rank_in(node));
         MPI_Comm_free(&node);
       }
-      return make_cuda_device_loop();
+      return make_cuda_device_loop(direct_mpi);
     case Backend::cpu:
       break;
   }

@@ -40,6 +40,9 @@ class DeviceLoop {
  public:
   virtual ~DeviceLoop() = default;
   virtual Backend backend() const = 0;
+  /// Several ranks: true when the halo hands device buffers to MPI (GPU-aware MPI, or
+  /// FDEM_GPU_AWARE_MPI=1), false when it stages them through host memory.
+  virtual bool halo_passes_device_buffers() const = 0;
   /// The whole state and the model's constants, host to device.
   virtual void upload(const Solver& s) = 0;
   /// The evolving state, device to host (x, v, f, CE6 state, platen anchors, pressure forces,

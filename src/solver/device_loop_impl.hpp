@@ -68,7 +68,7 @@ FDEM_HD real max3(real a, real b, real c) {
 template <class Exec>
 class DeviceLoopImpl final : public DeviceLoop {
  public:
-  explicit DeviceLoopImpl(Backend b) : b_(b) {
+  DeviceLoopImpl(Backend b, bool direct_mpi) : b_(b), direct_mpi_(direct_mpi) {
     auto set = [&](auto&... a) { (a.set_backend(b), ...); };
     set(tet_nodes_, tet_order_, ce6_nodes_, ce6_order_, platen_nodes_, fixed_node_, fixed_mask_, lat_faces_, lat_ptr_,
         lat_face_, lat_node_, node_vertex_, vt_ptr_, vt_tets_, watch_nodes_, gather_node_, gather_ptr_, gather_slot_,
@@ -84,6 +84,7 @@ class DeviceLoopImpl final : public DeviceLoop {
   }
 
   Backend backend() const override { return b_; }
+  bool halo_passes_device_buffers() const override { return direct_mpi_; }
   void set_timing(bool on) override { timing_ = on; }
   const DeviceTimes& times() const override { return t_; }
 
@@ -1050,14 +1051,16 @@ class DeviceLoopImpl final : public DeviceLoop {
     halo_recv_.resize(h.recv_size());
     flag_send_.resize(h.flag_size());
     flag_recv_.resize(h.flag_size());
-    host_send_.resize(h.send_size());
-    host_recv_.resize(h.recv_size());
-    host_fsend_.resize(h.flag_size());
-    host_frecv_.resize(h.flag_size());
+    if (!direct_mpi_) {
+      host_send_.resize(h.send_size());
+      host_recv_.resize(h.recv_size());
+      host_fsend_.resize(h.flag_size());
+      host_frecv_.resize(h.flag_size());
+    }
   }
 
-  /// Ghost nodes take their owners' x and v: packed on the device, staged through the host for
-  /// MPI, unpacked on the device.
+  /// Ghost nodes take their owners' x and v: packed on the device, handed to MPI (device buffers
+  /// with GPU-aware MPI, else staged through the host), unpacked on the device.
   void halo_update(Solver& s) {
     const double w0 = MPI_Wtime();
     const Vec3* x = x_.data();
@@ -1070,9 +1073,14 @@ class DeviceLoopImpl final : public DeviceLoop {
       buf[sx[j]] = x[sn[j]];
       buf[sv[j]] = v[sn[j]];
     });
-    halo_send_.download(host_send_.data());
-    s.halo_->exchange_nodes(host_send_.data(), host_recv_.data());
-    halo_recv_.upload(host_recv_.data(), host_recv_.size());
+    if (direct_mpi_) {
+      Exec::synchronize();  // the packing kernel has finished before MPI reads the buffer
+      s.halo_->exchange_nodes(halo_send_.data(), halo_recv_.data());
+    } else {
+      halo_send_.download(host_send_.data());
+      s.halo_->exchange_nodes(host_send_.data(), host_recv_.data());
+      halo_recv_.upload(host_recv_.data(), host_recv_.size());
+    }
     Vec3* xw = x_.data();
     Vec3* vw = v_.data();
     const Vec3* in = halo_recv_.data();
@@ -1093,9 +1101,14 @@ class DeviceLoopImpl final : public DeviceLoop {
     const int* ft = halo_flag_tet_.data();
     const int nf = int(halo_flag_tet_.size());
     Exec::forall(nf, [=] FDEM_LAMBDA(int j) { out[j] = active[ft[j]]; });
-    flag_send_.download(host_fsend_.data());
-    s.halo_->exchange_flags(host_fsend_.data(), host_frecv_.data());
-    flag_recv_.upload(host_frecv_.data(), host_frecv_.size());
+    if (direct_mpi_) {
+      Exec::synchronize();
+      s.halo_->exchange_flags(flag_send_.data(), flag_recv_.data());
+    } else {
+      flag_send_.download(host_fsend_.data());
+      s.halo_->exchange_flags(host_fsend_.data(), host_frecv_.data());
+      flag_recv_.upload(host_frecv_.data(), host_frecv_.size());
+    }
     std::uint8_t* aw = active_.data();
     const std::uint8_t* in = flag_recv_.data();
     return Exec::template sum<1>(nf, [=] FDEM_LAMBDA(int j, real* acc) {
@@ -1152,8 +1165,9 @@ class DeviceLoopImpl final : public DeviceLoop {
       halo_flag_tet_;
   DeviceArray<Vec3> halo_send_, halo_recv_;
   DeviceArray<std::uint8_t> flag_send_, flag_recv_;
-  std::vector<Vec3> host_send_, host_recv_;
+  std::vector<Vec3> host_send_, host_recv_;  // staging (empty when direct_mpi_)
   std::vector<std::uint8_t> host_fsend_, host_frecv_;
+  bool direct_mpi_;  // device buffers straight to MPI (partition/halo.hpp), fixed at construction
   DeviceArray<ContactPair> next_pairs_;
   DeviceArray<Vec3> next_spring_;
   DeviceTimes t_;

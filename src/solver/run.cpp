@@ -500,7 +500,12 @@ void report_model(const Solver& solver, std::ostream& out) {
       << st.dt_tet << " s, CE6 " << st.dt_ce6 << " s, platens " << st.dt_platen << " s, contact " << st.dt_contact
       << " s)\n"
       << "  backend " << backend_name(solver.backend())
-      << (solver.backend() == Backend::cuda ? " (" + cuda_device_description() + ")" : std::string()) << "\n"
+      << (solver.backend() == Backend::cuda ? " (" + cuda_device_description() + ")" : std::string())
+      << (solver.device_loop() && dd.distributed() ? solver.device_loop()->halo_passes_device_buffers()
+                                                         ? ", halo: device buffers to MPI"
+                                                         : ", halo: staged through host memory"
+                                                   : "")
+      << "\n"
       << "  time step " << solver.dt() << " s (safety " << solver.scene().solver.time_step_safety << ", mass scaling "
       << solver.scene().solver.mass_scaling << ")\n";
 }

@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <memory>
@@ -200,8 +201,19 @@ TEST_P(RanksDevice, DeviceLoopGivesTheCpuBackendsRun) {
   // FracturingBoxMatchesOneRank holds to one rank's run). debug: bit for bit. cuda (where a GPU
   // is visible; the ranks share it): the tolerances, peak within 0.5 % and broken CE6s
   // within 2 %.
-  const std::string backend = GetParam();
+  // "+mpi": the halo hands its device buffers to MPI itself (FDEM_GPU_AWARE_MPI=1), as with a
+  // GPU-aware MPI; the debug backend's device memory is host memory, so any MPI takes them.
+  const std::string param = GetParam();
+  const bool direct = param.size() > 4 && param.compare(param.size() - 4, 4, "+mpi") == 0;
+  const std::string backend = direct ? param.substr(0, param.size() - 4) : param;
   if (backend == "cuda" && cuda_device_count() == 0) GTEST_SKIP() << "no CUDA device visible";
+  if (backend == "cuda" && direct && !mpi_cuda_aware()) GTEST_SKIP() << "this MPI is not CUDA-aware";
+  struct EnvGuard {
+    explicit EnvGuard(bool on) {
+      if (on) setenv("FDEM_GPU_AWARE_MPI", "1", 1);
+    }
+    ~EnvGuard() { unsetenv("FDEM_GPU_AWARE_MPI"); }
+  } env_guard(direct);
   const Scene scene = fracturing_scene();
   Scene dscene = scene;
   dscene.solver.backend = backend;
@@ -228,13 +240,47 @@ TEST_P(RanksDevice, DeviceLoopGivesTheCpuBackendsRun) {
   }
   if (world_size() > 1) {
     EXPECT_GT(g->halo_seconds(), 0);
+    EXPECT_EQ(g->device_loop()->halo_passes_device_buffers(), direct || (backend == "cuda" && mpi_cuda_aware()));
   }
   if (world_rank() == 0)
-    std::printf("%s backend, %d rank(s): peak %.6g MPa, broken %ld, pairs %ld (cpu: %.6g, %ld, %ld)\n", backend.c_str(),
+    std::printf("%s backend, %d rank(s): peak %.6g MPa, broken %ld, pairs %ld (cpu: %.6g, %ld, %ld)\n", param.c_str(),
                 world_size(), peak_g / 1e6, mg.broken, mg.contact_pairs, peak_c / 1e6, mc.broken, mc.contact_pairs);
 }
 
-INSTANTIATE_TEST_SUITE_P(Backend, RanksDevice, ::testing::Values("debug", "cuda"));
+INSTANTIATE_TEST_SUITE_P(Backend, RanksDevice, ::testing::Values("debug", "debug+mpi", "cuda", "cuda+mpi"),
+                         [](const ::testing::TestParamInfo<const char*>& i) {
+                           std::string n = i.param;
+                           for (char& c : n)
+                             if (c == '+') c = '_';
+                           return n;
+                         });
+
+TEST(Ranks, GpuAwareMpiSettingIsReadAndCheckedAtTheStart) {
+  // FDEM_GPU_AWARE_MPI picks how a device loop's halo reaches MPI; a wrong value is an input
+  // error naming the variable, raised when the solver is made (not at the first exchange).
+  const Scene scene = fracturing_scene();
+  Scene dscene = scene;
+  dscene.solver.backend = "debug";
+  const Model global = build_model(structured_box_mesh({0.01, 0.01, 0.02}, 3, 3, 6), scene);
+  unsetenv("FDEM_GPU_AWARE_MPI");
+  EXPECT_FALSE(device_buffers_to_mpi(false)) << "auto stages the debug backend's buffers";
+  EXPECT_EQ(device_buffers_to_mpi(true), mpi_cuda_aware());
+  setenv("FDEM_GPU_AWARE_MPI", "0", 1);
+  EXPECT_FALSE(device_buffers_to_mpi(true));
+  setenv("FDEM_GPU_AWARE_MPI", "1", 1);
+  EXPECT_TRUE(device_buffers_to_mpi(false));
+  setenv("FDEM_GPU_AWARE_MPI", "yes", 1);
+  try {
+    device_buffers_to_mpi(true);
+    ADD_FAILURE() << "no error for FDEM_GPU_AWARE_MPI=yes";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("FDEM_GPU_AWARE_MPI=yes"), std::string::npos) << e.what();
+  }
+  if (world_size() > 1) {
+    EXPECT_THROW(decomposed(dscene, global), InputError);
+  }
+  unsetenv("FDEM_GPU_AWARE_MPI");
+}
 
 TEST(Ranks, ContactPairAcrossRanksGivesOneRankForces) {
   // Two continuous blocks, one on the other (offset sideways), the upper one moving down at
