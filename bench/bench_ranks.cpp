@@ -18,7 +18,11 @@
 // given (--latency-us, --gbps; defaults 2 us and 12.5 GB/s, an HDR100 InfiniBand link; these
 // are assumptions, not measurements).
 //
-// Usage: mpiexec -n 2 bench_ranks [--cells 6,10,14] [--steps N] [--contact]
+// --fracture-below F: CE6s only in the lower fraction F of the box (0 < F < 1; default: CE6
+// everywhere), where a tet costs about 4 times one outside; --uniform: METIS balances tet counts
+// instead of the tets' step cost (partition/partition.hpp, tet_cost_weights).
+//
+// Usage: mpiexec -n 2 bench_ranks [--cells 6,10,14] [--steps N] [--contact] [--fracture-below F] [--uniform]
 //        bench_ranks --weak 20000 [--tet-us 0.5] [--latency-us 2] [--gbps 12.5] [--sample 6]
 // Prints Markdown. A benchmark, not a test: it checks nothing.
 #include <mpi.h>
@@ -72,20 +76,29 @@ double sum_over(double v) {
   return sum_over_ranks(MPI_COMM_WORLD, v);
 }
 
-void measured(const std::vector<int>& cells, int steps, bool contact) {
+void measured(const std::vector<int>& cells, int steps, bool contact, double fracture_below, bool uniform) {
   const int rank = rank_in(MPI_COMM_WORLD), size = size_of(MPI_COMM_WORLD);
-  const Scene scene = bench_scene(contact);
+  Scene scene = bench_scene(contact);
   if (rank == 0) {
-    std::printf("\n### %d rank(s), %d OpenMP thread(s) each, %d steps, contact %s\n\n", size, omp_get_max_threads(),
-                steps, contact ? "adaptive" : "none");
+    std::printf("\n### %d rank(s), %d OpenMP thread(s) each, %d steps, contact %s, CE6 %s, partition by %s\n\n", size,
+                omp_get_max_threads(), steps, contact ? "adaptive" : "none",
+                fracture_below > 0 ? ("in the lower " + std::to_string(fracture_below) + " of the height").c_str()
+                                   : "everywhere",
+                uniform ? "tet count" : "tet cost");
     std::printf(
-        "| tets | own tets (largest rank) | ghost tets / own | neighbours | us/step | halo us/step | halo share | "
+        "| tets | CE6 | own tets (largest rank) | ghost tets / own | neighbours | us/step | halo us/step | halo share "
+        "| "
         "halo kB/step (largest rank) | halo kB/step (all) | us per own tet-step |\n"
-        "|---|---|---|---|---|---|---|---|---|---|\n");
+        "|---|---|---|---|---|---|---|---|---|---|---|\n");
   }
   for (int nx : cells) {
+    if (fracture_below > 0) {  // the box is 0.02 nx m high
+      scene.fracture.everywhere = false;
+      scene.fracture.boxes = {{{-1e3, -1e3, -1e3}, {1e3, 1e3, fracture_below * 0.02 * nx}}};
+    }
     const Model global = box_model(nx, scene);
-    const std::vector<int> part = partition_tets(global, size);
+    const std::vector<int> part =
+        partition_tets(global, size, uniform ? PartitionWeights::uniform : PartitionWeights::cost);
     RankModel rm = extract_rank(global, part, rank, default_reach(global, scene));
     double own = 0, ghost = 0;
     for (auto o : rm.dd.tet_owned) own += o, ghost += !o;
@@ -108,9 +121,9 @@ void measured(const std::vector<int>& cells, int steps, bool contact) {
     const double ghost_ratio = max_over(own > 0 ? ghost / own : 0);
     const double bytes_max = max_over(bytes), bytes_all = sum_over(bytes), nb = max_over(neighbours);
     if (rank == 0)
-      std::printf("| %zu | %.0f | %.3f | %.0f | %.1f | %.1f | %.1f %% | %.1f | %.1f | %.3f |\n",
-                  global.tet_nodes.size(), own_max, ghost_ratio, nb, 1e6 * wall, 1e6 * halo, 100 * halo / wall,
-                  bytes_max / 1e3, bytes_all / 1e3, 1e6 * wall / own_max);
+      std::printf("| %zu | %zu | %.0f | %.3f | %.0f | %.1f | %.1f | %.1f %% | %.1f | %.1f | %.3f |\n",
+                  global.tet_nodes.size(), global.ce6_nodes.size(), own_max, ghost_ratio, nb, 1e6 * wall, 1e6 * halo,
+                  100 * halo / wall, bytes_max / 1e3, bytes_all / 1e3, 1e6 * wall / own_max);
   }
 }
 
@@ -169,8 +182,8 @@ int main(int argc, char** argv) {
   std::vector<int> cells = {6, 10, 14};
   int steps = 200, sample = 6;
   long per_rank = 0;
-  bool contact = false;
-  double tet_us = 0.5, latency_us = 2, gbps = 12.5;
+  bool contact = false, uniform = false;
+  double tet_us = 0.5, latency_us = 2, gbps = 12.5, fracture_below = 0;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto next = [&] { return i + 1 < argc ? std::string(argv[++i]) : std::string(); };
@@ -180,6 +193,10 @@ int main(int argc, char** argv) {
       steps = std::atoi(next().c_str());
     else if (a == "--contact")
       contact = true;
+    else if (a == "--uniform")
+      uniform = true;
+    else if (a == "--fracture-below")
+      fracture_below = std::atof(next().c_str());
     else if (a == "--weak")
       per_rank = std::atol(next().c_str());
     else if (a == "--tet-us")
@@ -200,7 +217,7 @@ int main(int argc, char** argv) {
   if (per_rank > 0)
     weak(per_rank, tet_us, latency_us, gbps, sample);
   else
-    measured(cells, steps, contact);
+    measured(cells, steps, contact, fracture_below, uniform);
   MPI_Finalize();
   return 0;
 }

@@ -22,7 +22,13 @@ std::vector<T> pick(const std::vector<T>& all, const std::vector<int>& ids) {
 
 }  // namespace
 
-std::vector<int> partition_tets(const Model& m, int parts) {
+std::vector<int> tet_cost_weights(const Model& m) {
+  std::vector<int> w(m.tet_nodes.size(), 4);
+  for (const auto& ab : m.ce6_tets) w[ab[0]] += 3, w[ab[1]] += 3;
+  return w;
+}
+
+std::vector<int> partition_tets(const Model& m, int parts, PartitionWeights weights) {
   idx_t ne = idx_t(m.tet_nodes.size());
   if (parts < 1 || idx_t(parts) > ne)
     throw InputError("partition: " + std::to_string(parts) + " ranks for a model of " + std::to_string(ne) +
@@ -47,12 +53,17 @@ std::vector<int> partition_tets(const Model& m, int parts) {
   options[METIS_OPTION_SEED] = 1;
   options[METIS_OPTION_NUMBERING] = 0;
   options[METIS_OPTION_CONTIG] = 1;
-  std::vector<idx_t> epart(ne), npart(nv);
-  int rc = METIS_PartMeshDual(&ne, &nv, eptr.data(), eind.data(), nullptr, nullptr, &ncommon, &nparts, nullptr, options,
+  std::vector<idx_t> epart(ne), npart(nv), vwgt;
+  if (weights == PartitionWeights::cost) {
+    const std::vector<int> w = tet_cost_weights(m);
+    vwgt.assign(w.begin(), w.end());
+  }
+  idx_t* wp = vwgt.empty() ? nullptr : vwgt.data();
+  int rc = METIS_PartMeshDual(&ne, &nv, eptr.data(), eind.data(), wp, nullptr, &ncommon, &nparts, nullptr, options,
                               &objval, epart.data(), npart.data());
   if (rc != METIS_OK) {  // contiguous parts are impossible for a mesh in pieces: try without
     options[METIS_OPTION_CONTIG] = 0;
-    rc = METIS_PartMeshDual(&ne, &nv, eptr.data(), eind.data(), nullptr, nullptr, &ncommon, &nparts, nullptr, options,
+    rc = METIS_PartMeshDual(&ne, &nv, eptr.data(), eind.data(), wp, nullptr, &ncommon, &nparts, nullptr, options,
                             &objval, epart.data(), npart.data());
   }
   if (rc != METIS_OK)

@@ -50,10 +50,22 @@ struct Decomposition {
   void load(CheckpointIn& in);
 };
 
+/// What METIS balances over the ranks: the tets' step cost (the default) or their number.
+enum class PartitionWeights { cost, uniform };
+
+/// The step cost of each tet for the partition, in units of about 22 ns on one CPU core:
+/// 4 for its TET4 and 3 for each CE6 on its faces (half of a CE6's 6: its two tets share it).
+/// From docs/benchmarks.md (one thread): a TET4 costs about 90 ns, a CE6 with the gathers and
+/// node updates of its split nodes about 135 ns, so a tet inside a fracture region (about 4
+/// CE6s) costs 4 times one outside. Models whose fracture regions cover part of the mesh are
+/// then split into equal work, not equal tet counts.
+std::vector<int> tet_cost_weights(const Model& m);
+
 /// The rank (0 .. parts-1) of every tet: METIS k-way on the dual graph (tets sharing a face),
-/// seeded so that the result is reproducible. InputError if parts exceeds the tet count or a
-/// part comes out empty, naming the counts and the fix.
-std::vector<int> partition_tets(const Model& m, int parts);
+/// balancing tet_cost_weights (or tet counts), seeded so that the result is reproducible.
+/// InputError if parts exceeds the tet count or a part comes out empty, naming the counts and
+/// the fix.
+std::vector<int> partition_tets(const Model& m, int parts, PartitionWeights w = PartitionWeights::cost);
 
 /// Rank `rank`'s model (its tets, one ghost layer and the contact ghosts within `reach`
 /// m, nodes, CE6s, surfaces and node groups, renumbered in global order; platen nodes only

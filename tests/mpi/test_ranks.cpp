@@ -435,6 +435,43 @@ TEST(Ranks, PartitionIsBalancedAndCoversEveryTet) {
   EXPECT_THROW(partition_tets(global, int(global.tet_nodes.size()) + 1), InputError);
 }
 
+TEST(Ranks, PartitionBalancesTheWorkWhenFractureRegionsCoverPartOfTheModel) {
+  // CE6s only in the lower quarter of a box: a tet there costs about 4 times one above it
+  // (docs/benchmarks.md: 90 ns per TET4, 135 ns per CE6 on one core). The work each rank's
+  // model gives it (own tets, and the CE6s it computes: those acting on a node it owns, the
+  // partition boundary's on both sides) is balanced by the cost weights; equal tet counts
+  // would give the fracturing part's rank far more.
+  Scene scene = box_scene();
+  scene.contact.activation = "none";
+  scene.fracture.everywhere = false;
+  scene.fracture.boxes.push_back({{-1, -1, -1}, {1, 1, 0.0125}});
+  const Model global = build_model(structured_box_mesh({0.01, 0.01, 0.05}, 4, 4, 20), scene);
+  for (int parts : {2, 3, 4}) {
+    double imbalance[2] = {0, 0};
+    for (PartitionWeights w : {PartitionWeights::cost, PartitionWeights::uniform}) {
+      const PartitionPlan plan = plan_partition(global, partition_tets(global, parts, w), 0);
+      std::vector<double> work(parts, 0);
+      for (int r = 0; r < parts; ++r) {
+        const RankModel rm = extract_rank(global, plan, r);
+        for (auto o : rm.dd.tet_owned) work[r] += 90.0 * o;
+        for (const auto& q : rm.model.ce6_nodes) {
+          bool computed = false;
+          for (int n : q) computed = computed || rm.dd.node_owned[n];
+          work[r] += 135.0 * computed;
+        }
+      }
+      double sum = 0, most = 0;
+      for (double x : work) sum += x, most = std::max(most, x);
+      imbalance[w == PartitionWeights::uniform] = most / (sum / parts);
+    }
+    EXPECT_LT(imbalance[0], 1.06) << parts << " parts, cost weights";
+    EXPECT_GT(imbalance[1], 1.2) << parts << " parts, equal tet counts";
+    if (world_rank() == 0)
+      std::printf("%d parts: slowest rank's work / mean %.3f with cost weights, %.3f with equal tet counts\n", parts,
+                  imbalance[0], imbalance[1]);
+  }
+}
+
 int main(int argc, char** argv) {
   MPI_Init(&argc, &argv);
   ::testing::InitGoogleTest(&argc, argv);
