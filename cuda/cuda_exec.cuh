@@ -6,6 +6,8 @@
 #include <thrust/sort.h>
 
 #include <array>
+#include <cstdlib>
+#include <exception>
 #include <string>
 
 #include "core/error.hpp"
@@ -17,11 +19,22 @@ inline void cuda_check(cudaError_t e, const char* what) {
   if (e != cudaSuccess) throw RunError(std::string("CUDA: ") + what + ": " + cudaGetErrorString(e));
 }
 
+/// After a kernel launch: launch errors at once; with FDEM_CUDA_SYNC=1 the kernel is also waited
+/// for, so that a fault inside it (an illegal address) is reported here and not at a later copy.
+inline void check_launch() {
+  static const bool sync = [] {
+    const char* e = std::getenv("FDEM_CUDA_SYNC");
+    return e && std::string(e) == "1";
+  }();
+  cuda_check(cudaGetLastError(), "kernel launch");
+  if (sync) cuda_check(cudaDeviceSynchronize(), "kernel run (FDEM_CUDA_SYNC=1: the fault is in this kernel)");
+}
+
 namespace cuda_detail {
 constexpr int kBlock = 256;
 
 template <class Body>
-__global__ void forall_kernel(int n, Body body) {
+__global__ void __launch_bounds__(kBlock) forall_kernel(int n, Body body) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i < n) body(i);
 }
@@ -29,7 +42,7 @@ __global__ void forall_kernel(int n, Body body) {
 // Each thread sums a grid-stride share, the block reduces in shared memory, and one atomicAdd
 // per block and value goes to out[N] (so the last bits can differ from run to run).
 template <int N, class Body>
-__global__ void sum_kernel(int n, Body body, real* out) {
+__global__ void __launch_bounds__(kBlock) sum_kernel(int n, Body body, real* out) {
   __shared__ real part[N][kBlock];
   real acc[N];
   for (int k = 0; k < N; ++k) acc[k] = 0;
@@ -56,7 +69,7 @@ __device__ inline void atomic_max(real* a, real v) {
 }
 
 template <int N, class Body>
-__global__ void max_kernel(int n, Body body, real* out) {
+__global__ void __launch_bounds__(kBlock) max_kernel(int n, Body body, real* out) {
   real acc[N];
   for (int k = 0; k < N; ++k) acc[k] = -INFINITY;
   for (int i = blockIdx.x * blockDim.x + threadIdx.x; i < n; i += gridDim.x * blockDim.x) body(i, acc);
@@ -73,7 +86,7 @@ struct CudaExec {
   static void forall(int n, Body body) {
     if (n <= 0) return;
     cuda_detail::forall_kernel<<<(n + cuda_detail::kBlock - 1) / cuda_detail::kBlock, cuda_detail::kBlock>>>(n, body);
-    cuda_check(cudaGetLastError(), "kernel launch");
+    check_launch();
   }
   template <int N, class Body>
   static std::array<real, N> sum(int n, Body body) {
@@ -85,7 +98,7 @@ struct CudaExec {
     int blocks = (n + cuda_detail::kBlock - 1) / cuda_detail::kBlock;
     if (blocks > 1024) blocks = 1024;
     cuda_detail::sum_kernel<N><<<blocks, cuda_detail::kBlock>>>(n, body, buf);
-    cuda_check(cudaGetLastError(), "kernel launch");
+    check_launch();
     cuda_check(cudaMemcpy(out.data(), buf, N * sizeof(real), cudaMemcpyDeviceToHost), "cudaMemcpy of sums");
     return out;
   }
@@ -95,7 +108,7 @@ struct CudaExec {
     int blocks = (n + cuda_detail::kBlock - 1) / cuda_detail::kBlock;
     if (blocks > 1024) blocks = 1024;
     cuda_detail::sum_kernel<N><<<blocks, cuda_detail::kBlock>>>(n, body, out);
-    cuda_check(cudaGetLastError(), "kernel launch");
+    check_launch();
   }
   template <int N, class Body>
   static std::array<real, N> max(int n, Body body) {
@@ -108,21 +121,30 @@ struct CudaExec {
     int blocks = (n + cuda_detail::kBlock - 1) / cuda_detail::kBlock;
     if (blocks > 1024) blocks = 1024;
     cuda_detail::max_kernel<N><<<blocks, cuda_detail::kBlock>>>(n, body, buf);
-    cuda_check(cudaGetLastError(), "kernel launch");
+    check_launch();
     cuda_check(cudaMemcpy(out.data(), buf, N * sizeof(real), cudaMemcpyDeviceToHost), "cudaMemcpy of maxima");
     return out;
   }
   static long scan(long n, const long* in, long* out) {
     if (n <= 0) return 0;
-    thrust::exclusive_scan(thrust::device, in, in + n, out);
-    long last[2];
+    long last[2];  // the last input is read first: in may be out
     cuda_check(cudaMemcpy(&last[0], in + n - 1, sizeof(long), cudaMemcpyDeviceToHost), "cudaMemcpy");
+    try {
+      thrust::exclusive_scan(thrust::device, in, in + n, out);
+    } catch (const std::exception& e) {  // Thrust's own scratch memory: thrust::system_error, std::bad_alloc
+      throw RunError(std::string("CUDA: prefix sum (Thrust): ") + e.what() +
+                     ". Fix: a smaller model per GPU, or more ranks");
+    }
     cuda_check(cudaMemcpy(&last[1], out + n - 1, sizeof(long), cudaMemcpyDeviceToHost), "cudaMemcpy");
     return last[0] + last[1];
   }
   template <class T, class Less>
   static void sort(T* first, long n, Less less) {
-    if (n > 1) thrust::sort(thrust::device, first, first + n, less);
+    try {
+      if (n > 1) thrust::sort(thrust::device, first, first + n, less);
+    } catch (const std::exception& e) {
+      throw RunError(std::string("CUDA: sort (Thrust): ") + e.what() + ". Fix: a smaller model per GPU, or more ranks");
+    }
     cuda_check(cudaGetLastError(), "thrust::sort");
   }
   static void synchronize() { cuda_check(cudaDeviceSynchronize(), "cudaDeviceSynchronize"); }

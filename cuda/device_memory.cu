@@ -16,10 +16,17 @@ bool built() {
 int device_count() {
   int n = 0;
   if (cudaGetDeviceCount(&n) != cudaSuccess) {
-    cudaGetLastError();  // clear the error of a machine without a driver or GPU
+    cudaGetLastError();  // clear the error of a machine without a driver or GPU (count_error says which)
     return 0;
   }
   return n;
+}
+
+std::string count_error() {
+  int n = 0;
+  const cudaError_t e = cudaGetDeviceCount(&n);
+  cudaGetLastError();
+  return e == cudaSuccess ? std::string() : std::string(cudaGetErrorString(e));
 }
 
 std::string description() {
@@ -42,9 +49,9 @@ int select_device(int local_rank) {
 
 void* allocate(std::size_t bytes) {
   if (device_count() == 0)
-    throw InputError(
-        "backend cuda: no CUDA device is visible (cudaGetDeviceCount = 0). Fix: run on a machine with an NVIDIA "
-        "GPU and its driver (check nvidia-smi and CUDA_VISIBLE_DEVICES), or run with --backend cpu");
+    throw InputError("backend cuda: no CUDA device is visible (" + count_error() +
+                     "). Fix: run on a machine with an NVIDIA GPU and its driver (check nvidia-smi and "
+                     "CUDA_VISIBLE_DEVICES), or run with --backend cpu");
   void* p = nullptr;
   const cudaError_t e = cudaMalloc(&p, bytes);
   if (e != cudaSuccess)
@@ -98,9 +105,13 @@ double copy_bandwidth(std::size_t bytes) {
 
 namespace cuda_detail {
 real* sum_buffer() {
-  static thread_local real* buf = nullptr;
-  if (!buf) cuda_check(cudaMalloc(&buf, 16 * sizeof(real)), "cudaMalloc of the sum buffer");
-  return buf;
+  // One per host thread and device: a buffer is used on the device it was allocated on.
+  static thread_local real* buf[64] = {};
+  int dev = 0;
+  cuda_check(cudaGetDevice(&dev), "cudaGetDevice");
+  if (dev < 0 || dev >= 64) throw RunError("CUDA: device " + std::to_string(dev) + " is beyond the 64 fdem supports");
+  if (!buf[dev]) cuda_check(cudaMalloc(&buf[dev], 16 * sizeof(real)), "cudaMalloc of the sum buffer");
+  return buf[dev];
 }
 }  // namespace cuda_detail
 

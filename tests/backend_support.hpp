@@ -42,7 +42,8 @@ inline std::unique_ptr<Solver> backend_solver(const Scene& s) {
 }
 
 /// The elastic box with gravity, a hydrostatic confining pressure (it follows the measured
-/// axial stress, up to 2 MPa) and node 0 held at a prescribed horizontal velocity.
+/// axial stress, up to 2 MPa) and node 0 held at a prescribed horizontal velocity, given in
+/// two calls (x and y, then x again: (0.015, -0.02) m/s, z free).
 inline std::unique_ptr<Solver> backend_gravity_solver(const std::string& backend) {
   Scene s = backend_elastic_scene(backend);
   s.gravity = {0, 0, -9.81};
@@ -51,6 +52,7 @@ inline std::unique_ptr<Solver> backend_gravity_solver(const std::string& backend
   s.confinement.path = "hydrostatic";
   auto solver = backend_solver(s);
   solver->prescribe(0, 0b011, Vec3{0.01, -0.02, 0});
+  solver->prescribe(0, 0b001, Vec3{0.015, 7, 7});  // the 7s are not prescribed
   return solver;
 }
 

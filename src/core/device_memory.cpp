@@ -15,6 +15,7 @@ namespace fdem {
 namespace cuda_impl {
 bool built();
 int device_count();
+std::string count_error();
 std::string description();
 int select_device(int local_rank);
 void* allocate(std::size_t bytes);
@@ -39,6 +40,9 @@ bool built() {
 }
 int device_count() {
   return 0;
+}
+std::string count_error() {
+  return "this fdem was built without CUDA";
 }
 std::string description() {
   return "";
@@ -88,6 +92,9 @@ bool cuda_built() {
 }
 int cuda_device_count() {
   return cuda_impl::device_count();
+}
+std::string cuda_device_count_error() {
+  return cuda_impl::count_error();
 }
 std::string cuda_device_description() {
   return cuda_impl::description();

@@ -24,6 +24,9 @@ Backend parse_backend(const std::string& name, const std::string& where);
 bool cuda_built();
 /// Number of CUDA devices visible (0 without the CUDA backend or without a GPU).
 int cuda_device_count();
+/// Why cuda_device_count() is 0: the CUDA runtime's message ("no CUDA-capable device is
+/// detected", "CUDA driver version is insufficient for CUDA runtime version", ...), or "".
+std::string cuda_device_count_error();
 /// "NVIDIA H100 80GB HBM3, 79 GiB, 132 SMs" or "" (for logs and benchmarks).
 std::string cuda_device_description();
 /// Makes GPU (local_rank mod the visible count) this process's device, so ranks on one node

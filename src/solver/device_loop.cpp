@@ -25,10 +25,17 @@ std::unique_ptr<DeviceLoop> make_device_loop(Backend b, const Solver& s) {
     case Backend::debug:
       return std::make_unique<DeviceLoopImpl<HostExec>>(Backend::debug, direct_mpi);
     case Backend::cuda:
-      if (cuda_built() && cuda_device_count() == 0)
-        throw InputError(
-            "solver.backend cuda: no CUDA device is visible. Fix: run on a machine with an NVIDIA GPU and its "
-            "driver (check nvidia-smi and CUDA_VISIBLE_DEVICES), or run with --backend cpu");
+      if (cuda_built()) {
+        // All ranks decide together, so that none is left waiting in the split below.
+        const int visible = cuda_device_count();
+        int fewest = visible;
+        MPI_Allreduce(&visible, &fewest, 1, MPI_INT, MPI_MIN, s.comm());
+        if (fewest == 0)
+          throw InputError("solver.backend cuda: no CUDA device is visible" +
+                           (visible == 0 ? " (" + cuda_device_count_error() + ")" : std::string(" on another rank")) +
+                           ". Fix: run on a machine with an NVIDIA GPU and its driver (check nvidia-smi and "
+                           "CUDA_VISIBLE_DEVICES), or run with --backend cpu");
+      }
       if (cuda_built()) {  // ranks sharing a node take its GPUs in turn
         MPI_Comm node;
         MPI_Comm_split_type(s.comm(), MPI_COMM_TYPE_SHARED, 0, MPI_INFO_NULL, &node);

@@ -224,9 +224,19 @@ StableStep Solver::stable_step_bound() const {
 }
 
 void Solver::prescribe(int node, int mask, Vec3 velocity) {
-  fixed_node_.push_back(node);
-  fixed_mask_.push_back(mask);
-  fixed_velocity_.push_back(velocity);
+  // One entry per node (the device applies the entries in parallel): a node prescribed again
+  // takes the new components, as if the calls were applied in turn.
+  const auto slot = fixed_slot_.emplace(node, int(fixed_node_.size()));
+  if (slot.second) {
+    fixed_node_.push_back(node);
+    fixed_mask_.push_back(mask);
+    fixed_velocity_.push_back(velocity);
+  } else {
+    const int i = slot.first->second;
+    fixed_mask_[i] |= mask;
+    for (int d = 0; d < 3; ++d)
+      if (mask >> d & 1) fixed_velocity_[i][d] = velocity[d];
+  }
   sync_host();
   for (int d = 0; d < 3; ++d)
     if (mask >> d & 1) v[node][d] = velocity[d];

@@ -6,6 +6,7 @@
 #include <array>
 #include <memory>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include "core/device_memory.hpp"
@@ -98,7 +99,8 @@ class Solver {
   void sync_host() const;
   void host_changed() { device_current_ = false; }
 
-  /// Prescribe velocity components (mask bit 0 = x, 1 = y, 2 = z) of a node.
+  /// Prescribe velocity components (mask bit 0 = x, 1 = y, 2 = z) of a node. Prescribing a node
+  /// again sets the new components (the others stay prescribed).
   void prescribe(int node, int mask, Vec3 velocity);
 
   /// Per-tet Cauchy stress and von Mises stress at node positions xs and velocities vs (for
@@ -156,6 +158,7 @@ class Solver {
   std::vector<real> platen_k_;
   std::vector<int> fixed_node_, fixed_mask_;
   std::vector<Vec3> fixed_velocity_;
+  std::unordered_map<int, int> fixed_slot_;  // node -> its entry in the lists above
   real top_z0_ = 0, bottom_z0_ = 0, ramp_ = 0;
   // Platen reactions (N, on the rock, along +z) from the last force evaluation.
   real force_top_ = 0, force_bottom_ = 0;

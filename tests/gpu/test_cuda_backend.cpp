@@ -14,7 +14,7 @@ using namespace fdem::test;
 namespace {
 
 void need_gpu() {
-  if (cuda_device_count() == 0) GTEST_SKIP() << "no CUDA device visible";
+  if (cuda_device_count() == 0) GTEST_SKIP() << "no CUDA device visible (" << cuda_device_count_error() << ")";
 }
 
 }  // namespace
@@ -62,7 +62,7 @@ TEST(CudaBackend, GravityHydrostaticPressureAndPrescribedNodesMatchCpu) {
   for (int i = 0; i < 1500; ++i) cpu->step(), gpu->step();
   gpu->sync_host();
   EXPECT_LT(max_rel_diff(cpu->x, gpu->x, 1e-6), 1e-10);
-  EXPECT_EQ(gpu->v[0].x, 0.01);
+  EXPECT_EQ(gpu->v[0].x, 0.015);
   const Monitors a = cpu->measure(), b = gpu->measure();
   EXPECT_NEAR(a.confining_pressure, b.confining_pressure, 1e-9 * a.confining_pressure);
 }

@@ -206,7 +206,8 @@ TEST_P(RanksDevice, DeviceLoopGivesTheCpuBackendsRun) {
   const std::string param = GetParam();
   const bool direct = param.size() > 4 && param.compare(param.size() - 4, 4, "+mpi") == 0;
   const std::string backend = direct ? param.substr(0, param.size() - 4) : param;
-  if (backend == "cuda" && cuda_device_count() == 0) GTEST_SKIP() << "no CUDA device visible";
+  if (backend == "cuda" && cuda_device_count() == 0)
+    GTEST_SKIP() << "no CUDA device visible (" << cuda_device_count_error() << ")";
   if (backend == "cuda" && direct && !mpi_cuda_aware()) GTEST_SKIP() << "this MPI is not CUDA-aware";
   struct EnvGuard {
     explicit EnvGuard(bool on) {
