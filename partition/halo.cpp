@@ -1,5 +1,6 @@
 #include "partition/halo.hpp"
 
+#include <algorithm>
 #include <cstdlib>
 #include <string>
 
@@ -32,35 +33,104 @@ bool device_buffers_to_mpi(bool on_gpu) {
                    "(always, for an MPI that cannot say) or 0 (stage through host memory)");
 }
 
-Halo::Halo(MPI_Comm comm, const Decomposition& dd) : comm_(comm), dd_(&dd) {
-  const std::size_t k = dd.neighbours.size();
-  send_off_.assign(1, 0);
-  recv_off_.assign(1, 0);
+Halo::Halo(MPI_Comm comm, const Decomposition& dd, const std::vector<std::array<int, 4>>* tet_nodes)
+    : comm_(comm), dd_(&dd), tet_nodes_(tet_nodes) {
+  const auto& nbs = dd.neighbours;
+  const std::size_t k = nbs.size();
   flag_off_.assign(1, 0);
   for (std::size_t i = 0; i < k; ++i) {
-    send_off_.push_back(send_off_.back() + 2 * dd.neighbours[i].send_nodes.size());
-    recv_off_.push_back(recv_off_.back() + 2 * dd.neighbours[i].recv_nodes.size());
-    flag_off_.push_back(flag_off_.back() + dd.neighbours[i].shared_tets.size());
+    send_list_.push_back(nbs[i].send_nodes);
+    recv_list_.push_back(nbs[i].recv_nodes);
+    flag_off_.push_back(flag_off_.back() + nbs[i].shared_tets.size());
   }
-  send_.resize(send_size());
-  recv_.resize(recv_size());
+  set_offsets();
   fsend_.resize(flag_size());
   frecv_.resize(flag_size());
   req_.reserve(2 * k);
+  active_shared_.assign(k, -1);
+  if (!tet_nodes_) return;
+  // Which corners of each shared tet this rank owns, sent to the neighbour (both list the
+  // shared tets in the same order).
+  mine_.resize(k);
+  theirs_.resize(k);
+  for (std::size_t i = 0; i < k; ++i) {
+    for (int t : nbs[i].shared_tets) {
+      std::uint8_t bits = 0;
+      for (int c = 0; c < 4; ++c) bits |= std::uint8_t(dd.node_owned[(*tet_nodes_)[t][c]] ? 1 << c : 0);
+      mine_[i].push_back(bits);
+    }
+    theirs_[i].resize(mine_[i].size());
+  }
+  for (std::size_t i = 0; i < k; ++i) {
+    req_.emplace_back();
+    MPI_Irecv(theirs_[i].data(), int(theirs_[i].size()), MPI_BYTE, nbs[i].rank, 103, comm_, &req_.back());
+  }
+  for (std::size_t i = 0; i < k; ++i) {
+    req_.emplace_back();
+    MPI_Isend(mine_[i].data(), int(mine_[i].size()), MPI_BYTE, nbs[i].rank, 103, comm_, &req_.back());
+  }
+  MPI_Waitall(int(req_.size()), req_.data(), MPI_STATUSES_IGNORE);
+  req_.clear();
 }
 
-void Halo::exchange_nodes(const Vec3* send, Vec3* recv) {
+void Halo::set_offsets() {
+  send_off_.assign(1, 0);
+  recv_off_.assign(1, 0);
+  for (std::size_t i = 0; i < send_list_.size(); ++i) {
+    send_off_.push_back(send_off_.back() + 2 * send_list_[i].size());
+    recv_off_.push_back(recv_off_.back() + 2 * recv_list_[i].size());
+  }
+  send_.resize(send_size());
+  recv_.resize(recv_size());
+}
+
+void Halo::follow_flags(const std::uint8_t* sent, const std::uint8_t* received) {
+  grown_.clear();
+  if (!tet_nodes_) return;
+  const auto& nbs = dd_->neighbours;
+  for (std::size_t i = 0; i < nbs.size(); ++i) {
+    const auto& shared = nbs[i].shared_tets;
+    long active = 0;
+    for (std::size_t j = 0; j < shared.size(); ++j)
+      active += sent[flag_off_[i] + j] == 1 || received[flag_off_[i] + j] == 1;
+    if (active == active_shared_[i]) continue;  // flags only rise: the same count is the same set
+    active_shared_[i] = active;
+    if (grown_.empty()) grown_.assign(nbs.size(), 0);
+    grown_[i] = 1;
+    // The decomposition's lists and the corners of the active shared tets: this rank's to
+    // send, the neighbour's to receive; in local (= global) order, once each.
+    std::vector<int> s = nbs[i].send_nodes, r = nbs[i].recv_nodes;
+    for (std::size_t j = 0; j < shared.size(); ++j) {
+      if (sent[flag_off_[i] + j] != 1 && received[flag_off_[i] + j] != 1) continue;
+      for (int c = 0; c < 4; ++c) {
+        const int n = (*tet_nodes_)[shared[j]][c];
+        if (mine_[i][j] >> c & 1) s.push_back(n);
+        if (theirs_[i][j] >> c & 1) r.push_back(n);
+      }
+    }
+    for (auto* list : {&s, &r}) {
+      std::sort(list->begin(), list->end());
+      list->erase(std::unique(list->begin(), list->end()), list->end());
+    }
+    send_list_[i].swap(s);
+    recv_list_[i].swap(r);
+  }
+  if (!grown_.empty()) set_offsets();
+}
+
+void Halo::exchange_nodes(const Vec3* send, Vec3* recv, const std::vector<char>* only) {
   constexpr int kTag = 101;
   const auto& nbs = dd_->neighbours;
   req_.clear();
+  auto skip = [&](std::size_t i) { return only && !(*only)[i]; };
   for (std::size_t i = 0; i < nbs.size(); ++i)
-    if (recv_off_[i + 1] > recv_off_[i]) {  // receives posted before the sends
+    if (recv_off_[i + 1] > recv_off_[i] && !skip(i)) {  // receives posted before the sends
       req_.emplace_back();
       MPI_Irecv(recv + recv_off_[i], int((recv_off_[i + 1] - recv_off_[i]) * sizeof(Vec3)), MPI_BYTE, nbs[i].rank, kTag,
                 comm_, &req_.back());
     }
   for (std::size_t i = 0; i < nbs.size(); ++i)
-    if (send_off_[i + 1] > send_off_[i]) {
+    if (send_off_[i + 1] > send_off_[i] && !skip(i)) {
       req_.emplace_back();
       MPI_Isend(send + send_off_[i], int((send_off_[i + 1] - send_off_[i]) * sizeof(Vec3)), MPI_BYTE, nbs[i].rank, kTag,
                 comm_, &req_.back());
@@ -87,16 +157,18 @@ void Halo::exchange_flags(const std::uint8_t* send, std::uint8_t* recv) {
   MPI_Waitall(int(req_.size()), req_.data(), MPI_STATUSES_IGNORE);
 }
 
-void Halo::update_nodes(std::vector<Vec3>& x, std::vector<Vec3>& v) {
-  const auto& nbs = dd_->neighbours;
-  for (std::size_t i = 0; i < nbs.size(); ++i) {
-    const auto& sn = nbs[i].send_nodes;
+void Halo::update_nodes(std::vector<Vec3>& x, std::vector<Vec3>& v, const std::vector<char>* only) {
+  const std::size_t k = send_list_.size();
+  for (std::size_t i = 0; i < k; ++i) {
+    if (only && !(*only)[i]) continue;
+    const auto& sn = send_list_[i];
     Vec3* out = send_.data() + send_off_[i];
     for (std::size_t j = 0; j < sn.size(); ++j) out[j] = x[sn[j]], out[sn.size() + j] = v[sn[j]];
   }
-  exchange_nodes(send_.data(), recv_.data());
-  for (std::size_t i = 0; i < nbs.size(); ++i) {
-    const auto& rn = nbs[i].recv_nodes;
+  exchange_nodes(send_.data(), recv_.data(), only);
+  for (std::size_t i = 0; i < k; ++i) {
+    if (only && !(*only)[i]) continue;
+    const auto& rn = recv_list_[i];
     const Vec3* in = recv_.data() + recv_off_[i];
     for (std::size_t j = 0; j < rn.size(); ++j) x[rn[j]] = in[j], v[rn[j]] = in[rn.size() + j];
   }
@@ -107,6 +179,7 @@ bool Halo::merge_flags(std::vector<std::uint8_t>& flags) {
   for (std::size_t i = 0; i < nbs.size(); ++i)
     for (std::size_t j = 0; j < nbs[i].shared_tets.size(); ++j) fsend_[flag_off_[i] + j] = flags[nbs[i].shared_tets[j]];
   exchange_flags(fsend_.data(), frecv_.data());
+  follow_flags(fsend_.data(), frecv_.data());
   bool raised = false;
   for (std::size_t i = 0; i < nbs.size(); ++i)
     for (std::size_t j = 0; j < nbs[i].shared_tets.size(); ++j) {

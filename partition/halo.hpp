@@ -1,8 +1,16 @@
 #pragma once
 // Halo exchanges of a decomposed model (partition.hpp), non-blocking point to point with each
 // neighbour, host buffers. Every rank of the communicator must call each exchange together.
+//
+// Node lists: the decomposition's lists (the nodes of the elements a rank computes) plus, with
+// contact, the nodes of the *active* tets two ranks both hold: contact reads a ghost tet's
+// nodes only while the tet is a contact candidate. The lists grow when activation flags
+// merge (merge_flags); both ranks of a pair see the same merged flags, so they grow their
+// lists alike without a message, and refresh the new ghosts at once (update_nodes with the
+// changed neighbours), before contact reads them.
 #include <mpi.h>
 
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -13,15 +21,28 @@ namespace fdem {
 
 class Halo {
  public:
-  Halo(MPI_Comm comm, const Decomposition& dd);
-  /// Owners send positions and velocities of their nodes to the ranks holding them as ghosts.
-  void update_nodes(std::vector<Vec3>& x, std::vector<Vec3>& v);
+  /// tet_nodes: the rank model's tets; with it (contact) the lists follow the active tets
+  /// (collective: the ranks tell each neighbour which corners of their shared tets they own).
+  Halo(MPI_Comm comm, const Decomposition& dd, const std::vector<std::array<int, 4>>* tet_nodes = nullptr);
+  /// Owners send positions and velocities of their nodes to the ranks holding them as ghosts;
+  /// with `only`, to and from the neighbours i with only[i] set (both sides of a pair agree).
+  void update_nodes(std::vector<Vec3>& x, std::vector<Vec3>& v, const std::vector<char>* only = nullptr);
   /// Activation flags: a tet flagged on any rank holding it is flagged on all of them.
-  /// Returns true when a flag was raised here.
+  /// Returns true when a flag was raised here. Then the node lists follow the active tets.
   bool merge_flags(std::vector<std::uint8_t>& flags);
+  /// The node lists after merged flags, given as the packed flags this rank sent and
+  /// received (the device loop merges on the device); merge_flags calls it.
+  void follow_flags(const std::uint8_t* sent, const std::uint8_t* received);
+  /// The neighbours whose node lists grew at the last merge (their new ghosts need a refresh
+  /// now); empty when none did.
+  const std::vector<char>& grown() const { return grown_; }
   /// Bytes this rank sends per node update (positions and velocities), for the benchmark.
   std::size_t node_bytes_sent() const;
   MPI_Comm comm() const { return comm_; }
+  std::size_t neighbours() const { return send_list_.size(); }
+  /// Neighbour i's node lists now (local ids, in global order).
+  const std::vector<int>& send_nodes(std::size_t i) const { return send_list_[i]; }
+  const std::vector<int>& recv_nodes(std::size_t i) const { return recv_list_[i]; }
 
   // The same exchanges on packed buffers, for backends that pack and unpack themselves (the
   // device loop packs on the device and stages through the host). Node buffers hold, neighbour
@@ -34,12 +55,20 @@ class Halo {
   std::size_t send_offset(std::size_t i) const { return send_off_[i]; }
   std::size_t recv_offset(std::size_t i) const { return recv_off_[i]; }
   std::size_t flag_offset(std::size_t i) const { return flag_off_[i]; }
-  void exchange_nodes(const Vec3* send, Vec3* recv);
+  void exchange_nodes(const Vec3* send, Vec3* recv, const std::vector<char>* only = nullptr);
   void exchange_flags(const std::uint8_t* send, std::uint8_t* recv);
 
  private:
+  void set_offsets();
   MPI_Comm comm_;
   const Decomposition* dd_;
+  const std::vector<std::array<int, 4>>* tet_nodes_;
+  std::vector<std::vector<int>> send_list_, recv_list_;
+  // Per neighbour and shared tet: the corners this rank owns, the corners the neighbour owns
+  // (bit k: corner k); the active shared tets at the last merge (-1: none yet).
+  std::vector<std::vector<std::uint8_t>> mine_, theirs_;
+  std::vector<long> active_shared_;
+  std::vector<char> grown_;
   std::vector<std::size_t> send_off_, recv_off_, flag_off_;
   std::vector<Vec3> send_, recv_;
   std::vector<std::uint8_t> fsend_, frecv_;

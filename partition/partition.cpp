@@ -147,34 +147,32 @@ PartitionPlan plan_partition(const Model& g, const std::vector<int>& part, real 
     for (auto& h : held) std::sort(h.begin(), h.end());  // by rank, as the lists below assume
   }
 
-  // Ranks that need each node's position and velocity every step. With contact: every rank
-  // holding a tet of it (the broad phase looks at all held tets). Without: only ranks where an
-  // element they compute uses it, i.e. a tet or CE6 they own or with a node they own (the
-  // other ghosts' nodes are never read, so they are not sent).
+  // Ranks that need each node's position and velocity every step: those where an element they
+  // compute uses it, i.e. a tet or CE6 they own or with a node they own (the other ghosts'
+  // nodes are not read). Contact reads the nodes of a held tet while it is active: the halo
+  // adds those as tets activate (partition/halo.hpp).
   plan.node_ranks.assign(nn, {});
   auto need = [&](int n, int r) {
     auto& rs = plan.node_ranks[n];
     if (std::find(rs.begin(), rs.end(), r) == rs.end()) rs.push_back(r);
   };
-  const bool contact = reach > 0;
   for (int t = 0; t < nt; ++t)
     for (int r : held[t]) {
-      bool used = contact || part[t] == r;
+      bool used = part[t] == r;
       for (int n : g.tet_nodes[t]) used = used || plan.node_owner[n] == r;
       if (used)
         for (int n : g.tet_nodes[t]) need(n, r);
     }
-  if (!contact)
-    for (std::size_t c = 0; c < g.ce6_nodes.size(); ++c) {
-      const auto& ab = g.ce6_tets[c];
-      for (int r : held[ab[0]]) {
-        if (std::find(held[ab[1]].begin(), held[ab[1]].end(), r) == held[ab[1]].end()) continue;
-        bool used = part[std::min(ab[0], ab[1])] == r;
-        for (int n : g.ce6_nodes[c]) used = used || plan.node_owner[n] == r;
-        if (used)
-          for (int n : g.ce6_nodes[c]) need(n, r);
-      }
+  for (std::size_t c = 0; c < g.ce6_nodes.size(); ++c) {
+    const auto& ab = g.ce6_tets[c];
+    for (int r : held[ab[0]]) {
+      if (std::find(held[ab[1]].begin(), held[ab[1]].end(), r) == held[ab[1]].end()) continue;
+      bool used = part[std::min(ab[0], ab[1])] == r;
+      for (int n : g.ce6_nodes[c]) used = used || plan.node_owner[n] == r;
+      if (used)
+        for (int n : g.ce6_nodes[c]) need(n, r);
     }
+  }
   for (auto& rs : plan.node_ranks) std::sort(rs.begin(), rs.end());
   return plan;
 }

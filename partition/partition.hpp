@@ -11,7 +11,9 @@
 // further apart than reach cannot touch before); the contact set checks that at each build.
 // With the ghost layer every element acting on an owned node is present, so a rank computes
 // the complete force on each node it owns: no force is sent back. After each step the owners
-// send the positions and velocities of their nodes to the ranks that read them. Energies and
+// send the positions and velocities of their nodes to the ranks that read them (the nodes of
+// the elements a rank computes: Neighbour lists; with contact the halo adds the nodes of the
+// active ghost tets, partition/halo.hpp). Energies and
 // counts take each element once: a tet on its owner, a CE6 and a contact pair on the owner of
 // their lower-numbered tet, a node term on the node's owner.
 #include <array>

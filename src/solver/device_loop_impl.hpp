@@ -1028,17 +1028,32 @@ class DeviceLoopImpl final : public DeviceLoop {
   /// Several ranks: the halo's packed layout (partition/halo.hpp) as device index lists.
   void plan_halo(const Solver& s) {
     const Halo& h = *s.halo_;
-    const auto& nbs = s.dd_.neighbours;
-    std::vector<int> sn, sx, sv, rn, rx, rv, ft;
-    for (std::size_t i = 0; i < nbs.size(); ++i) {
-      const auto& a = nbs[i].send_nodes;
+    std::vector<int> ft;
+    for (const Neighbour& nb : s.dd_.neighbours)
+      for (int t : nb.shared_tets) ft.push_back(t);
+    halo_flag_tet_.upload(ft);
+    flag_send_.resize(h.flag_size());
+    flag_recv_.resize(h.flag_size());
+    host_fsend_.resize(h.flag_size());  // also with direct MPI: the merged flags for the node lists
+    host_frecv_.resize(h.flag_size());
+    shared_active_ = -1;
+    plan_node_lists(s);
+  }
+
+  /// The node lists (they grow as tets activate, Halo::follow_flags) as device index lists.
+  void plan_node_lists(const Solver& s) {
+    const Halo& h = *s.halo_;
+    std::vector<int> sn, sx, sv, rn, rx, rv;
+    recv_range_.assign(1, 0);
+    for (std::size_t i = 0; i < h.neighbours(); ++i) {
+      const auto& a = h.send_nodes(i);
       for (std::size_t j = 0; j < a.size(); ++j) sn.push_back(a[j]), sx.push_back(int(h.send_offset(i) + j));
-      const auto& b = nbs[i].recv_nodes;
+      const auto& b = h.recv_nodes(i);
       for (std::size_t j = 0; j < b.size(); ++j) rn.push_back(b[j]), rx.push_back(int(h.recv_offset(i) + j));
-      for (int t : nbs[i].shared_tets) ft.push_back(t);
       // The v of a neighbour's nodes follow their x: offset + count.
       for (std::size_t j = 0; j < a.size(); ++j) sv.push_back(int(h.send_offset(i) + a.size() + j));
       for (std::size_t j = 0; j < b.size(); ++j) rv.push_back(int(h.recv_offset(i) + b.size() + j));
+      recv_range_.push_back(int(rn.size()));
     }
     halo_send_node_.upload(sn);
     halo_send_x_.upload(sx);
@@ -1046,22 +1061,18 @@ class DeviceLoopImpl final : public DeviceLoop {
     halo_recv_node_.upload(rn);
     halo_recv_x_.upload(rx);
     halo_recv_v_.upload(rv);
-    halo_flag_tet_.upload(ft);
     halo_send_.resize(h.send_size());
     halo_recv_.resize(h.recv_size());
-    flag_send_.resize(h.flag_size());
-    flag_recv_.resize(h.flag_size());
     if (!direct_mpi_) {
       host_send_.resize(h.send_size());
       host_recv_.resize(h.recv_size());
-      host_fsend_.resize(h.flag_size());
-      host_frecv_.resize(h.flag_size());
     }
   }
 
   /// Ghost nodes take their owners' x and v: packed on the device, handed to MPI (device buffers
-  /// with GPU-aware MPI, else staged through the host), unpacked on the device.
-  void halo_update(Solver& s) {
+  /// with GPU-aware MPI, else staged through the host), unpacked on the device. With `only`:
+  /// the neighbours i with only[i] set (Halo::update_nodes).
+  void halo_update(Solver& s, const std::vector<char>* only = nullptr) {
     const double w0 = MPI_Wtime();
     const Vec3* x = x_.data();
     const Vec3* v = v_.data();
@@ -1075,26 +1086,39 @@ class DeviceLoopImpl final : public DeviceLoop {
     });
     if (direct_mpi_) {
       Exec::synchronize();  // the packing kernel has finished before MPI reads the buffer
-      s.halo_->exchange_nodes(halo_send_.data(), halo_recv_.data());
+      s.halo_->exchange_nodes(halo_send_.data(), halo_recv_.data(), only);
     } else {
       halo_send_.download(host_send_.data());
-      s.halo_->exchange_nodes(host_send_.data(), host_recv_.data());
+      s.halo_->exchange_nodes(host_send_.data(), host_recv_.data(), only);
       halo_recv_.upload(host_recv_.data(), host_recv_.size());
     }
+    if (!only) {
+      unpack_halo(0, recv_range_.back());
+    } else {
+      for (std::size_t i = 0; i + 1 < recv_range_.size(); ++i)
+        if ((*only)[i]) unpack_halo(recv_range_[i], recv_range_[i + 1]);
+    }
+    s.halo_seconds_ += MPI_Wtime() - w0;
+  }
+
+  /// Entries first .. last-1 of the receive index lists: ghost x and v from the receive buffer.
+  void unpack_halo(int first, int last) {
     Vec3* xw = x_.data();
     Vec3* vw = v_.data();
     const Vec3* in = halo_recv_.data();
     const int* rn = halo_recv_node_.data();
     const int* rx = halo_recv_x_.data();
     const int* rv = halo_recv_v_.data();
-    Exec::forall(int(halo_recv_node_.size()), [=] FDEM_LAMBDA(int j) {
+    Exec::forall(last - first, [=] FDEM_LAMBDA(int k) {
+      const int j = first + k;
       xw[rn[j]] = in[rx[j]];
       vw[rn[j]] = in[rv[j]];
     });
-    s.halo_seconds_ += MPI_Wtime() - w0;
   }
 
   /// Activation flags OR-ed among the ranks holding a tet; true when one was raised here.
+  /// When the shared tets' active flags changed, the node lists follow them and the new
+  /// ghosts are refreshed from their owners at once (Halo::follow_flags).
   bool merge_flags(Solver& s) {
     const std::uint8_t* active = active_.data();
     std::uint8_t* out = flag_send_.data();
@@ -1111,9 +1135,24 @@ class DeviceLoopImpl final : public DeviceLoop {
     }
     std::uint8_t* aw = active_.data();
     const std::uint8_t* in = flag_recv_.data();
-    return Exec::template sum<1>(nf, [=] FDEM_LAMBDA(int j, real* acc) {
-             if (in[j] == 1 && aw[ft[j]] != 1) aw[ft[j]] = 1, acc[0] += 1;
-           })[0] > 0;
+    const std::uint8_t* mine = flag_send_.data();
+    const std::array<real, 2> r = Exec::template sum<2>(nf, [=] FDEM_LAMBDA(int j, real* acc) {
+      if (in[j] == 1 && aw[ft[j]] != 1) aw[ft[j]] = 1, acc[0] += 1;
+      acc[1] += in[j] == 1 || mine[j] == 1;
+    });
+    if (long(r[1]) != shared_active_) {  // flags only rise: an unchanged count is an unchanged set
+      shared_active_ = long(r[1]);
+      if (direct_mpi_) {
+        flag_send_.download(host_fsend_.data());
+        flag_recv_.download(host_frecv_.data());
+      }
+      s.halo_->follow_flags(host_fsend_.data(), host_frecv_.data());
+      if (!s.halo_->grown().empty()) {
+        plan_node_lists(s);
+        halo_update(s, &s.halo_->grown());
+      }
+    }
+    return r[0] > 0;
   }
 
   /// -sum f.v of the last contact pair forces with velocities v (ContactSet::power), added to
@@ -1165,9 +1204,11 @@ class DeviceLoopImpl final : public DeviceLoop {
       halo_flag_tet_;
   DeviceArray<Vec3> halo_send_, halo_recv_;
   DeviceArray<std::uint8_t> flag_send_, flag_recv_;
-  std::vector<Vec3> host_send_, host_recv_;  // staging (empty when direct_mpi_)
-  std::vector<std::uint8_t> host_fsend_, host_frecv_;
-  bool direct_mpi_;  // device buffers straight to MPI (partition/halo.hpp), fixed at construction
+  std::vector<Vec3> host_send_, host_recv_;            // staging (empty when direct_mpi_)
+  std::vector<std::uint8_t> host_fsend_, host_frecv_;  // staging, and the merged flags for the lists
+  bool direct_mpi_;              // device buffers straight to MPI (partition/halo.hpp), fixed at construction
+  std::vector<int> recv_range_;  // neighbour i's entries of the receive index lists: [i], [i+1]
+  long shared_active_ = -1;      // active flags among the shared tets at the last merge
   DeviceArray<ContactPair> next_pairs_;
   DeviceArray<Vec3> next_spring_;
   DeviceTimes t_;

@@ -47,7 +47,8 @@ Solver::Solver(const Scene& scene, Model model, Decomposition dd, MPI_Comm comm)
     own_node_ = dd_.node_owned;
     own_tet_ = dd_.tet_owned;
     own_ce6_ = dd_.ce6_owned;
-    halo_ = std::make_unique<Halo>(comm_, dd_);
+    // With contact the node lists follow the active tets (partition/halo.hpp).
+    halo_ = std::make_unique<Halo>(comm_, dd_, scene_.contact.enabled() ? &model_.tet_nodes : nullptr);
     // Forces are needed on owned nodes only: the loops skip elements that are not this rank's
     // and have no owned node (ghosts' nodes take their owners' values after each step). With
     // CE6 everywhere that is every ghost TET4 and every CE6 off the partition boundary.
@@ -313,7 +314,15 @@ void Solver::compute_forces() {
   }
   // A flag raised on any rank holding a tet reaches every other rank holding it, before the
   // broad phase looks at the flags.
-  if (halo_ && contacts.enabled() && halo_->merge_flags(contacts.active_flags())) contacts.flags_changed();
+  if (halo_ && contacts.enabled()) {
+    if (halo_->merge_flags(contacts.active_flags())) contacts.flags_changed();
+    // Ghost tets that became contact candidates: their nodes from their owners, now.
+    if (!halo_->grown().empty()) {
+      const double t0 = MPI_Wtime();
+      halo_->update_nodes(x, v, &halo_->grown());
+      halo_seconds_ += MPI_Wtime() - t0;
+    }
+  }
   const ContactPower cp = contacts.add_forces(m, x, v, ce6, dt_, f);
   p_contact_ = cp.power;
   w_contact_slip_ += cp.dissipated;
