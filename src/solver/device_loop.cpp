@@ -35,8 +35,7 @@ std::unique_ptr<DeviceLoop> make_device_loop(Backend b, const Solver& s) {
                            (visible == 0 ? " (" + cuda_device_count_error() + ")" : std::string(" on another rank")) +
                            ". Fix: run on a machine with an NVIDIA GPU and its driver (check nvidia-smi and "
                            "CUDA_VISIBLE_DEVICES), or run with --backend cpu");
-      }
-      if (cuda_built()) {  // ranks sharing a node take its GPUs in turn
+        // Ranks sharing a node take its GPUs in turn.
         MPI_Comm node;
         MPI_Comm_split_type(s.comm(), MPI_COMM_TYPE_SHARED, 0, MPI_INFO_NULL, &node);
         select_cuda_device(rank_in(node));
