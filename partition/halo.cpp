@@ -219,4 +219,22 @@ int size_of(MPI_Comm comm) {
   return n;
 }
 
+void send_bytes(MPI_Comm comm, const std::string& bytes, int to) {
+  const std::uint64_t n = bytes.size();
+  MPI_Send(&n, 1, MPI_UINT64_T, to, 7, comm);
+  constexpr std::uint64_t kPiece = 1u << 30;
+  for (std::uint64_t at = 0; at < n; at += kPiece)
+    MPI_Send(bytes.data() + at, int(std::min(kPiece, n - at)), MPI_BYTE, to, 8, comm);
+}
+
+std::string receive_bytes(MPI_Comm comm, int from) {
+  std::uint64_t n = 0;
+  MPI_Recv(&n, 1, MPI_UINT64_T, from, 7, comm, MPI_STATUS_IGNORE);
+  std::string bytes(n, '\0');
+  constexpr std::uint64_t kPiece = 1u << 30;
+  for (std::uint64_t at = 0; at < n; at += kPiece)
+    MPI_Recv(bytes.data() + at, int(std::min(kPiece, n - at)), MPI_BYTE, from, 8, comm, MPI_STATUS_IGNORE);
+  return bytes;
+}
+
 }  // namespace fdem

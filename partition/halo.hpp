@@ -12,6 +12,7 @@
 
 #include <array>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "core/vec.hpp"
@@ -93,5 +94,8 @@ double max_over_ranks(MPI_Comm comm, double value);
 /// This process's rank in comm, and comm's size.
 int rank_in(MPI_Comm comm);
 int size_of(MPI_Comm comm);
+/// Point-to-point transfer of a byte string of any length (in pieces below MPI's int count).
+void send_bytes(MPI_Comm comm, const std::string& bytes, int to);
+std::string receive_bytes(MPI_Comm comm, int from);
 
 }  // namespace fdem

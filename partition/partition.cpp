@@ -3,6 +3,7 @@
 #include <metis.h>
 
 #include <algorithm>
+#include <cmath>
 #include <numeric>
 #include <unordered_map>
 
@@ -17,6 +18,45 @@ template <class T>
 std::vector<T> pick(const std::vector<T>& all, const std::vector<int>& ids) {
   std::vector<T> out(ids.size());
   for (std::size_t i = 0; i < ids.size(); ++i) out[i] = all[ids[i]];
+  return out;
+}
+
+/// The tets whose box lies in a cell (of a grid with the largest box's edge) that also holds a
+/// box of another rank's tet: every pair of overlapping boxes of two ranks is among them.
+std::vector<int> boundary_tets(const std::vector<Aabb>& boxes, const std::vector<int>& part) {
+  const int n = int(boxes.size());
+  std::vector<int> all(n);
+  std::iota(all.begin(), all.end(), 0);
+  if (n == 0) return all;
+  Vec3 lo = boxes[0].lo;
+  real edge = 0;
+  for (const Aabb& b : boxes)
+    for (int d = 0; d < 3; ++d) lo[d] = std::min(lo[d], b.lo[d]), edge = std::max(edge, b.hi[d] - b.lo[d]);
+  if (!(edge > 0)) return all;
+  // Cells as 21 bits per axis; a model wider than 2^21 of its largest boxes is not filtered.
+  auto cell = [&](real x, int d) { return std::int64_t(std::floor((x - lo[d]) / edge)); };
+  constexpr std::int64_t kAxis = 1 << 21;
+  for (const Aabb& b : boxes)
+    for (int d = 0; d < 3; ++d)
+      if (!(cell(b.hi[d], d) < kAxis)) return all;
+  std::unordered_map<std::int64_t, int> rank_of;  // cell -> the rank of its boxes, -1 for two or more
+  auto each_cell = [&](const Aabb& b, auto&& f) {
+    for (std::int64_t x = cell(b.lo.x, 0); x <= cell(b.hi.x, 0); ++x)
+      for (std::int64_t y = cell(b.lo.y, 1); y <= cell(b.hi.y, 1); ++y)
+        for (std::int64_t z = cell(b.lo.z, 2); z <= cell(b.hi.z, 2); ++z) f((x * kAxis + y) * kAxis + z);
+  };
+  rank_of.reserve(std::size_t(n));
+  for (int t = 0; t < n; ++t)
+    each_cell(boxes[t], [&](std::int64_t c) {
+      auto it = rank_of.emplace(c, part[t]).first;
+      if (it->second != part[t]) it->second = -1;
+    });
+  std::vector<int> out;
+  for (int t = 0; t < n; ++t) {
+    bool mixed = false;
+    each_cell(boxes[t], [&](std::int64_t c) { mixed = mixed || rank_of[c] < 0; });
+    if (mixed) out.push_back(t);
+  }
   return out;
 }
 
@@ -128,15 +168,18 @@ PartitionPlan plan_partition(const Model& g, const std::vector<int>& part, real 
   // Contact ghosts: tets of another rank whose reference boxes come within reach.
   if (reach > 0) {
     std::vector<Aabb> boxes(nt);
-    std::vector<int> ids(nt);
     for (int t = 0; t < nt; ++t) {
-      ids[t] = t;
       Aabb b{g.X[g.tet_nodes[t][0]], g.X[g.tet_nodes[t][0]]};
       for (int n : g.tet_nodes[t])
         for (int d = 0; d < 3; ++d) b.lo[d] = std::min(b.lo[d], g.X[n][d]), b.hi[d] = std::max(b.hi[d], g.X[n][d]);
       for (int d = 0; d < 3; ++d) b.lo[d] -= 0.5 * reach, b.hi[d] += 0.5 * reach;
       boxes[t] = b;
     }
+    // Only tets near another rank's tets can have a partner there: two overlapping boxes
+    // share a cell of a grid whose edge is the largest box, so the pair search needs only
+    // the tets in a cell that holds tets of two ranks (a shell around each interface). All
+    // pairs within the reach took most of rank 0's start time and memory (docs/cluster.md).
+    const std::vector<int> ids = boundary_tets(boxes, part);
     std::vector<std::array<int, 2>> near;
     find_box_pairs(boxes, ids, 0, near);
     auto add = [&](int t, int r) {
@@ -182,7 +225,15 @@ RankModel extract_rank(const Model& g, const std::vector<int>& part, int rank, r
 }
 
 RankModel extract_rank(const Model& g, const PartitionPlan& plan, int rank) {
+  return extract_rank(g, plan, rank, PieceIds{});
+}
+
+RankModel extract_rank(const Model& g, const PartitionPlan& plan, int rank, const PieceIds& ids) {
   const int nt = int(g.tet_nodes.size()), nn = int(g.X.size()), nc = int(g.ce6_nodes.size());
+  const bool piece = ids.tets > 0;
+  if (piece &&
+      (ids.tet.size() != std::size_t(nt) || ids.node.size() != std::size_t(nn) || ids.ce6.size() != std::size_t(nc)))
+    throw RunError("partition: a model piece whose global ids do not match its arrays");
   const int size = plan.size;
   const real reach = plan.reach;
   const std::vector<int>& part = plan.part;
@@ -196,9 +247,9 @@ RankModel extract_rank(const Model& g, const PartitionPlan& plan, int rank) {
   dd.rank = rank;
   dd.size = size;
   dd.reach = reach;
-  dd.global_nodes = nn;
-  dd.global_tets = nt;
-  dd.global_ce6 = nc;
+  dd.global_nodes = piece ? ids.nodes : nn;
+  dd.global_tets = piece ? ids.tets : nt;
+  dd.global_ce6 = piece ? ids.ce6s : nc;
 
   std::vector<int> tets, tet_local(nt, -1);
   for (int t = 0; t < nt; ++t)
@@ -289,9 +340,15 @@ RankModel extract_rank(const Model& g, const PartitionPlan& plan, int rank) {
   m.tet_colours = restrict_colouring(g.tet_colours, tet_local);
   m.ce6_colours = restrict_colouring(g.ce6_colours, ce6_local);
 
-  dd.node_global.assign(nodes.begin(), nodes.end());
-  dd.tet_global.assign(tets.begin(), tets.end());
-  dd.ce6_global.assign(ce6s.begin(), ce6s.end());
+  auto global_ids = [&](const std::vector<int>& local, const std::vector<long>& of) {
+    std::vector<long> out(local.begin(), local.end());
+    if (piece)
+      for (long& i : out) i = of[i];
+    return out;
+  };
+  dd.node_global = global_ids(nodes, ids.node);
+  dd.tet_global = global_ids(tets, ids.tet);
+  dd.ce6_global = global_ids(ce6s, ids.ce6);
   dd.node_owned.resize(nodes.size());
   for (std::size_t i = 0; i < nodes.size(); ++i) dd.node_owned[i] = node_owner[nodes[i]] == rank;
   dd.tet_owned.resize(tets.size());

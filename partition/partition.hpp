@@ -91,6 +91,16 @@ struct PartitionPlan {
 PartitionPlan plan_partition(const Model& global, const std::vector<int>& part, real reach = 0);
 RankModel extract_rank(const Model& global, const PartitionPlan& plan, int rank);
 
+/// A piece of the global model (partition/plex.cpp): some of its tets with their nodes, CE6s
+/// and surfaces, numbered in global order, and the plan restricted to them. `ids` gives the
+/// global id of each and the global counts. A piece holding every tet the rank holds gives
+/// the rank model extract_rank(global, plan, rank) gives, field for field.
+struct PieceIds {
+  std::vector<long> node, tet, ce6;
+  long nodes = 0, tets = 0, ce6s = 0;
+};
+RankModel extract_rank(const Model& piece, const PartitionPlan& plan, int rank, const PieceIds& ids);
+
 /// The default contact reach: two mean edge lengths (0 without contact).
 real default_reach(const Model& m, const Scene& s);
 

@@ -19,6 +19,7 @@
 #include "model/model.hpp"
 #include "partition/halo.hpp"
 #include "partition/partition.hpp"
+#include "partition/plex.hpp"
 #include "scene/scene.hpp"
 #include "solver/run.hpp"
 #include "solver/series.hpp"
@@ -97,22 +98,19 @@ fdem::Model build_scene_model(const fdem::Scene& scene) {
   }
 }
 
-/// Point-to-point transfer of a byte string of any length (in pieces below MPI's int count).
-void send_bytes(const std::string& bytes, int to) {
-  const std::uint64_t n = bytes.size();
-  MPI_Send(&n, 1, MPI_UINT64_T, to, 7, MPI_COMM_WORLD);
-  constexpr std::uint64_t kPiece = 1u << 30;
-  for (std::uint64_t at = 0; at < n; at += kPiece)
-    MPI_Send(bytes.data() + at, int(std::min(kPiece, n - at)), MPI_BYTE, to, 8, MPI_COMM_WORLD);
-}
-std::string receive_bytes(int from) {
-  std::uint64_t n = 0;
-  MPI_Recv(&n, 1, MPI_UINT64_T, from, 7, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
-  std::string bytes(n, '\0');
-  constexpr std::uint64_t kPiece = 1u << 30;
-  for (std::uint64_t at = 0; at < n; at += kPiece)
-    MPI_Recv(bytes.data() + at, int(std::min(kPiece, n - at)), MPI_BYTE, from, 8, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
-  return bytes;
+/// The METIS partition of a scene's model for `size` ranks and its plan (contact reach: the
+/// option's, else the default); InputError naming the scene.
+fdem::PartitionPlan plan_scene(const fdem::Scene& scene, const fdem::Model& global, int size, double contact_reach) {
+  std::vector<int> part;
+  try {
+    part = fdem::partition_tets(global, size);
+  } catch (const fdem::InputError& e) {
+    throw fdem::InputError(scene.file + ": " + e.what());
+  }
+  const double reach = !scene.contact.enabled() ? 0
+                       : contact_reach > 0      ? contact_reach
+                                                : fdem::default_reach(global, scene);
+  return fdem::plan_partition(global, part, reach);
 }
 
 std::string rank_file(const std::string& folder, int rank) {
@@ -149,6 +147,13 @@ int run_main(int argc, char** argv) {
   run->add_option("--partitioned", partitioned,
                   "Folder of rank files written by fdem partition (one per MPI rank): no mesh reading, model build "
                   "or METIS at start");
+  std::string distribute;
+  run->add_option("--distribute", distribute,
+                  "Several ranks without --partitioned: how rank 0's model reaches the ranks. plex: METIS's "
+                  "partition through PETSc DMPlex (DMPlexDistribute, overlap 1, the tet data as cell data; the "
+                  "default where fdem is built with PETSc); root: rank 0 sends each rank its part (the default "
+                  "without PETSc). Both give the same rank models")
+      ->check(CLI::IsMember({"plex", "root"}));
   fdem::RunOptions run_options;
   run->add_option("--restart", run_options.restart,
                   "Continue an interrupted run from its newest checkpoint: the run's output folder, its "
@@ -225,15 +230,12 @@ int run_main(int argc, char** argv) {
   if (partition->parsed()) {
     fdem::Scene scene = fdem::load_scene(scene_path);
     const fdem::Model model = build_scene_model(scene);
-    const double reach = !scene.contact.enabled() ? 0
-                         : contact_reach > 0      ? contact_reach
-                                                  : fdem::default_reach(model, scene);
-    const std::vector<int> part = fdem::partition_tets(model, parts);
+    const fdem::PartitionPlan plan = plan_scene(scene, model, parts, contact_reach);
+    const double reach = plan.reach;
     if (output.empty()) output = scene.output.folder + "/partition_" + std::to_string(parts);
     std::filesystem::create_directories(output);
     std::cout << "partition of " << model.tet_nodes.size() << " tets, " << model.ce6_nodes.size() << " CE6, "
               << model.X.size() << " nodes for " << parts << " ranks, contact reach " << reach << " m:\n";
-    const fdem::PartitionPlan plan = fdem::plan_partition(model, part, reach);
     for (int r = 0; r < parts; ++r) {
       const fdem::RankModel rm = fdem::extract_rank(model, plan, r);
       const std::string path = rank_file(output, r);
@@ -295,30 +297,48 @@ int run_main(int argc, char** argv) {
   } else if (size == 1) {
     model = build_scene_model(scene);
   } else {
-    // Rank 0 builds the model, partitions it with METIS and sends every rank its part: the
-    // other ranks never hold the whole model. (A failure on rank 0 ends the job, MPI_Abort.)
+    // Rank 0 builds the model and partitions it with METIS; DMPlex distributes it (or rank 0
+    // sends every rank its part): the other ranks never hold the whole model. (A failure on
+    // rank 0 ends the job, MPI_Abort.)
+    const bool plex = distribute.empty() ? fdem::plex_available() : distribute == "plex";
+    if (plex && !fdem::plex_available())
+      throw fdem::InputError(
+          "--distribute plex: this fdem was built without PETSc. Fix: --distribute root, or "
+          "fdem partition and --partitioned, or build with PETSc (apt-get install petsc-dev)");
     const std::uint64_t key = fdem::model_key(scene);
     fdem::RankModel mine;
-    if (rank == 0) {
-      const fdem::Model global = build_scene_model(scene);
-      std::vector<int> part;
-      try {
-        part = fdem::partition_tets(global, size);
-      } catch (const fdem::InputError& e) {
-        throw fdem::InputError(scene.file + ": " + e.what());
+    if (plex) {
+      fdem::Model global;
+      fdem::PartitionPlan plan;
+      if (rank == 0) {
+        global = build_scene_model(scene);
+        plan = plan_scene(scene, global, size, contact_reach);
       }
-      const double reach = !scene.contact.enabled() ? 0
-                           : contact_reach > 0      ? contact_reach
-                                                    : fdem::default_reach(global, scene);
-      const fdem::PartitionPlan plan = fdem::plan_partition(global, part, reach);
+      fdem::PlexReport report;
+      const double start = MPI_Wtime();
+      mine = fdem::distribute_with_plex(MPI_COMM_WORLD, rank == 0 ? &global : nullptr, rank == 0 ? &plan : nullptr,
+                                        &report);
+      if (rank == 0)
+        std::cout << "distribution: PETSc DMPlex (shell partitioner with METIS's partition, overlap 1): "
+                  << report.overlap_tets << " held tets as plex cells"
+                  << (report.contact_ghosts > 0 ? ", " + std::to_string(report.contact_ghosts) +
+                                                      " contact ghosts beyond the overlap sent beside"
+                                                : std::string())
+                  << " (" << fdem::fmt(MPI_Wtime() - start, 3) << " s)\n";
+    } else if (rank == 0) {
+      const fdem::Model global = build_scene_model(scene);
+      const fdem::PartitionPlan plan = plan_scene(scene, global, size, contact_reach);
+      const double start = MPI_Wtime();
       for (int r = 1; r < size; ++r) {
         fdem::CheckpointOut o;
         fdem::put_rank_model(o, fdem::extract_rank(global, plan, r), key);
-        send_bytes(o.payload(), r);
+        fdem::send_bytes(MPI_COMM_WORLD, o.payload(), r);
       }
       mine = fdem::extract_rank(global, plan, 0);
+      std::cout << "distribution: rank 0 cut every rank's part and sent it (" << fdem::fmt(MPI_Wtime() - start, 3)
+                << " s)\n";
     } else {
-      fdem::CheckpointIn in(receive_bytes(0), "the model part sent by rank 0");
+      fdem::CheckpointIn in(fdem::receive_bytes(MPI_COMM_WORLD, 0), "the model part sent by rank 0");
       mine = fdem::get_rank_model(in, key);
     }
     model = std::move(mine.model);
@@ -345,6 +365,7 @@ int run_main(int argc, char** argv) {
     if (threads > 0) cmd += " -t " + std::to_string(threads);
     if (!activation.empty()) cmd += " --contact " + activation;
     if (!backend.empty()) cmd += " --backend " + backend;
+    if (!distribute.empty()) cmd += " --distribute " + distribute;
     throw fdem::Interrupted(std::string(e.what()) + "; continue with: " + cmd + " --restart " + q(scene.output.folder));
   }
   if (rank != 0) return 0;
@@ -403,6 +424,7 @@ int main(int argc, char** argv) {
     std::cerr << who << message << std::endl;
     if (size > 1) MPI_Abort(MPI_COMM_WORLD, code);
   }
+  fdem::plex_finalize();
   MPI_Finalize();
   return code;
 }

@@ -76,11 +76,26 @@ TEST(CliRanks, RankFilesFromPartitionGiveTheSameRun) {
   const std::string steps = " -q -o ";
   const Outcome a = run_cmd(mpiexec(2) + quote(kExe) + " run " + quote(kScene) + steps + quote(fly.string()));
   ASSERT_EQ(a.code, 0) << a.text;
+  // On the fly through DMPlex where fdem has PETSc (the default there), and from rank 0.
+  EXPECT_EQ(has(a.text, "distribution: PETSc DMPlex"), bool(FDEM_TEST_HAVE_PETSC)) << a.text;
   const Outcome b = run_cmd(mpiexec(2) + quote(kExe) + " run " + quote(kScene) + " --partitioned " +
                             quote(parts.string()) + steps + quote(files.string()));
   ASSERT_EQ(b.code, 0) << b.text;
   EXPECT_EQ(slurp(fly / "monitors.csv"), slurp(files / "monitors.csv"));
   EXPECT_EQ(slurp(fly / "broken_ce6.csv"), slurp(files / "broken_ce6.csv"));
+  const fs::path root = tmp.path / "root";
+  const Outcome r =
+      run_cmd(mpiexec(2) + quote(kExe) + " run " + quote(kScene) + " --distribute root" + steps + quote(root.string()));
+  ASSERT_EQ(r.code, 0) << r.text;
+  EXPECT_TRUE(has(r.text, "distribution: rank 0 cut every rank's part")) << r.text;
+  EXPECT_EQ(slurp(root / "monitors.csv"), slurp(files / "monitors.csv"));
+  EXPECT_EQ(slurp(root / "broken_ce6.csv"), slurp(files / "broken_ce6.csv"));
+  if (!FDEM_TEST_HAVE_PETSC) {  // asking for DMPlex without PETSc: a clear refusal
+    const Outcome x = run_cmd(mpiexec(2) + quote(kExe) + " run " + quote(kScene) + " --distribute plex" + steps +
+                              quote((tmp.path / "x").string()));
+    EXPECT_EQ(x.code, 2) << x.text;
+    EXPECT_TRUE(has(x.text, "without PETSc") && has(x.text, "--distribute root")) << x.text;
+  }
 
   // Rank files for two ranks on one: refused, naming the file and the fix.
   const Outcome c = fdem("run " + quote(kScene) + " --partitioned " + quote(parts.string()) + " -q -o " +

@@ -1,10 +1,11 @@
-// PETSc DMPlex as an independent check of the rank models (built where PETSc is found; run at 1
-// and 2 ranks through ctest's MPIEXEC variables, label mpi). fdem cuts each rank's model out
-// of the global one itself (docs/architecture.md, "Multi-rank runs"); here the same METIS
-// partition goes to DMPlexDistribute through a shell partitioner with overlap 1, and the
-// distributed plex must hold exactly the tets the rank model holds (without contact: its own
-// and one layer of ghosts), own exactly its own ones, and its interpolated faces with two
-// local cells must be exactly the rank's CE6s.
+// PETSc DMPlex (built where PETSc is found; run at 1 and 2 ranks through ctest's MPIEXEC
+// variables, label mpi). PlexCheck: DMPlex's own view as an independent check of the cut
+// (docs/architecture.md, "Multi-rank runs"): the same METIS partition through a shell
+// partitioner and DMPlexDistribute with overlap 1 must hold exactly the tets the rank model
+// holds (without contact: its own and one layer of ghosts), own exactly its own ones, and its
+// interpolated faces with two local cells must be exactly the rank's CE6s. PlexDistribute: the
+// solver's distribution through DMPlex (partition/plex.cpp) gives every rank the cut's model,
+// byte for byte, with and without contact ghosts beyond the overlap.
 #include <gtest/gtest.h>
 #include <mpi.h>
 #include <petscdmplex.h>
@@ -16,9 +17,11 @@
 #include <utility>
 #include <vector>
 
+#include "io/checkpoint.hpp"
 #include "model/structured.hpp"
 #include "partition/halo.hpp"
 #include "partition/partition.hpp"
+#include "partition/plex.hpp"
 #include "support.hpp"
 
 using namespace fdem;
@@ -171,15 +174,96 @@ TEST_P(PlexCheck, DistributionWithOverlapOneHoldsTheRankModelsTetsAndCe6s) {
     if (in_a && in_b) expected.insert(ab);
   }
   EXPECT_EQ(ce6, expected);
-  EXPECT_GT(ce6.size(), 0u);
+  // Over all ranks (one rank may hold only tets inside or only outside the region).
+  long counts[2] = {long(ce6.size()), long(plex.faces.size())};
+  MPI_Allreduce(MPI_IN_PLACE, counts, 2, MPI_LONG, MPI_SUM, MPI_COMM_WORLD);
+  EXPECT_GT(counts[0], 0);
   if (!everywhere) {
-    EXPECT_LT(ce6.size(), plex.faces.size());
+    EXPECT_LT(counts[0], counts[1]);
   }
 }
 
 INSTANTIATE_TEST_SUITE_P(Regions, PlexCheck, ::testing::Values(true, false), [](const auto& i) {
   return std::string(i.param ? "FractureEverywhere" : "FractureInLowerHalf");
 });
+
+/// A rank model as bytes (every field, in the rank file's layout).
+std::string bytes_of(const RankModel& rm) {
+  CheckpointOut o;
+  put_rank_model(o, rm, 0);
+  return o.payload();
+}
+
+struct DistributeCase {
+  const char* name;
+  bool contact, everywhere, two_bodies;
+};
+
+void PrintTo(const DistributeCase& c, std::ostream* os) {
+  *os << c.name;
+}
+
+class PlexDistribute : public ::testing::TestWithParam<DistributeCase> {};
+
+TEST_P(PlexDistribute, GivesEveryRankTheModelOfTheCut) {
+  // The solver's path for several ranks (fdem run --distribute plex): the model travels as
+  // DMPlex cell data, and each rank's model must be the cut's, byte for byte (so runs are too).
+  const DistributeCase& c = GetParam();
+  const int rank = rank_in(MPI_COMM_WORLD), size = size_of(MPI_COMM_WORLD);
+  Scene scene = test::test_scene();
+  scene.contact.activation = c.contact ? "full" : "none";
+  if (!c.everywhere) {
+    scene.fracture.everywhere = false;
+    scene.fracture.boxes.push_back({{-1, -1, -1}, {1, 1, 0.01}});
+  }
+  Mesh mesh = structured_box_mesh({0.01, 0.01, 0.02}, 3, 3, 6);
+  if (c.two_bodies) {  // a second box 0.2 mm above the first: contact across a gap, no shared vertex
+    const Mesh b = structured_box_mesh({0.01, 0.01, 0.01}, 3, 3, 3);
+    const int off = int(mesh.vertices.size());
+    for (Vec3 p : b.vertices) mesh.vertices.push_back(p + Vec3{0.001, 0, 0.0202});
+    for (auto q : b.tets) mesh.tets.push_back({q[0] + off, q[1] + off, q[2] + off, q[3] + off});
+  }
+  const Model global = build_model(mesh, scene);
+  std::vector<int> part = partition_tets(global, size);
+  if (c.two_bodies)  // the upper body on the last rank, the lower on the others
+    for (std::size_t t = 0; t < part.size(); ++t)
+      part[t] = centroid(global, long(t)).z > 0.02 ? size - 1 : std::min(part[t], std::max(size - 2, 0));
+  const real reach = c.contact ? default_reach(global, scene) : 0;
+  const PartitionPlan plan = plan_partition(global, part, reach);
+  PlexReport report;
+  const RankModel plex =
+      distribute_with_plex(MPI_COMM_WORLD, rank == 0 ? &global : nullptr, rank == 0 ? &plan : nullptr, &report);
+  const RankModel cut = extract_rank(global, plan, rank);
+  EXPECT_EQ(plex.model.tet_nodes.size(), cut.model.tet_nodes.size());
+  EXPECT_EQ(plex.model.ce6_nodes.size(), cut.model.ce6_nodes.size());
+  EXPECT_EQ(plex.dd.neighbours.size(), cut.dd.neighbours.size());
+  EXPECT_TRUE(bytes_of(plex) == bytes_of(cut)) << "the rank model, field for field";
+
+  long held = 0;
+  for (int t = 0; t < int(part.size()); ++t) held += long(plan.held[t].size());
+  EXPECT_EQ(report.overlap_tets + report.contact_ghosts, held) << "every held tet arrived once";
+  if (!c.contact || size == 1) {
+    // The overlap of one brings the ghost layer the CE6s and node forces need: nothing beside it.
+    EXPECT_EQ(report.contact_ghosts, 0);
+    EXPECT_EQ(report.extra_cells, 0) << "and no cell no rank holds";
+  } else {
+    EXPECT_GT(report.contact_ghosts, 0) << "contact ghosts reach beyond one layer";
+  }
+  if (c.two_bodies && size > 1) {
+    // The upper body's tets near the gap are contact ghosts below it: no plex overlap has them.
+    long upper_below = 0;
+    if (rank < size - 1)
+      for (long t : plex.dd.tet_global) upper_below += centroid(global, t).z > 0.02;
+    MPI_Allreduce(MPI_IN_PLACE, &upper_below, 1, MPI_LONG, MPI_SUM, MPI_COMM_WORLD);
+    EXPECT_GT(upper_below, 0);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Models, PlexDistribute,
+                         ::testing::Values(DistributeCase{"FractureInLowerHalf", false, false, false},
+                                           DistributeCase{"FractureEverywhereWithContact", true, true, false},
+                                           DistributeCase{"TwoBodiesWithContact", true, true, true}),
+                         [](const auto& i) { return std::string(i.param.name); });
 
 }  // namespace
 

@@ -12,8 +12,10 @@
 #include <cstring>
 #include <filesystem>
 #include <memory>
+#include <set>
 
 #include "backend_support.hpp"
+#include "contact/broad_phase.hpp"
 #include "core/device_memory.hpp"
 #include "core/error.hpp"
 #include "model/structured.hpp"
@@ -408,6 +410,53 @@ TEST(Ranks, PrepartitionedFilesGiveTheSameRun) {
   EXPECT_EQ(std::memcmp(from_file.x.data(), on_the_fly->x.data(), from_file.x.size() * sizeof(Vec3)), 0);
   EXPECT_EQ(std::memcmp(from_file.ce6.data(), on_the_fly->ce6.data(), from_file.ce6.size() * sizeof(Ce6State)), 0);
   EXPECT_GT(from_file.measure().damaged, 0) << "the run went far enough to damage CE6s";
+}
+
+TEST(Ranks, ContactGhostsAreTheTetsWithinTheReachOfAnotherRanksTets) {
+  // The plan's held sets against a brute-force search over all pairs: a rank holds a tet of
+  // another rank exactly when it shares a mesh vertex with one of its own (the ghost layer) or
+  // their reference boxes come within the reach. On one box, and on two boxes across a gap.
+  Scene scene = box_scene();
+  Mesh two = structured_box_mesh({0.01, 0.01, 0.01}, 3, 3, 3);
+  {
+    const Mesh b = structured_box_mesh({0.01, 0.01, 0.01}, 3, 3, 3);
+    const int off = int(two.vertices.size());
+    for (Vec3 p : b.vertices) two.vertices.push_back(p + Vec3{0.002, 0, 0.0105});
+    for (auto q : b.tets) two.tets.push_back({q[0] + off, q[1] + off, q[2] + off, q[3] + off});
+  }
+  for (const Mesh& mesh : {structured_box_mesh({0.01, 0.01, 0.02}, 3, 3, 6), two}) {
+    const Model g = build_model(mesh, scene);
+    const int nt = int(g.tet_nodes.size());
+    std::vector<Aabb> box(nt);
+    for (int t = 0; t < nt; ++t) {
+      box[t] = {g.X[g.tet_nodes[t][0]], g.X[g.tet_nodes[t][0]]};
+      for (int n : g.tet_nodes[t])
+        for (int d = 0; d < 3; ++d)
+          box[t].lo[d] = std::min(box[t].lo[d], g.X[n][d]), box[t].hi[d] = std::max(box[t].hi[d], g.X[n][d]);
+    }
+    for (int parts : {2, 3, 4})
+      for (real reach : {0.5 * default_reach(g, scene), default_reach(g, scene), real(0.004)}) {
+        const std::vector<int> part = partition_tets(g, parts);
+        const PartitionPlan plan = plan_partition(g, part, reach);
+        std::vector<std::set<int>> expected(nt);
+        long ghosts = 0;
+        for (int t = 0; t < nt; ++t) {
+          expected[t].insert(part[t]);
+          for (int u = 0; u < nt; ++u) {
+            bool shares = false, near = true;
+            for (int a : g.tet_nodes[t])
+              for (int b : g.tet_nodes[u]) shares = shares || g.node_vertex[a] == g.node_vertex[b];
+            for (int d = 0; d < 3; ++d)
+              near = near && box[t].lo[d] - reach <= box[u].hi[d] && box[u].lo[d] - reach <= box[t].hi[d];
+            if (shares || near) expected[t].insert(part[u]);
+          }
+          EXPECT_EQ(std::set<int>(plan.held[t].begin(), plan.held[t].end()), expected[t])
+              << "tet " << t << ", " << parts << " parts, reach " << reach;
+          ghosts += long(expected[t].size()) - 1;
+        }
+        EXPECT_GT(ghosts, 0);
+      }
+  }
 }
 
 TEST(Ranks, PartitionIsBalancedAndCoversEveryTet) {
