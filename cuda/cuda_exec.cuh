@@ -4,6 +4,7 @@
 #include <thrust/execution_policy.h>
 #include <thrust/scan.h>
 #include <thrust/sort.h>
+#include <thrust/system/cuda/execution_policy.h>
 
 #include <array>
 #include <cstdlib>
@@ -39,14 +40,11 @@ __global__ void __launch_bounds__(kBlock) forall_kernel(int n, Body body) {
   if (i < n) body(i);
 }
 
-// Each thread sums a grid-stride share, the block reduces in shared memory, and one atomicAdd
-// per block and value goes to out[N] (so the last bits can differ from run to run).
-template <int N, class Body>
-__global__ void __launch_bounds__(kBlock) sum_kernel(int n, Body body, real* out) {
-  __shared__ real part[N][kBlock];
-  real acc[N];
-  for (int k = 0; k < N; ++k) acc[k] = 0;
-  for (int i = blockIdx.x * blockDim.x + threadIdx.x; i < n; i += gridDim.x * blockDim.x) body(i, acc);
+constexpr int kMaxBlocks = 1024;  // of a reduction: the grid-stride loops cover the rest
+
+// out[k] += the block's sums, summed by a tree in shared memory; thread 0 holds them.
+template <int N>
+__device__ inline void block_sum(real (&part)[N][kBlock], const real (&acc)[N]) {
   for (int k = 0; k < N; ++k) part[k][threadIdx.x] = acc[k];
   __syncthreads();
   for (int s = kBlock / 2; s > 0; s >>= 1) {
@@ -54,8 +52,34 @@ __global__ void __launch_bounds__(kBlock) sum_kernel(int n, Body body, real* out
       for (int k = 0; k < N; ++k) part[k][threadIdx.x] += part[k][threadIdx.x + s];
     __syncthreads();
   }
+}
+
+// Each thread sums a grid-stride share and each block reduces its threads' sums in a fixed
+// tree; the blocks write their sums to `partials`, and the last block to finish (a ticket
+// counter; it wraps to 0 for the next launch) adds them in block order into out[N]. The
+// order of every addition is fixed by n alone, so sums are the same bit for bit from run to
+// run (an atomicAdd per block would add in the order the blocks finish).
+template <int N, class Body>
+__global__ void __launch_bounds__(kBlock) sum_kernel(int n, Body body, real* out, real* partials, unsigned* ticket) {
+  __shared__ real part[N][kBlock];
+  __shared__ bool last;
+  real acc[N];
+  for (int k = 0; k < N; ++k) acc[k] = 0;
+  for (int i = blockIdx.x * blockDim.x + threadIdx.x; i < n; i += gridDim.x * blockDim.x) body(i, acc);
+  block_sum<N>(part, acc);
+  if (threadIdx.x == 0) {
+    for (int k = 0; k < N; ++k) partials[blockIdx.x * N + k] = part[k][0];
+    __threadfence();  // the partials are visible to every block before the ticket is
+    last = atomicInc(ticket, gridDim.x - 1) == gridDim.x - 1;
+  }
+  __syncthreads();
+  if (!last) return;
+  for (int k = 0; k < N; ++k) acc[k] = 0;
+  for (int b = threadIdx.x; b < int(gridDim.x); b += blockDim.x)
+    for (int k = 0; k < N; ++k) acc[k] += __ldcg(&partials[b * N + k]);  // from L2, not a stale L1
+  block_sum<N>(part, acc);
   if (threadIdx.x == 0)
-    for (int k = 0; k < N; ++k) atomicAdd(&out[k], part[k][0]);
+    for (int k = 0; k < N; ++k) out[k] += part[k][0];
 }
 
 __device__ inline void atomic_max(real* a, real v) {
@@ -78,6 +102,27 @@ __global__ void __launch_bounds__(kBlock) max_kernel(int n, Body body, real* out
 
 /// A small device buffer for the sums, allocated once per thread of the host program.
 real* sum_buffer();
+/// The block sums of a reduction (kMaxBlocks x 16 values) and its ticket counter (zeroed at
+/// allocation), once per thread of the host program and device.
+struct SumScratch {
+  real* partials;
+  unsigned* ticket;
+};
+SumScratch sum_scratch();
+
+/// Thrust's temporary memory (sort, scan) through device::allocate, so device::peak_bytes
+/// counts it, and kept between calls: one block per host thread and device grows to the
+/// largest request, so a broad phase whose pairs stopped growing allocates nothing.
+struct ThrustScratch {
+  using value_type = char;
+  char* allocate(std::ptrdiff_t bytes);
+  void deallocate(char* p, std::size_t bytes) noexcept;
+};
+
+inline int reduction_blocks(int n) {
+  const int blocks = (n + kBlock - 1) / kBlock;
+  return blocks < kMaxBlocks ? blocks : kMaxBlocks;
+}
 }  // namespace cuda_detail
 
 struct CudaExec {
@@ -95,19 +140,17 @@ struct CudaExec {
     if (n <= 0) return out;
     real* buf = cuda_detail::sum_buffer();
     cuda_check(cudaMemsetAsync(buf, 0, N * sizeof(real)), "cudaMemsetAsync");
-    int blocks = (n + cuda_detail::kBlock - 1) / cuda_detail::kBlock;
-    if (blocks > 1024) blocks = 1024;
-    cuda_detail::sum_kernel<N><<<blocks, cuda_detail::kBlock>>>(n, body, buf);
-    check_launch();
+    sum_to<N>(n, body, buf);
     cuda_check(cudaMemcpy(out.data(), buf, N * sizeof(real), cudaMemcpyDeviceToHost), "cudaMemcpy of sums");
     return out;
   }
   template <int N, class Body>
   static void sum_to(int n, Body body, real* out) {
+    static_assert(N <= 16, "at most 16 sums per pass");
     if (n <= 0) return;
-    int blocks = (n + cuda_detail::kBlock - 1) / cuda_detail::kBlock;
-    if (blocks > 1024) blocks = 1024;
-    cuda_detail::sum_kernel<N><<<blocks, cuda_detail::kBlock>>>(n, body, out);
+    const cuda_detail::SumScratch scratch = cuda_detail::sum_scratch();
+    cuda_detail::sum_kernel<N>
+        <<<cuda_detail::reduction_blocks(n), cuda_detail::kBlock>>>(n, body, out, scratch.partials, scratch.ticket);
     check_launch();
   }
   template <int N, class Body>
@@ -118,9 +161,7 @@ struct CudaExec {
     if (n <= 0) return out;
     real* buf = cuda_detail::sum_buffer();
     cuda_check(cudaMemcpy(buf, out.data(), N * sizeof(real), cudaMemcpyHostToDevice), "cudaMemcpy");
-    int blocks = (n + cuda_detail::kBlock - 1) / cuda_detail::kBlock;
-    if (blocks > 1024) blocks = 1024;
-    cuda_detail::max_kernel<N><<<blocks, cuda_detail::kBlock>>>(n, body, buf);
+    cuda_detail::max_kernel<N><<<cuda_detail::reduction_blocks(n), cuda_detail::kBlock>>>(n, body, buf);
     check_launch();
     cuda_check(cudaMemcpy(out.data(), buf, N * sizeof(real), cudaMemcpyDeviceToHost), "cudaMemcpy of maxima");
     return out;
@@ -130,7 +171,8 @@ struct CudaExec {
     long last[2];  // the last input is read first: in may be out
     cuda_check(cudaMemcpy(&last[0], in + n - 1, sizeof(long), cudaMemcpyDeviceToHost), "cudaMemcpy");
     try {
-      thrust::exclusive_scan(thrust::device, in, in + n, out);
+      cuda_detail::ThrustScratch scratch;
+      thrust::exclusive_scan(thrust::cuda::par(scratch), in, in + n, out);
     } catch (const std::exception& e) {  // Thrust's own scratch memory: thrust::system_error, std::bad_alloc
       throw RunError(std::string("CUDA: prefix sum (Thrust): ") + e.what() +
                      ". Fix: a smaller model per GPU, or more ranks");
@@ -141,7 +183,8 @@ struct CudaExec {
   template <class T, class Less>
   static void sort(T* first, long n, Less less) {
     try {
-      if (n > 1) thrust::sort(thrust::device, first, first + n, less);
+      cuda_detail::ThrustScratch scratch;
+      if (n > 1) thrust::sort(thrust::cuda::par(scratch), first, first + n, less);
     } catch (const std::exception& e) {
       throw RunError(std::string("CUDA: sort (Thrust): ") + e.what() + ". Fix: a smaller model per GPU, or more ranks");
     }

@@ -3,6 +3,7 @@
 
 #include <string>
 
+#include "core/device_memory.hpp"
 #include "core/error.hpp"
 #include "cuda_exec.cuh"
 
@@ -112,6 +113,62 @@ real* sum_buffer() {
   if (dev < 0 || dev >= 64) throw RunError("CUDA: device " + std::to_string(dev) + " is beyond the 64 fdem supports");
   if (!buf[dev]) cuda_check(cudaMalloc(&buf[dev], 16 * sizeof(real)), "cudaMalloc of the sum buffer");
   return buf[dev];
+}
+
+namespace {
+struct CachedScratch {
+  char* p = nullptr;
+  std::size_t bytes = 0;
+  bool busy = false;
+};
+CachedScratch& cached_scratch() {
+  static thread_local CachedScratch cache[64];
+  int dev = 0;
+  cuda_check(cudaGetDevice(&dev), "cudaGetDevice");
+  if (dev < 0 || dev >= 64) throw RunError("CUDA: device " + std::to_string(dev) + " is beyond the 64 fdem supports");
+  return cache[dev];
+}
+}  // namespace
+
+char* ThrustScratch::allocate(std::ptrdiff_t bytes) {
+  const std::size_t n = bytes > 0 ? std::size_t(bytes) : 1;
+  CachedScratch& c = cached_scratch();
+  if (c.busy)  // a second request while the block is lent: its own allocation
+    return static_cast<char*>(device::allocate(Backend::cuda, n));
+  if (n > c.bytes) {
+    device::release(Backend::cuda, c.p, c.bytes);
+    c.p = nullptr, c.bytes = 0;
+    c.p = static_cast<char*>(device::allocate(Backend::cuda, n));
+    c.bytes = n;
+  }
+  c.busy = true;
+  return c.p;
+}
+
+void ThrustScratch::deallocate(char* p, std::size_t bytes) noexcept {
+  try {
+    CachedScratch& c = cached_scratch();
+    if (p == c.p) {
+      c.busy = false;
+      return;
+    }
+  } catch (...) {
+  }
+  device::release(Backend::cuda, p, bytes > 0 ? bytes : 1);
+}
+
+SumScratch sum_scratch() {
+  static thread_local SumScratch scratch[64] = {};
+  int dev = 0;
+  cuda_check(cudaGetDevice(&dev), "cudaGetDevice");
+  if (dev < 0 || dev >= 64) throw RunError("CUDA: device " + std::to_string(dev) + " is beyond the 64 fdem supports");
+  SumScratch& s = scratch[dev];
+  if (!s.partials) {
+    cuda_check(cudaMalloc(&s.partials, kMaxBlocks * 16 * sizeof(real)), "cudaMalloc of the reduction scratch");
+    cuda_check(cudaMalloc(&s.ticket, sizeof(unsigned)), "cudaMalloc of the reduction ticket");
+    cuda_check(cudaMemset(s.ticket, 0, sizeof(unsigned)), "cudaMemset of the reduction ticket");
+  }
+  return s;
 }
 }  // namespace cuda_detail
 
