@@ -71,6 +71,7 @@ __global__ void __launch_bounds__(kBlock) sum_kernel(int n, Body body, real* out
     for (int k = 0; k < N; ++k) partials[blockIdx.x * N + k] = part[k][0];
     __threadfence();  // the partials are visible to every block before the ticket is
     last = atomicInc(ticket, gridDim.x - 1) == gridDim.x - 1;
+    if (last) __threadfence();  // and the last block reads them after its ticket
   }
   __syncthreads();
   if (!last) return;

@@ -153,6 +153,7 @@ void ThrustScratch::deallocate(char* p, std::size_t bytes) noexcept {
       return;
     }
   } catch (...) {
+    return;  // the device cannot be asked: p may be the cached block, so it is not freed
   }
   device::release(Backend::cuda, p, bytes > 0 ? bytes : 1);
 }

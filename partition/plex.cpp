@@ -29,7 +29,7 @@ bool plex_available() {
   return false;
 }
 
-RankModel distribute_with_plex(MPI_Comm, const Model*, const PartitionPlan*, PlexReport*) {
+RankModel distribute_with_plex(MPI_Comm, const Model*, const PartitionPlan*, PlexReport*, std::uint64_t) {
   throw InputError(
       "distribution through DMPlex: this fdem was built without PETSc. Fix: run with --distribute root, or "
       "partition first (fdem partition) and run with --partitioned, or build with PETSc (apt-get install "
@@ -291,12 +291,6 @@ RankModel cut_piece(Piece& p, const Header& h, int rank) {
     m.surface_faces.push_back({node_local.at(f.nodes[0]), node_local.at(f.nodes[1]), node_local.at(f.nodes[2])});
     m.surface_tet.push_back(tet_local.at(f.tet));
   }
-  long held = 0;
-  for (const TetRec& t : p.tets) held += std::binary_search(t.held.begin(), t.held.end(), rank);
-  if (held != h.held)
-    throw RunError("distribution through DMPlex: rank " + std::to_string(rank) + " received " + std::to_string(held) +
-                   " of the " + std::to_string(h.held) +
-                   " tets its model holds. Fix: run with --distribute root, or partition first (fdem partition)");
   return extract_rank(m, plan, rank, ids);
 }
 
@@ -311,7 +305,8 @@ void plex_finalize() {
   g_petsc_ours = false;
 }
 
-RankModel distribute_with_plex(MPI_Comm comm, const Model* g, const PartitionPlan* plan, PlexReport* report) {
+RankModel distribute_with_plex(MPI_Comm comm, const Model* g, const PartitionPlan* plan, PlexReport* report,
+                               std::uint64_t pass_bytes) {
   const int rank = rank_in(comm), size = size_of(comm);
   const bool root = rank == 0;
   if (root && (!g || !plan || plan->size != size || plan->part.size() != g->tet_nodes.size()))
@@ -355,18 +350,18 @@ RankModel distribute_with_plex(MPI_Comm comm, const Model* g, const PartitionPla
 
   // Every tet's record as the cell's data on rank 0, in blocks of kBlock bytes (the section
   // counts blocks, and the star forest that moves them has one leaf per block: per byte it
-  // would take 12 bytes of graph for each byte moved). A record starts with its length.
+  // would take 12 bytes of graph for each byte moved). A record starts with its length. The
+  // records go in passes of at most pass_bytes (1 GiB unless a test asks for less) in all: PETSc 3.18's
+  // DMPlexDistributeData sizes a rank's receive buffer as an int number of bytes, so no rank may receive 2 GiB or more
+  // in one call.
   constexpr std::size_t kBlock = 64;
   Lookup lk;
   if (root) lk = make_lookup(*g);
-  PetscSection section = nullptr;
-  check(PetscSectionCreate(comm, &section), "PetscSectionCreate");
-  PetscInt p_start = 0, p_end = 0;
-  check(DMPlexGetChart(dm, &p_start, &p_end), "DMPlexGetChart");
-  check(PetscSectionSetChart(section, p_start, p_end), "PetscSectionSetChart");
   std::string data;
+  std::vector<std::uint64_t> record_at;
+  std::vector<int> pass_start{0};  // the passes' first tets, then nt
   if (root) {
-    std::vector<std::uint64_t> record_at(std::size_t(nt) + 1);
+    record_at.resize(std::size_t(nt) + 1);
     for (int t = 0; t < nt; ++t) {
       record_at[t] = data.size();
       const std::string r = tet_record(*g, *plan, lk, t);
@@ -374,16 +369,15 @@ RankModel distribute_with_plex(MPI_Comm comm, const Model* g, const PartitionPla
       data.append(reinterpret_cast<const char*>(&n), sizeof n);
       data += r;
       data.resize((data.size() + kBlock - 1) / kBlock * kBlock, '\0');
+      if (data.size() - record_at[pass_start.back()] > pass_bytes && t > pass_start.back()) pass_start.push_back(t);
     }
     record_at[nt] = data.size();
-    if (data.size() / kBlock > std::uint64_t(std::numeric_limits<PetscInt>::max()))
-      throw InputError("distribution through DMPlex: the model's " + std::to_string(data.size() >> 20) +
-                       " MiB of tet data exceed this PETSc's " + std::to_string(8 * sizeof(PetscInt)) +
-                       "-bit indices. Fix: partition first (fdem partition) and run with --partitioned");
-    for (int t = 0; t < nt; ++t)
-      check(PetscSectionSetDof(section, t, PetscInt((record_at[t + 1] - record_at[t]) / kBlock)), "dof");
+    pass_start.push_back(nt);
   }
-  check(PetscSectionSetUp(section), "PetscSectionSetUp");
+  int passes = int(pass_start.size()) - 1;
+  MPI_Bcast(&passes, 1, MPI_INT, 0, comm);
+  pass_start.resize(std::size_t(passes) + 1);
+  MPI_Bcast(pass_start.data(), passes + 1, MPI_INT, 0, comm);
 
   // Distribute: the shell partition, overlap 1, and the cell data along the migration.
   // (One rank: DMPlexDistribute leaves the plex where it is, and the data stays too.)
@@ -392,43 +386,60 @@ RankModel distribute_with_plex(MPI_Comm comm, const Model* g, const PartitionPla
   check(DMPlexDistribute(dm, 1, &migration, &dist), "DMPlexDistribute");
   if (size > 1 && (!dist || !migration))
     throw RunError("distribution through DMPlex: DMPlexDistribute returned no distributed plex");
-  PetscSection arrived_section = section;
-  void* arrived = data.data();
-  if (dist) {
-    MPI_Datatype block;
-    MPI_Type_contiguous(int(kBlock), MPI_BYTE, &block);
-    MPI_Type_commit(&block);
-    check(PetscSectionCreate(comm, &arrived_section), "PetscSectionCreate");
-    arrived = nullptr;
-    check(DMPlexDistributeData(dm, migration, section, block, data.data(), arrived_section, &arrived),
-          "DMPlexDistributeData");
-    MPI_Type_free(&block);
-    data = {};
-  }
+  PetscInt p_start = 0, p_end = 0, c_start = 0, c_end = 0;
+  check(DMPlexGetChart(dm, &p_start, &p_end), "DMPlexGetChart");
+  check(DMPlexGetHeightStratum(dist ? dist : dm, 0, &c_start, &c_end), "DMPlexGetHeightStratum");
+  MPI_Datatype block;
+  MPI_Type_contiguous(int(kBlock), MPI_BYTE, &block);
+  MPI_Type_commit(&block);
   Piece piece;
-  {
-    PetscInt c_start = 0, c_end = 0;
-    check(DMPlexGetHeightStratum(dist ? dist : dm, 0, &c_start, &c_end), "DMPlexGetHeightStratum");
+  long records = 0;
+  for (int k = 0; k < passes; ++k) {
+    PetscSection section = nullptr;
+    check(PetscSectionCreate(comm, &section), "PetscSectionCreate");
+    check(PetscSectionSetChart(section, p_start, p_end), "PetscSectionSetChart");
+    char* first = data.data();
+    if (root) {
+      first += record_at[pass_start[k]];
+      for (int t = pass_start[k]; t < pass_start[k + 1]; ++t)
+        check(PetscSectionSetDof(section, t, PetscInt((record_at[t + 1] - record_at[t]) / kBlock)), "dof");
+    }
+    check(PetscSectionSetUp(section), "PetscSectionSetUp");
+    PetscSection arrived_section = section;
+    void* arrived = first;
+    if (dist) {
+      check(PetscSectionCreate(comm, &arrived_section), "PetscSectionCreate");
+      arrived = nullptr;
+      check(DMPlexDistributeData(dm, migration, section, block, first, arrived_section, &arrived),
+            "DMPlexDistributeData");
+    }
     for (PetscInt c = c_start; c < c_end; ++c) {
       PetscInt dof = 0, off = 0;
       check(PetscSectionGetDof(arrived_section, c, &dof), "PetscSectionGetDof");
+      if (dof <= 0) continue;  // in another pass
       check(PetscSectionGetOffset(arrived_section, c, &off), "PetscSectionGetOffset");
       const char* at = static_cast<const char*>(arrived) + std::size_t(off) * kBlock;
       std::uint64_t n = 0;
-      if (dof > 0) std::memcpy(&n, at, sizeof n);
-      if (dof <= 0 || n + sizeof n > std::size_t(dof) * kBlock)
-        throw RunError("distribution through DMPlex: a cell arrived without its tet record");
+      std::memcpy(&n, at, sizeof n);
+      if (n + sizeof n > std::size_t(dof) * kBlock)
+        throw RunError("distribution through DMPlex: a damaged tet record arrived (" + std::to_string(n) +
+                       " bytes in " + std::to_string(dof * kBlock) + ")");
       read_record(at + sizeof n, n, piece);
+      ++records;
     }
+    if (dist) {
+      PetscFree(arrived);
+      PetscSectionDestroy(&arrived_section);
+    }
+    PetscSectionDestroy(&section);
   }
+  MPI_Type_free(&block);
+  const long n_cells = long(c_end - c_start);
   if (dist) {
-    PetscFree(arrived);
-    PetscSectionDestroy(&arrived_section);
     PetscSFDestroy(&migration);
     DMDestroy(&dist);
   }
   data = {};
-  PetscSectionDestroy(&section);
   DMDestroy(&dm);
   PetscPopErrorHandler();
 
@@ -481,6 +492,21 @@ RankModel distribute_with_plex(MPI_Comm comm, const Model* g, const PartitionPla
   in.get(extras);
   in.finish();
   for (const std::string& r : extras) read_record(r.data(), r.size(), piece);
+  // Every rank checks what it received, and all stop together if one lacks something.
+  long held = 0;
+  for (const TetRec& t : piece.tets) held += std::binary_search(t.held.begin(), t.held.end(), rank);
+  std::string problem;
+  if (records != n_cells)
+    problem =
+        std::to_string(n_cells - records) + " of the plex's " + std::to_string(n_cells) + " cells came without data";
+  else if (held != h.held)
+    problem = "received " + std::to_string(held) + " of the " + std::to_string(h.held) + " tets its model holds";
+  int bad = problem.empty() ? size : rank;  // the lowest rank with a problem names it
+  MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MIN, comm);
+  if (bad < size)
+    throw RunError("distribution through DMPlex: rank " + std::to_string(bad) + " " +
+                   (problem.empty() ? std::string("failed its check") : problem) +
+                   ". Fix: run with --distribute root, or partition first (fdem partition)");
   RankModel rm = cut_piece(piece, h, rank);
   long v[3] = {h.held - long(extras.size()), long(extras.size()), extra_cells};
   MPI_Allreduce(MPI_IN_PLACE, v, 3, MPI_LONG, MPI_SUM, comm);

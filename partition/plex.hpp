@@ -4,6 +4,8 @@
 // arrived. PETSc does this and nothing else. See docs/architecture.md, "Multi-rank runs".
 #include <mpi.h>
 
+#include <cstdint>
+
 #include "partition/partition.hpp"
 
 namespace fdem {
@@ -28,8 +30,10 @@ struct PlexReport {
 /// out of the piece that arrived: the result equals extract_rank(global, plan, rank) field for
 /// field. RunError naming the step when PETSc fails or a held tet did not arrive; InputError
 /// where fdem was built without PETSc.
+/// The tet data goes in passes of at most pass_bytes (PETSc 3.18 counts a rank's received bytes
+/// in an int); tests pass a few kilobytes to make many passes.
 RankModel distribute_with_plex(MPI_Comm comm, const Model* global, const PartitionPlan* plan,
-                               PlexReport* report = nullptr);
+                               PlexReport* report = nullptr, std::uint64_t pass_bytes = std::uint64_t(1) << 30);
 
 /// Finalises PETSc if distribute_with_plex initialised it (call before MPI_Finalize).
 void plex_finalize();

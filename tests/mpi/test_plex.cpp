@@ -238,6 +238,10 @@ TEST_P(PlexDistribute, GivesEveryRankTheModelOfTheCut) {
   EXPECT_EQ(plex.model.ce6_nodes.size(), cut.model.ce6_nodes.size());
   EXPECT_EQ(plex.dd.neighbours.size(), cut.dd.neighbours.size());
   EXPECT_TRUE(bytes_of(plex) == bytes_of(cut)) << "the rank model, field for field";
+  // The tet data in passes of 16 kB (a few dozen tets each): the same model.
+  const RankModel passes =
+      distribute_with_plex(MPI_COMM_WORLD, rank == 0 ? &global : nullptr, rank == 0 ? &plan : nullptr, nullptr, 16384);
+  EXPECT_TRUE(bytes_of(passes) == bytes_of(cut)) << "in passes";
 
   long held = 0;
   for (int t = 0; t < int(part.size()); ++t) held += long(plan.held[t].size());
