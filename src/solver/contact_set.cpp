@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "core/error.hpp"
+#include "core/format.hpp"
 #include "core/gather.hpp"
 #include "io/checkpoint.hpp"
 
@@ -132,7 +133,8 @@ void ContactSet::check_reach(const Model& m, const std::vector<Vec3>& x, const s
                        std::to_string(reach_) +
                        " m of the partition: partners "
                        "beyond the reach, which this rank does not hold, could touch it. Fix: partition with a "
-                       "larger reach (--contact-reach of fdem run or fdem partition) or run on fewer ranks");
+                       "larger reach (--contact-reach of fdem run or fdem partition, e.g. --contact-reach " +
+                       fmt(std::max(2 * reach_, 4 * std::sqrt(dot(d, d))), 3) + ") or run on fewer ranks");
     }
   }
 }

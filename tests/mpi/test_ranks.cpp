@@ -372,6 +372,10 @@ TEST(Ranks, ContactReachGuardStopsARunBeforeAPartnerIsMissed) {
     if (world_size() > 1) {
       EXPECT_NE(message.find("contact reach"), std::string::npos) << backend << ": " << message;
       EXPECT_NE(message.find("--contact-reach"), std::string::npos) << backend << ": " << message;
+      // A value to try: at least twice the reach, and four times the distance moved.
+      const std::size_t at = message.find("e.g. --contact-reach ");
+      ASSERT_NE(at, std::string::npos) << message;
+      EXPECT_GE(std::stod(message.substr(at + 21)), 2e-4) << message;
     } else {
       EXPECT_EQ(message, "") << backend;
     }
