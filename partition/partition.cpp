@@ -119,7 +119,18 @@ std::vector<int> partition_tets(const Model& m, int parts, PartitionWeights weig
 }
 
 real default_reach(const Model& m, const Scene& s) {
-  return s.contact.enabled() ? 2 * m.mean_edge : 0;
+  if (!s.contact.enabled()) return 0;
+  // The platen travel by the end (axial strain x height, or velocity x time, whichever ends the
+  // run first): the specimen's loaded end moves that far, and the run stops once a node has
+  // moved half the reach.
+  real travel = 0;
+  const EndCondition& end = s.solver.end;
+  if (end.axial_strain > 0) travel = end.axial_strain * m.height0;
+  if (s.platens.enabled && end.time > 0) {
+    const real by_time = s.platens.velocity * end.time;
+    travel = travel > 0 ? std::min(travel, by_time) : by_time;
+  }
+  return std::max(2 * m.mean_edge, 2.5 * travel);
 }
 
 PartitionPlan plan_partition(const Model& g, const std::vector<int>& part, real reach) {

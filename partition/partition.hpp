@@ -101,7 +101,10 @@ struct PieceIds {
 };
 RankModel extract_rank(const Model& piece, const PartitionPlan& plan, int rank, const PieceIds& ids);
 
-/// The default contact reach: two mean edge lengths (0 without contact).
+/// The default contact reach (0 without contact): two mean edge lengths, or 2.5 times the
+/// platen travel by the end of the run where the scene's end condition bounds it (axial strain
+/// x height, platen velocity x time), whichever is larger, so that a run to its end condition
+/// does not meet the reach guard through the platen's motion alone.
 real default_reach(const Model& m, const Scene& s);
 
 /// A hash of every scene value the model build uses (mesh, material density and elasticity,

@@ -173,8 +173,8 @@ int run_main(int argc, char** argv) {
   for (auto* sub : {run, partition})
     sub->add_option("--contact-reach", contact_reach,
                     "m: each rank also holds the tets within this distance of its own (reference positions), "
-                    "for contact across ranks; the run stops if a node moves half of it (default: two mean edge "
-                    "lengths with contact)")
+                    "for contact across ranks; the run stops if a node moves half of it (default with contact: two "
+                    "mean edge lengths, or 2.5 times the platen travel to the end condition if larger)")
         ->check(CLI::PositiveNumber);
 
   std::string sigma3;

@@ -463,6 +463,30 @@ TEST(Ranks, ContactGhostsAreTheTetsWithinTheReachOfAnotherRanksTets) {
   }
 }
 
+TEST(Ranks, DefaultContactReachCoversThePlatenTravelToTheEnd) {
+  // Two mean edges, or 2.5 times the platen travel by the end condition (the guard stops a run
+  // once a node has moved half the reach): axial strain x height, velocity x time, the smaller.
+  Scene scene = box_scene();
+  scene.contact.activation = "adaptive";
+  const Model g = build_model(structured_box_mesh({0.01, 0.01, 0.02}, 3, 3, 6), scene);
+  const real edges = 2 * g.mean_edge;
+  scene.solver.end = {};
+  EXPECT_EQ(default_reach(g, scene), edges) << "no bound on the travel";
+  scene.solver.end.axial_strain = 0.01;  // 0.2 mm of travel: the edges rule
+  EXPECT_EQ(default_reach(g, scene), edges);
+  scene.solver.end.axial_strain = 0.5;  // 10 mm
+  EXPECT_DOUBLE_EQ(default_reach(g, scene), 2.5 * 0.5 * g.height0);
+  EXPECT_GT(default_reach(g, scene), edges);
+  scene.platens.velocity = 0.1, scene.solver.end.time = 0.05;  // 5 mm by time, before the strain
+  EXPECT_DOUBLE_EQ(default_reach(g, scene), 2.5 * 0.005);
+  scene.solver.end.axial_strain = 0;
+  EXPECT_DOUBLE_EQ(default_reach(g, scene), 2.5 * 0.005);
+  scene.platens.enabled = false;  // no platen: no travel to bound
+  EXPECT_EQ(default_reach(g, scene), edges);
+  scene.contact.activation = "none";
+  EXPECT_EQ(default_reach(g, scene), 0);
+}
+
 TEST(Ranks, PartitionIsBalancedAndCoversEveryTet) {
   const Scene scene = box_scene();
   const Model global = build_model(structured_box_mesh({0.01, 0.01, 0.02}, 4, 4, 8), scene);
