@@ -42,7 +42,7 @@ __global__ void __launch_bounds__(kBlock) forall_kernel(int n, Body body) {
 
 constexpr int kMaxBlocks = 1024;  // of a reduction: the grid-stride loops cover the rest
 
-// out[k] += the block's sums, summed by a tree in shared memory; thread 0 holds them.
+// The block's sums of acc by a fixed tree in shared memory: part[k][0] afterwards.
 template <int N>
 __device__ inline void block_sum(real (&part)[N][kBlock], const real (&acc)[N]) {
   for (int k = 0; k < N; ++k) part[k][threadIdx.x] = acc[k];
@@ -101,19 +101,23 @@ __global__ void __launch_bounds__(kBlock) max_kernel(int n, Body body, real* out
   for (int k = 0; k < N; ++k) atomic_max(&out[k], acc[k]);
 }
 
-/// A small device buffer for the sums, allocated once per thread of the host program.
-real* sum_buffer();
-/// The block sums of a reduction (kMaxBlocks x 16 values) and its ticket counter (zeroed at
-/// allocation), once per thread of the host program and device.
-struct SumScratch {
-  real* partials;
-  unsigned* ticket;
+/// A device's reduction buffers, allocated at the first use (once per thread of the host
+/// program and device): the sums of CudaExec::sum and the maxima (16 values), the block sums
+/// of a reduction (kMaxBlocks x 16) and its ticket counter (zeroed), and the cached block of
+/// ThrustScratch.
+struct DeviceScratch {
+  real* sums = nullptr;
+  real* partials = nullptr;
+  unsigned* ticket = nullptr;
+  char* thrust = nullptr;
+  std::size_t thrust_bytes = 0;
+  bool thrust_busy = false;
 };
-SumScratch sum_scratch();
+DeviceScratch& device_scratch();
 
 /// Thrust's temporary memory (sort, scan) through device::allocate, so device::peak_bytes
-/// counts it, and kept between calls: one block per host thread and device grows to the
-/// largest request, so a broad phase whose pairs stopped growing allocates nothing.
+/// counts it, and kept between calls (DeviceScratch::thrust): the block grows to the largest
+/// request, so a broad phase whose pairs stopped growing allocates nothing.
 struct ThrustScratch {
   using value_type = char;
   char* allocate(std::ptrdiff_t bytes);
@@ -139,7 +143,7 @@ struct CudaExec {
     static_assert(N <= 16, "at most 16 sums per pass");
     std::array<real, N> out{};
     if (n <= 0) return out;
-    real* buf = cuda_detail::sum_buffer();
+    real* buf = cuda_detail::device_scratch().sums;
     cuda_check(cudaMemsetAsync(buf, 0, N * sizeof(real)), "cudaMemsetAsync");
     sum_to<N>(n, body, buf);
     cuda_check(cudaMemcpy(out.data(), buf, N * sizeof(real), cudaMemcpyDeviceToHost), "cudaMemcpy of sums");
@@ -149,7 +153,7 @@ struct CudaExec {
   static void sum_to(int n, Body body, real* out) {
     static_assert(N <= 16, "at most 16 sums per pass");
     if (n <= 0) return;
-    const cuda_detail::SumScratch scratch = cuda_detail::sum_scratch();
+    const cuda_detail::DeviceScratch& scratch = cuda_detail::device_scratch();
     cuda_detail::sum_kernel<N>
         <<<cuda_detail::reduction_blocks(n), cuda_detail::kBlock>>>(n, body, out, scratch.partials, scratch.ticket);
     check_launch();
@@ -160,7 +164,7 @@ struct CudaExec {
     std::array<real, N> out;
     out.fill(-INFINITY);
     if (n <= 0) return out;
-    real* buf = cuda_detail::sum_buffer();
+    real* buf = cuda_detail::device_scratch().sums;
     cuda_check(cudaMemcpy(buf, out.data(), N * sizeof(real), cudaMemcpyHostToDevice), "cudaMemcpy");
     cuda_detail::max_kernel<N><<<cuda_detail::reduction_blocks(n), cuda_detail::kBlock>>>(n, body, buf);
     check_launch();

@@ -105,71 +105,48 @@ double copy_bandwidth(std::size_t bytes) {
 }  // namespace cuda_impl
 
 namespace cuda_detail {
-real* sum_buffer() {
+DeviceScratch& device_scratch() {
   // One per host thread and device: a buffer is used on the device it was allocated on.
-  static thread_local real* buf[64] = {};
+  static thread_local DeviceScratch scratch[64];
   int dev = 0;
   cuda_check(cudaGetDevice(&dev), "cudaGetDevice");
   if (dev < 0 || dev >= 64) throw RunError("CUDA: device " + std::to_string(dev) + " is beyond the 64 fdem supports");
-  if (!buf[dev]) cuda_check(cudaMalloc(&buf[dev], 16 * sizeof(real)), "cudaMalloc of the sum buffer");
-  return buf[dev];
+  DeviceScratch& s = scratch[dev];
+  if (!s.sums) {
+    cuda_check(cudaMalloc(&s.sums, 16 * sizeof(real)), "cudaMalloc of the sum buffer");
+    cuda_check(cudaMalloc(&s.partials, kMaxBlocks * 16 * sizeof(real)), "cudaMalloc of the reduction scratch");
+    cuda_check(cudaMalloc(&s.ticket, sizeof(unsigned)), "cudaMalloc of the reduction ticket");
+    cuda_check(cudaMemset(s.ticket, 0, sizeof(unsigned)), "cudaMemset of the reduction ticket");
+  }
+  return s;
 }
-
-namespace {
-struct CachedScratch {
-  char* p = nullptr;
-  std::size_t bytes = 0;
-  bool busy = false;
-};
-CachedScratch& cached_scratch() {
-  static thread_local CachedScratch cache[64];
-  int dev = 0;
-  cuda_check(cudaGetDevice(&dev), "cudaGetDevice");
-  if (dev < 0 || dev >= 64) throw RunError("CUDA: device " + std::to_string(dev) + " is beyond the 64 fdem supports");
-  return cache[dev];
-}
-}  // namespace
 
 char* ThrustScratch::allocate(std::ptrdiff_t bytes) {
   const std::size_t n = bytes > 0 ? std::size_t(bytes) : 1;
-  CachedScratch& c = cached_scratch();
-  if (c.busy)  // a second request while the block is lent: its own allocation
+  DeviceScratch& c = device_scratch();
+  if (c.thrust_busy)  // a second request while the block is lent: its own allocation
     return static_cast<char*>(device::allocate(Backend::cuda, n));
-  if (n > c.bytes) {
-    device::release(Backend::cuda, c.p, c.bytes);
-    c.p = nullptr, c.bytes = 0;
-    c.p = static_cast<char*>(device::allocate(Backend::cuda, n));
-    c.bytes = n;
+  if (n > c.thrust_bytes) {
+    device::release(Backend::cuda, c.thrust, c.thrust_bytes);
+    c.thrust = nullptr, c.thrust_bytes = 0;
+    c.thrust = static_cast<char*>(device::allocate(Backend::cuda, n));
+    c.thrust_bytes = n;
   }
-  c.busy = true;
-  return c.p;
+  c.thrust_busy = true;
+  return c.thrust;
 }
 
 void ThrustScratch::deallocate(char* p, std::size_t bytes) noexcept {
   try {
-    CachedScratch& c = cached_scratch();
-    if (p == c.p) {
-      c.busy = false;
+    DeviceScratch& c = device_scratch();
+    if (p == c.thrust) {
+      c.thrust_busy = false;
       return;
     }
   } catch (...) {
     return;  // the device cannot be asked: p may be the cached block, so it is not freed
   }
   device::release(Backend::cuda, p, bytes > 0 ? bytes : 1);
-}
-
-SumScratch sum_scratch() {
-  static thread_local SumScratch scratch[64] = {};
-  int dev = 0;
-  cuda_check(cudaGetDevice(&dev), "cudaGetDevice");
-  if (dev < 0 || dev >= 64) throw RunError("CUDA: device " + std::to_string(dev) + " is beyond the 64 fdem supports");
-  SumScratch& s = scratch[dev];
-  if (!s.partials) {
-    cuda_check(cudaMalloc(&s.partials, kMaxBlocks * 16 * sizeof(real)), "cudaMalloc of the reduction scratch");
-    cuda_check(cudaMalloc(&s.ticket, sizeof(unsigned)), "cudaMalloc of the reduction ticket");
-    cuda_check(cudaMemset(s.ticket, 0, sizeof(unsigned)), "cudaMemset of the reduction ticket");
-  }
-  return s;
 }
 }  // namespace cuda_detail
 
