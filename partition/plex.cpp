@@ -7,10 +7,8 @@
 #include <petscsf.h>
 
 #include <algorithm>
-#include <climits>
 #include <cstdint>
 #include <cstring>
-#include <limits>
 #include <map>
 #include <string>
 #include <unordered_map>
@@ -23,6 +21,13 @@
 
 namespace fdem {
 
+void require_plex() {
+  if (!plex_available())
+    throw InputError(
+        "--distribute plex: this fdem was built without PETSc. Fix: --distribute root, or fdem partition and "
+        "--partitioned, or build with PETSc (apt-get install petsc-dev)");
+}
+
 #if !FDEM_HAVE_PETSC
 
 bool plex_available() {
@@ -30,10 +35,8 @@ bool plex_available() {
 }
 
 RankModel distribute_with_plex(MPI_Comm, const Model*, const PartitionPlan*, PlexReport*, std::uint64_t) {
-  throw InputError(
-      "distribution through DMPlex: this fdem was built without PETSc. Fix: run with --distribute root, or "
-      "partition first (fdem partition) and run with --partitioned, or build with PETSc (apt-get install "
-      "petsc-dev)");
+  require_plex();
+  return {};
 }
 
 void plex_finalize() {}
@@ -337,13 +340,11 @@ RankModel distribute_with_plex(MPI_Comm comm, const Model* g, const PartitionPla
   check(DMPlexGetPartitioner(dm, &partitioner), "DMPlexGetPartitioner");
   check(PetscPartitionerSetType(partitioner, PETSCPARTITIONERSHELL), "PetscPartitionerSetType");
   std::vector<PetscInt> sizes(size, 0), points;
-  if (root) {
-    std::vector<std::vector<PetscInt> > by_rank(size);
-    for (int t = 0; t < nt; ++t) by_rank[plan->part[t]].push_back(t);
-    for (int r = 0; r < size; ++r) {
-      sizes[r] = PetscInt(by_rank[r].size());
-      points.insert(points.end(), by_rank[r].begin(), by_rank[r].end());
-    }
+  if (root) {  // the tets rank by rank
+    std::vector<int> ptr, list;
+    bucket(plan->part, std::size_t(size), ptr, list);
+    for (int r = 0; r < size; ++r) sizes[r] = ptr[r + 1] - ptr[r];
+    points.assign(list.begin(), list.end());
   }
   check(PetscPartitionerShellSetPartition(partitioner, size, sizes.data(), points.data()),
         "PetscPartitionerShellSetPartition");
@@ -351,9 +352,9 @@ RankModel distribute_with_plex(MPI_Comm comm, const Model* g, const PartitionPla
   // Every tet's record as the cell's data on rank 0, in blocks of kBlock bytes (the section
   // counts blocks, and the star forest that moves them has one leaf per block: per byte it
   // would take 12 bytes of graph for each byte moved). A record starts with its length. The
-  // records go in passes of at most pass_bytes (1 GiB unless a test asks for less) in all: PETSc 3.18's
-  // DMPlexDistributeData sizes a rank's receive buffer as an int number of bytes, so no rank may receive 2 GiB or more
-  // in one call.
+  // records go in passes of at most pass_bytes (1 GiB unless a test asks for less): PETSc
+  // 3.18's DMPlexDistributeData sizes a rank's receive buffer as an int number of bytes, so
+  // no rank may receive 2 GiB or more in one call.
   constexpr std::size_t kBlock = 64;
   Lookup lk;
   if (root) lk = make_lookup(*g);

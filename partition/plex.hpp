@@ -12,6 +12,8 @@ namespace fdem {
 
 /// Whether this fdem was built with PETSc (FDEM_ENABLE_PETSC, found by pkg-config).
 bool plex_available();
+/// InputError naming --distribute plex and the fixes unless plex_available().
+void require_plex();
 
 /// What a distribution moved, summed over the ranks (for the run log and the tests).
 struct PlexReport {
@@ -28,8 +30,8 @@ struct PlexReport {
 /// ghosts are geometric (tets within the reach, a separate body too), not a topological
 /// overlap, so those the plex did not bring are sent beside it. Each rank then cuts its model
 /// out of the piece that arrived: the result equals extract_rank(global, plan, rank) field for
-/// field. RunError naming the step when PETSc fails or a held tet did not arrive; InputError
-/// where fdem was built without PETSc.
+/// field. RunError naming the step when PETSc fails or a held tet did not arrive; require_plex's
+/// InputError where fdem was built without PETSc.
 /// The tet data goes in passes of at most pass_bytes (PETSc 3.18 counts a rank's received bytes
 /// in an int); tests pass a few kilobytes to make many passes.
 RankModel distribute_with_plex(MPI_Comm comm, const Model* global, const PartitionPlan* plan,

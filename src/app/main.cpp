@@ -145,8 +145,8 @@ int run_main(int argc, char** argv) {
   std::string partitioned;
   double contact_reach = 0;
   run->add_option("--partitioned", partitioned,
-                  "Folder of rank files written by fdem partition (one per MPI rank): no mesh reading, model build "
-                  "or METIS at start");
+                  "Folder of rank files written by fdem partition (one per MPI rank): no mesh reading, model build, "
+                  "METIS or PETSc at start");
   std::string distribute;
   run->add_option("--distribute", distribute,
                   "Several ranks without --partitioned: how rank 0's model reaches the ranks. plex: METIS's "
@@ -301,10 +301,7 @@ int run_main(int argc, char** argv) {
     // sends every rank its part): the other ranks never hold the whole model. (A failure on
     // rank 0 ends the job, MPI_Abort.)
     const bool plex = distribute.empty() ? fdem::plex_available() : distribute == "plex";
-    if (plex && !fdem::plex_available())
-      throw fdem::InputError(
-          "--distribute plex: this fdem was built without PETSc. Fix: --distribute root, or "
-          "fdem partition and --partitioned, or build with PETSc (apt-get install petsc-dev)");
+    if (plex) fdem::require_plex();  // before rank 0 spends minutes on the model
     const std::uint64_t key = fdem::model_key(scene);
     fdem::RankModel mine;
     if (plex) {
