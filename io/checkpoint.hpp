@@ -86,6 +86,8 @@ class CheckpointIn {
     v.resize(n);
     for (std::string& s : v) get(s);
   }
+  /// Bytes not read yet.
+  std::size_t remaining() const { return buf_.size() - pos_; }
   /// Throws unless every byte was read (a payload from another layout).
   void finish() const {
     if (pos_ != buf_.size()) fail(std::to_string(buf_.size() - pos_) + " bytes left over");

@@ -98,7 +98,8 @@ void Halo::follow_flags(const std::uint8_t* sent, const std::uint8_t* received) 
     if (grown_.empty()) grown_.assign(nbs.size(), 0);
     grown_[i] = 1;
     // The decomposition's lists and the corners of the active shared tets: this rank's to
-    // send, the neighbour's to receive; in local (= global) order, once each.
+    // send, the neighbour's to receive; in global order (the local order, except for contact
+    // ghosts appended by a growth, partition/grow.hpp), once each.
     std::vector<int> s = nbs[i].send_nodes, r = nbs[i].recv_nodes;
     for (std::size_t j = 0; j < shared.size(); ++j) {
       if (sent[flag_off_[i] + j] != 1 && received[flag_off_[i] + j] != 1) continue;
@@ -108,8 +109,9 @@ void Halo::follow_flags(const std::uint8_t* sent, const std::uint8_t* received) 
         if (theirs_[i][j] >> c & 1) r.push_back(n);
       }
     }
+    const std::vector<long>& global = dd_->node_global;
     for (auto* list : {&s, &r}) {
-      std::sort(list->begin(), list->end());
+      std::sort(list->begin(), list->end(), [&](int a, int b) { return global[a] < global[b]; });
       list->erase(std::unique(list->begin(), list->end()), list->end());
     }
     send_list_[i].swap(s);

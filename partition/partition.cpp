@@ -118,6 +118,14 @@ std::vector<int> partition_tets(const Model& m, int parts, PartitionWeights weig
   return part;
 }
 
+void append_tet(Model& m, const std::array<int, 4>& nodes, int input, const Mat3& Xinv, real V0, real eta) {
+  m.tet_nodes.push_back(nodes);
+  m.tet_input.push_back(input);
+  m.tet_Xinv.push_back(Xinv);
+  m.tet_V0.push_back(V0);
+  m.tet_eta.push_back(eta);
+}
+
 real default_reach(const Model& m, const Scene& s) {
   if (!s.contact.enabled()) return 0;
   // The platen travel by the end (axial strain x height, or velocity x time, whichever ends the
@@ -481,7 +489,9 @@ void write_rank_file(const std::string& path, const RankModel& rm, std::uint64_t
 
 RankModel read_rank_file(const std::string& path, std::uint64_t key) {
   CheckpointIn in = read_checkpoint(path);
-  return get_rank_model(in, key);
+  RankModel rm = get_rank_model(in, key);
+  in.finish();
+  return rm;
 }
 
 RankModel get_rank_model(CheckpointIn& in, std::uint64_t key) {
@@ -499,7 +509,6 @@ RankModel get_rank_model(CheckpointIn& in, std::uint64_t key) {
   Model& m = rm.model;
   model_fields([&](auto& v) { in.get(v); }, m);
   rm.dd.load(in);
-  in.finish();
   // Indices must stay inside their arrays (a damaged or hand-edited file must not crash the run).
   const std::size_t nn = m.X.size(), nt = m.tet_nodes.size();
   auto bad = [&](const char* what) {

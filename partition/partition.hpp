@@ -7,8 +7,9 @@
 // (tets sharing a mesh vertex with one of its own), and, with contact, every tet whose
 // reference box comes within `reach` of one of its own (contact ghosts: a separate body
 // across the boundary too); their nodes; and every CE6 whose two tets it keeps. Contact is
-// exact while no node has moved more than reach/2 from its reference position (two tets
-// further apart than reach cannot touch before); the contact set checks that at each build.
+// exact while no node has moved reach/2 from where the contact ghosts were planned (two tets
+// further apart than reach cannot touch before): the solver gathers them again with the
+// current positions once a node has moved reach/4 (partition/grow.hpp).
 // With the ghost layer every element acting on an owned node is present, so a rank computes
 // the complete force on each node it owns: no force is sent back. After each step the owners
 // send the positions and velocities of their nodes to the ranks that read them (the nodes of
@@ -101,6 +102,10 @@ struct PieceIds {
 };
 RankModel extract_rank(const Model& piece, const PartitionPlan& plan, int rank, const PieceIds& ids);
 
+/// Appends a tet (its nodes by local id, its input index and reference data) to m's tet arrays
+/// (the pieces of the DMPlex distribution and the grown contact ghosts are built this way).
+void append_tet(Model& m, const std::array<int, 4>& nodes, int input, const Mat3& Xinv, real V0, real eta);
+
 /// The default contact reach (0 without contact): two mean edge lengths, or 2.5 times the
 /// platen travel by the end of the run where the scene's end condition bounds it (axial strain
 /// x height, platen velocity x time), whichever is larger, so that a run to its end condition
@@ -117,7 +122,8 @@ std::uint64_t model_key(const Scene& s);
 void write_rank_file(const std::string& path, const RankModel& rm, std::uint64_t key);
 /// InputError naming the file when it is damaged, not a rank file, or made for another scene (key).
 RankModel read_rank_file(const std::string& path, std::uint64_t key);
-/// The same contents in a checkpoint payload (rank 0 sends each rank its model this way).
+/// The same contents in a checkpoint payload (rank 0 sends each rank its model this way; a
+/// checkpoint holds it after the contact ghosts grew); get_rank_model reads it and stops there.
 void put_rank_model(CheckpointOut& out, const RankModel& rm, std::uint64_t key);
 RankModel get_rank_model(CheckpointIn& in, std::uint64_t key);
 

@@ -266,11 +266,7 @@ RankModel cut_piece(Piece& p, const Header& h, int rank) {
     ids.tet.push_back(t.id);
     std::array<int, 4> q;
     for (int k = 0; k < 4; ++k) q[k] = node_local.at(t.nodes[k]);
-    m.tet_nodes.push_back(q);
-    m.tet_input.push_back(t.input);
-    m.tet_Xinv.push_back(t.Xinv);
-    m.tet_V0.push_back(t.V0);
-    m.tet_eta.push_back(t.eta);
+    append_tet(m, q, t.input, t.Xinv, t.V0, t.eta);
     plan.part.push_back(t.part);
     plan.held.push_back(t.held);
   }

@@ -337,6 +337,7 @@ int run_main(int argc, char** argv) {
     } else {
       fdem::CheckpointIn in(fdem::receive_bytes(MPI_COMM_WORLD, 0), "the model part sent by rank 0");
       mine = fdem::get_rank_model(in, key);
+      in.finish();
     }
     model = std::move(mine.model);
     dd = std::move(mine.dd);

@@ -62,10 +62,12 @@ ContactSet::ContactSet(const Model& m, const Scene& s) {
 }
 
 void ContactSet::set_ownership(const std::vector<std::uint8_t>* node_owned, const std::vector<std::uint8_t>* tet_owned,
-                               real reach) {
+                               const std::vector<long>* tet_global, real reach, const std::vector<Vec3>& plan_x) {
   node_owned_ = node_owned;
   tet_owned_ = tet_owned;
+  tet_global_ = tet_global;
   reach_ = reach;
+  plan_x_ = plan_x;
 }
 
 void ContactSet::flags_changed() {
@@ -116,25 +118,26 @@ bool ContactSet::moved_too_far(const std::vector<Vec3>& x) const {
   return far != 0;
 }
 
-void ContactSet::check_reach(const Model& m, const std::vector<Vec3>& x, const std::vector<int>& ids) const {
+void ContactSet::check_reach(const Model& m, const std::vector<Vec3>& x) const {
   if (!tet_owned_) return;
-  // A rank holds the tets within reach_ of its own (reference configuration): a tet it lacks
-  // can touch one of its own only after some node has moved reach_/2.
+  // A rank holds the tets within reach_ of its own at plan_x_: a tet it lacks can touch one of
+  // its own only after some node has moved reach_/2 from there. The contact ghosts are gathered
+  // again once a node has moved a quarter of the reach (Solver::step); a node that moved half
+  // the reach in the steps since outran that.
   const real lim2 = 0.25 * reach_ * reach_;
-  for (int t : ids) {
+  for (std::size_t t = 0; t < m.tet_nodes.size(); ++t) {
     if (!(*tet_owned_)[t]) continue;
     for (int n : m.tet_nodes[t]) {
-      const Vec3 d = x[n] - m.X[n];
+      const Vec3 d = x[n] - plan_x_[n];
       if (dot(d, d) >= lim2)
         throw RunError("tet-tet contact across ranks: a node of tet #" + std::to_string(m.tet_input[t] + 1) +
-                       " has moved " + std::to_string(std::sqrt(dot(d, d))) +
-                       " m from its reference position, "
-                       "half the contact reach " +
-                       std::to_string(reach_) +
-                       " m of the partition: partners "
-                       "beyond the reach, which this rank does not hold, could touch it. Fix: partition with a "
-                       "larger reach (--contact-reach of fdem run or fdem partition, e.g. --contact-reach " +
-                       fmt(std::max(2 * reach_, 4 * std::sqrt(dot(d, d))), 3) + ") or run on fewer ranks");
+                       " has moved " + fmt(std::sqrt(dot(d, d)), 3) +
+                       " m since the contact ghosts were last gathered, half the contact reach " + fmt(reach_, 3) +
+                       " m or more: partners beyond the reach, which this rank does not hold, could have touched "
+                       "it. Fix: a larger reach (--contact-reach of fdem run or fdem partition, e.g. "
+                       "--contact-reach " +
+                       fmt(std::max(2 * reach_, 4 * std::sqrt(dot(d, d))), 3) +
+                       "; it must exceed twice the distance a node moves in a step), or fewer ranks");
     }
   }
 }
@@ -145,7 +148,6 @@ void ContactSet::rebuild(const Model& m, const std::vector<Vec3>& x) {
   ids.reserve(active_count_);
   for (int t = 0; t < nt; ++t)
     if (active_[t]) ids.push_back(t);
-  check_reach(m, x, ids);
   std::vector<Aabb> boxes(nt);
   const real half = 0.5 * buffer_;
   const int na = int(ids.size());
@@ -336,15 +338,17 @@ void ContactSet::save(CheckpointOut& out) const {
   out.put(gather_slot_);
   out.put(spring);
   out.put(times);
+  out.put(plan_x_);
 }
 
-void ContactSet::load(CheckpointIn& in) {
+void ContactSet::load(CheckpointIn& in, const std::vector<std::uint8_t>* appended) {
   bool enabled = false;
   in.get(enabled);
   if (enabled != enabled_) in.mismatch("contact.activation differs: 'none' in one of them");
   if (!enabled_) return;
-  const std::size_t nt = active_.size();
+  const std::size_t nt = active_.size(), nn = plan_x_.size();
   in.get(active_);
+  if (appended) active_.insert(active_.end(), appended->begin(), appended->end());
   if (active_.size() != nt)
     in.mismatch("tet count " + std::to_string(active_.size()) + ", the model has " + std::to_string(nt));
   in.get(active_count_);
@@ -360,7 +364,16 @@ void ContactSet::load(CheckpointIn& in) {
   in.get(gather_slot_);
   in.get(spring);
   in.get(times);
+  in.get(plan_x_);
   if (spring.size() != pairs_.size() || eval_.size() != pairs_.size()) in.mismatch("inconsistent contact pair arrays");
+  if (appended) {
+    // The new tets are candidates only after a build; the caller sets the new plan positions.
+    active_count_ = std::count(active_.begin(), active_.end(), 1);
+    dirty_ = true;
+  } else if (plan_x_.size() != nn) {
+    in.mismatch("node count " + std::to_string(plan_x_.size()) + " of the contact reach, the model has " +
+                std::to_string(nn));
+  }
 }
 
 }  // namespace fdem

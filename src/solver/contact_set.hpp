@@ -61,11 +61,22 @@ class ContactSet {
 
   /// A rank's part of a decomposed model (partition/): energies, powers and counts then take
   /// node terms of owned nodes and pairs whose first tet is owned. The rank holds every tet
-  /// within `reach` (m, reference configuration) of its own; each build checks that no node of
-  /// an owned active tet has moved reach/2 or more, so no partner it lacks can touch. The
-  /// vectors must outlive the set.
+  /// within `reach` (m) of its own at the node positions `plan_x` (the reference configuration
+  /// at the start, the positions of the last growth of the contact ghosts after one,
+  /// partition/grow.hpp); each build checks that no node of an owned active tet has moved
+  /// reach/2 or more from there, so no partner it lacks can touch. The vectors must outlive
+  /// the set.
+  /// A pair counts on the owner of its tet of lower global id (tet_global; the local order is
+  /// the global one except for contact ghosts appended by a growth).
   void set_ownership(const std::vector<std::uint8_t>* node_owned, const std::vector<std::uint8_t>* tet_owned,
-                     real reach);
+                     const std::vector<long>* tet_global, real reach, const std::vector<Vec3>& plan_x);
+  /// Several ranks: throws RunError, naming the tet and a reach to try, when a node of an owned
+  /// tet has moved half the contact reach from plan_x (a partner this rank lacks could have
+  /// touched it).
+  void check_reach(const Model& m, const std::vector<Vec3>& x) const;
+  /// The node positions the reach counts from (empty on one rank); set_plan(x) after a growth.
+  const std::vector<Vec3>& plan_x() const { return plan_x_; }
+  void set_plan(const std::vector<Vec3>& x) { plan_x_ = x; }
   /// The activation flags, for the exchange between ranks; call flags_changed() after raising any.
   std::vector<std::uint8_t>& active_flags() { return active_; }
   void flags_changed();
@@ -86,23 +97,28 @@ class ContactSet {
 
   /// Everything that changes during a run (flags, pairs, springs, the last forces and the
   /// broad phase's watch list), so a restarted run continues bit for bit.
+  /// With `appended`, the state of a set whose model has these tets' flags appended (the
+  /// contact ghosts grew): the saved flags are extended with them and the pairs rebuilt at the
+  /// next evaluation.
   void save(CheckpointOut& out) const;
-  void load(CheckpointIn& in);
+  void load(CheckpointIn& in, const std::vector<std::uint8_t>* appended = nullptr);
 
  private:
   template <class>
   friend class DeviceLoopImpl;  // the device loop's narrow phase works on these arrays
   void rebuild(const Model& m, const std::vector<Vec3>& x);
-  /// Several ranks: throws RunError when a node of an owned tet among `ids` has moved half the
-  /// contact reach from its reference position (a partner this rank lacks could touch it).
-  void check_reach(const Model& m, const std::vector<Vec3>& x, const std::vector<int>& ids) const;
   bool moved_too_far(const std::vector<Vec3>& x) const;
 
   const std::vector<std::uint8_t>* node_owned_ = nullptr;
   const std::vector<std::uint8_t>* tet_owned_ = nullptr;
   real reach_ = 0;
+  std::vector<Vec3> plan_x_;
   bool node_counts(int n) const { return !node_owned_ || (*node_owned_)[n]; }
-  bool pair_counts(const ContactPair& p) const { return !tet_owned_ || (*tet_owned_)[p.a]; }
+  const std::vector<long>* tet_global_ = nullptr;
+  bool pair_counts(const ContactPair& p) const {
+    if (!tet_owned_) return true;
+    return (*tet_owned_)[tet_global_ && (*tet_global_)[p.b] < (*tet_global_)[p.a] ? p.b : p.a];
+  }
 
   bool enabled_ = false;
   real penalty_ = 0, mu_ = 0, buffer_ = 0;

@@ -34,6 +34,8 @@ struct AdvanceSums {
   real contact_power = 0;   // -sum f.v of the last contact forces with the new velocities, W
   real pressure_power = 0;  // the same for the confining pressure, W
   real gravity_power = 0;   // sum m g.v with the new velocities, W
+  real far = 0;             // owned nodes a quarter of the contact reach from ContactSet::plan_x()
+  real lost = 0;            // owned nodes half the contact reach from there
 };
 
 class DeviceLoop {

@@ -65,6 +65,12 @@ FDEM_HD real max3(real a, real b, real c) {
 }
 }  // namespace device_build
 
+/// The tet of a pair whose owner counts it: the one of lower global id (tg: global ids, null on
+/// one rank, where the local order is the global one).
+FDEM_HD int first_tet(const ContactPair& p, const long* tg) {
+  return tg && tg[p.b] < tg[p.a] ? p.b : p.a;
+}
+
 template <class Exec>
 class DeviceLoopImpl final : public DeviceLoop {
  public:
@@ -74,9 +80,10 @@ class DeviceLoopImpl final : public DeviceLoop {
         lat_face_, lat_node_, node_vertex_, vt_ptr_, vt_tets_, watch_nodes_, gather_node_, gather_ptr_, gather_slot_,
         lateral_nodes_);
     set(Xinv_, V0_, eta_, ce6_h_, mass_, inv_mass_, platen_k_, sums_);
-    set(X_, x_, v_, f_, anchor_, fixed_v_, lat_force_, watch_x_, spring_, pair_force_);
+    set(X_, plan_x_, x_, v_, f_, anchor_, fixed_v_, lat_force_, watch_x_, spring_, pair_force_);
     set(ce6_, broke_, active_, mid_third_, own_node_, own_tet_, own_ce6_, pairs_, eval_);
-    set(flags_, offsets_, counts_, entry_offsets_, head_, head_offsets_, cell_start_, cell_counts_, cell_offsets_);
+    set(tet_global_, flags_, offsets_, counts_, entry_offsets_, head_, head_offsets_, cell_start_, cell_counts_,
+        cell_offsets_);
     set(ids_, tet_ce6_, ce6_tets_, boxes_, entries_, node_slots_, next_pairs_, next_spring_);
     set(halo_send_node_, halo_send_x_, halo_send_v_, halo_recv_node_, halo_recv_x_, halo_recv_v_, halo_flag_tet_,
         halo_send_, halo_recv_, flag_send_, flag_recv_);
@@ -106,6 +113,10 @@ class DeviceLoopImpl final : public DeviceLoop {
       platen_k_.upload(s.platen_k_);
       node_vertex_.upload(m.node_vertex);
       X_.upload(m.X);
+      if (s.dd_.distributed() && s.contacts.enabled()) {
+        plan_x_.upload(s.contacts.plan_x());
+        tet_global_.upload(s.dd_.tet_global);
+      }
       lateral_nodes_.upload(m.lateral_nodes);
       own_node_.upload(s.own_node_);
       own_tet_.upload(s.own_tet_);
@@ -243,7 +254,9 @@ class DeviceLoopImpl final : public DeviceLoop {
     kKinetic2,
     kConPowerNew,
     kPressurePowerNew,
-    kGravityNew,  // integration
+    kGravityNew,
+    kFar,
+    kLost,  // integration
     kSums = 24
   };
 
@@ -390,6 +403,7 @@ class DeviceLoopImpl final : public DeviceLoop {
       Vec3* pf = pair_force_.data();
       Vec3* spring = spring_.data();
       const real P = cs.penalty_, mu_rock = cs.mu_, dt = s.dt_;
+      const long* tg = tet_global_.size() > 0 ? tet_global_.data() : nullptr;
       Exec::template sum_to<1>(
           np,
           [=] FDEM_LAMBDA(int k, real* acc) {
@@ -403,7 +417,7 @@ class DeviceLoopImpl final : public DeviceLoop {
             Vec3 xa[4], xb[4], fa[4], fb[4];
             for (int i = 0; i < 4; ++i) xa[i] = x[tn[4 * cp.a + i]], xb[i] = x[tn[4 * cp.b + i]];
             ev[k] = contact_tet_pair(xa, xb, P, fa, fb);
-            if (ev[k].weight > 0 && own_t[cp.a]) acc[0] += 1;
+            if (ev[k].weight > 0 && own_t[first_tet(cp, tg)]) acc[0] += 1;
             for (int i = 0; i < 4; ++i) fp[i] = fa[i], fp[4 + i] = fb[i];
           },
           sums + kTouching);
@@ -424,7 +438,7 @@ class DeviceLoopImpl final : public DeviceLoop {
             }
             const real k_t = contact_tangential_stiffness(xa, xb, P);
             const real d = contact_friction(xa, xb, va, vb, ev[k], mu_rock, k_t, dt, spring[k], fa, fb);
-            if (own_t[cp.a]) {
+            if (own_t[first_tet(cp, tg)]) {
               acc[0] += d;
               acc[1] += 0.5 * k_t * dot(spring[k], spring[k]);
             }
@@ -560,6 +574,21 @@ class DeviceLoopImpl final : public DeviceLoop {
           v[n][d] = fv[i][d];
         }
     });
+    if (s.halo_ && s.contacts.enabled() && s.dd_.reach > 0) {
+      // Owned nodes a quarter of the contact reach from where the contact ghosts were last
+      // gathered (time to gather them again), and half the reach (too late: Solver::step).
+      const Vec3* px = plan_x_.data();
+      const real lim2 = 0.0625 * s.dd_.reach * s.dd_.reach;
+      Exec::template sum_to<2>(
+          int(x_.size()),
+          [=] FDEM_LAMBDA(int n, real* acc) {
+            if (!own_n[n]) return;
+            const Vec3 d = x[n] - px[n];
+            if (dot(d, d) >= lim2) acc[0] += 1;
+            if (dot(d, d) >= 4 * lim2) acc[1] += 1;
+          },
+          sums + kFar);
+    }
     t0 = lap(t0, t_.integrate);
     if (s.halo_) halo_update(s);  // ghosts take their owners' new positions and velocities
     if (s.contacts.enabled()) contact_power(v, sums + kConPowerNew);
@@ -577,7 +606,8 @@ class DeviceLoopImpl final : public DeviceLoop {
     ++t_.steps;
     AdvanceSums out;
     out.bad = r[kBad], out.kinetic2 = r[kKinetic2], out.contact_power = r[kConPowerNew];
-    out.pressure_power = r[kPressurePowerNew], out.gravity_power = r[kGravityNew];
+    out.pressure_power = r[kPressurePowerNew], out.gravity_power = r[kGravityNew], out.far = r[kFar];
+    out.lost = r[kLost];
     return out;
   }
 
@@ -665,10 +695,11 @@ class DeviceLoopImpl final : public DeviceLoop {
     if (s.contacts.enabled()) {
       const std::uint8_t* active = active_.data();
       const ContactPair* pairs = pairs_.data();
+      const long* tg = tet_global_.size() > 0 ? tet_global_.data() : nullptr;
       out[14] = Exec::template sum<1>(int(active_.size()),
                                       [=] FDEM_LAMBDA(int t, real* acc) { acc[0] += active[t] == 1 && own_t[t]; })[0];
-      out[15] = Exec::template sum<1>(int(pairs_.size()),
-                                      [=] FDEM_LAMBDA(int k, real* acc) { acc[0] += own_t[pairs[k].a]; })[0];
+      out[15] = Exec::template sum<1>(
+          int(pairs_.size()), [=] FDEM_LAMBDA(int k, real* acc) { acc[0] += own_t[first_tet(pairs[k], tg)]; })[0];
     }
     t_.monitor += seconds_since(t0);
     return out;
@@ -761,28 +792,7 @@ class DeviceLoopImpl final : public DeviceLoop {
       if (active[t] == 1) ids[of[t]] = t;
     });
 
-    // Several ranks: a rank holds the tets within the contact reach of its own; stop before a
-    // node of an owned active tet has moved half the reach (the host names it and the fix).
     const std::uint8_t* own_n = own_node_.data();
-    if (s.dd_.distributed()) {
-      const std::uint8_t* own_t = own_tet_.data();
-      const Vec3* X = X_.data();
-      const real lim2 = 0.25 * s.dd_.reach * s.dd_.reach;
-      const real far = Exec::template sum<1>(na, [=] FDEM_LAMBDA(int k, real* acc) {
-        if (!own_t[ids[k]]) return;
-        for (int i = 0; i < 4; ++i) {
-          const int n = tn[4 * ids[k] + i];
-          const Vec3 d = x[n] - X[n];
-          if (dot(d, d) >= lim2) acc[0] += 1;
-        }
-      })[0];
-      if (far > 0) {
-        x_.download(s.x);
-        std::vector<int> host_ids(na);
-        ids_.download(host_ids.data());
-        cs.check_reach(m, s.x, host_ids);
-      }
-    }
     const bool all_owned = !s.dd_.distributed();
 
     // Boxes inflated by half the buffer.
@@ -1193,6 +1203,7 @@ class DeviceLoopImpl final : public DeviceLoop {
   bool constants_ = false, timing_ = false, tet_ce6_ready_ = false;
   bool pairs_on_host_ = true;  // the host ContactSet holds the current pair list and indices
   // The broad phase's scratch arrays (kept between builds, so they are allocated once).
+  DeviceArray<long> tet_global_;  // several ranks with contact: a pair counts by its tet of lower global id
   DeviceArray<long> flags_, offsets_, counts_, entry_offsets_, head_, head_offsets_, cell_start_, cell_counts_,
       cell_offsets_;
   DeviceArray<int> ids_, tet_ce6_, ce6_tets_;
@@ -1217,7 +1228,7 @@ class DeviceLoopImpl final : public DeviceLoop {
       gather_slot_, lateral_nodes_;
   DeviceArray<Mat3> Xinv_;
   DeviceArray<real> V0_, eta_, ce6_h_, mass_, inv_mass_, platen_k_, sums_;
-  DeviceArray<Vec3> X_, x_, v_, f_, anchor_, fixed_v_, lat_force_, watch_x_, spring_, pair_force_;
+  DeviceArray<Vec3> X_, plan_x_, x_, v_, f_, anchor_, fixed_v_, lat_force_, watch_x_, spring_, pair_force_;
   DeviceArray<Ce6State> ce6_;
   DeviceArray<std::uint8_t> broke_, active_, mid_third_, own_node_, own_tet_, own_ce6_;
   DeviceArray<ContactPair> pairs_;

@@ -199,6 +199,20 @@ void write_frame(FieldWriter& w, const Solver& s, const std::string& label) {
 }
 
 void write_frame(FieldWriter& w, const Solver& s, const FrameState& f, const std::string& label) {
+  if (f.x.size() < s.x.size() || f.ce6.size() < s.ce6.size() ||
+      (!f.active.empty() && f.active.size() < s.model().tet_nodes.size())) {
+    // The contact ghosts grew since the frame was kept: the ghosts appended since take their
+    // present state (this rank writes its own tets only, and their nodes are the old ones).
+    s.sync_host();
+    FrameState g = f;
+    g.x.insert(g.x.end(), s.x.begin() + f.x.size(), s.x.end());
+    g.v.insert(g.v.end(), s.v.begin() + f.v.size(), s.v.end());
+    g.ce6.insert(g.ce6.end(), s.ce6.begin() + f.ce6.size(), s.ce6.end());
+    if (!g.active.empty())
+      g.active.insert(g.active.end(), s.contacts.active().begin() + f.active.size(), s.contacts.active().end());
+    write_frame(w, s, g, label);
+    return;
+  }
   write_frame(w, s, f.time, f.step, f.x, f.v, f.ce6, f.active.empty() ? nullptr : &f.active, label);
 }
 
@@ -705,7 +719,8 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
   };
   SignalGuard signals;
   long pair_growth_seen = 0;  // device backends: growths of the contact pair buffers reported so far
-  int pending_request = 0;    // several ranks: a signal waits for the next monitor row
+  GhostGrowths growths_seen = solver.ghost_growths();  // several ranks: contact ghosts gathered again
+  int pending_request = 0;                             // several ranks: a signal waits for the next monitor row
   if (options.restart.empty()) {
     mon = solver.measure();
     csv.put(monitor_row(mon));
@@ -724,6 +739,13 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
           pair_growth_seen = d->times().pair_growth;  // the buffers grow by half each time
           log << "device: contact pair buffers grew to hold " << mon.contact_pairs << " pairs (device memory "
               << fmt(double(device::bytes_in_use()) / 1e6, 4) << " MB)" << std::endl;
+        }
+        if (const GhostGrowths& g = solver.ghost_growths(); g.count != growths_seen.count) {
+          log << "contact ghosts: gathered again " << g.count - growths_seen.count << " time(s) by step " << g.step
+              << " (a node had moved a quarter of the contact reach " << solver.decomposition().reach << " m), "
+              << g.tets - growths_seen.tets << " tets added to the rank models ("
+              << fmt(g.seconds - growths_seen.seconds, 3) << " s)" << std::endl;
+          growths_seen = g;
         }
         csv.f.flush();
         if (!csv.f) throw OutputError("cannot write " + csv_path + " (disk full or file removed?)");

@@ -11,6 +11,7 @@
 #include "core/format.hpp"
 #include "core/gather.hpp"
 #include "io/checkpoint.hpp"
+#include "partition/grow.hpp"
 #include "physics/integrate.hpp"
 #include "physics/platen.hpp"
 #include "physics/tet4.hpp"
@@ -20,6 +21,15 @@ namespace fdem {
 
 Solver::Solver(const Scene& scene, Model model, Decomposition dd, MPI_Comm comm)
     : scene_(scene), model_(std::move(model)), dd_(std::move(dd)), comm_(comm) {
+  setup();
+  compute_forces();  // on the host; the first step uploads the state
+  backend_ = parse_backend(scene_.solver.backend, scene_.file + ": solver.backend");
+  if (backend_ != Backend::cpu) {
+    dev_ = make_device_loop(backend_, *this);
+  }
+}
+
+void Solver::setup() {
   const Material& mat = scene_.material;
   const SolverSettings& sol = scene_.solver;
   if (sol.threads > 0) omp_set_num_threads(sol.threads);
@@ -73,7 +83,7 @@ Solver::Solver(const Scene& scene, Model model, Decomposition dd, MPI_Comm comm)
     own_ce6_.assign(model_.ce6_nodes.size(), 1);
   }
   contacts = ContactSet(model_, scene_);
-  if (dd_.distributed()) contacts.set_ownership(&own_node_, &own_tet_, dd_.reach);
+  if (dd_.distributed()) contacts.set_ownership(&own_node_, &own_tet_, &dd_.tet_global, dd_.reach, model_.X);
   ce6_broke_.assign(model_.ce6_nodes.size(), 0);
   inv_mass_.resize(nn);
   for (std::size_t n = 0; n < nn; ++n) inv_mass_[n] = 1 / model_.mass[n];
@@ -93,6 +103,7 @@ Solver::Solver(const Scene& scene, Model model, Decomposition dd, MPI_Comm comm)
   ramp_ = scene_.platens.ramp_time > 0 ? scene_.platens.ramp_time : 10 * model_.height0 / c;
   confine_ramp_ = scene_.confinement.ramp_time > 0 ? scene_.confinement.ramp_time : 10 * model_.height0 / c;
   hydrostatic_ = scene_.confinement.path == "hydrostatic";
+  lateral_faces_.clear();
   if (scene_.confinement.enabled) {
     // Lateral faces: surface faces not lying on the top or bottom end.
     std::vector<char> top(model_.X.size(), 0), bottom(model_.X.size(), 0);
@@ -109,11 +120,43 @@ Solver::Solver(const Scene& scene, Model model, Decomposition dd, MPI_Comm comm)
   for (std::size_t t = 0; t < model_.tet_V0.size(); ++t) volume += own_tet_[t] * model_.tet_V0[t];
   sum(&volume, 1);
   energy_floor_ = 1e-3 * mat.tensile_strength * mat.tensile_strength / (2 * mat.youngs_modulus) * volume;
-  compute_forces();  // on the host; the first step uploads the state
-  backend_ = parse_backend(sol.backend, scene_.file + ": solver.backend");
-  if (backend_ != Backend::cpu) {
-    dev_ = make_device_loop(backend_, *this);
-  }
+}
+
+void Solver::grow_contact_ghosts() {
+  const double t0 = MPI_Wtime();
+  sync_host();
+  GhostState now;
+  now.x = x, now.v = v, now.ce6 = ce6, now.active = contacts.active();
+  GrownRank g = fdem::grow_contact_ghosts(comm_, model_, dd_, now);
+  CheckpointOut kept;
+  save_state(kept);
+  // The grown layout: every derived array, the halo, the contact set and the device loop
+  // afresh; then the state, extended by the ghosts' (the time step stays the one of the run).
+  dev_.reset();
+  halo_.reset();
+  model_ = std::move(g.rm.model);
+  dd_ = std::move(g.rm.dd);
+  const real dt = dt_;
+  const StableStep stable = stable_;
+  setup();
+  dt_ = dt, stable_ = stable;
+  CheckpointIn in(kept.payload(), "the state before the contact ghosts grew");
+  load_state(in, &g.added);
+  in.finish();
+  contacts.set_plan(x);  // the reach counts from here
+  ++growth_.count;
+  growth_.tets += g.added_total;
+  growth_.step = step_;
+  restart_device();
+  growth_.seconds += MPI_Wtime() - t0;
+}
+
+void Solver::restart_device() {
+  if (backend_ == Backend::cpu) return;
+  dev_ = make_device_loop(backend_, *this);
+  dev_->upload(*this);
+  device_current_ = true;
+  host_current_ = true;
 }
 
 void Solver::sync_host() const {
@@ -247,6 +290,7 @@ void Solver::prescribe(int node, int mask, Vec3 velocity) {
 void Solver::compute_forces() {
   if (dev_ && device_current_) {
     dev_->compute_forces(*this);
+    host_current_ = false;  // the forces (and after a growth of the contact ghosts, more) changed there
     return;
   }
   const Model& m = model_;
@@ -460,7 +504,8 @@ std::string Solver::instability_advice() const {
          fmt(s.mass_scaling, 3) + ")";
 }
 
-void Solver::advance_host(real dt, long& bad_out, real& ke_out, real& w_con, real& w_pre, real& w_grav) {
+void Solver::advance_host(real dt, long& bad_out, real& ke_out, real& w_con, real& w_pre, real& w_grav, real& far_out,
+                          real& lost_out) {
   const int nn = int(x.size());
   long bad = 0;
   real ke = 0;
@@ -480,6 +525,20 @@ void Solver::advance_host(real dt, long& bad_out, real& ke_out, real& w_con, rea
         x[n][d] += dt * (fixed_velocity_[i][d] - v[n][d]);
         v[n][d] = fixed_velocity_[i][d];
       }
+  }
+  if (halo_ && contacts.enabled() && dd_.reach > 0) {
+    // Owned nodes a quarter of the contact reach from where the contact ghosts were gathered
+    // (time to gather them again), and half the reach (too late: step()).
+    const std::vector<Vec3>& px = contacts.plan_x();
+    const real lim2 = 0.0625 * dd_.reach * dd_.reach;
+    long far = 0, lost = 0;
+#pragma omp parallel for schedule(static) reduction(+ : far, lost)
+    for (int n = 0; n < nn; ++n) {
+      const Vec3 d = x[n] - px[n];
+      far += own_node_[n] && dot(d, d) >= lim2;
+      lost += own_node_[n] && dot(d, d) >= 4 * lim2;
+    }
+    far_out = real(far), lost_out = real(lost);
   }
   if (halo_) {  // ghosts take their owners' new positions and velocities
     const double t0 = MPI_Wtime();
@@ -528,23 +587,29 @@ void Solver::step() {
 
   long bad = 0;  // NaN passes through max(), so count non-finite nodes instead
   real ke = 0;   // for the runaway check of every step (the loop is memory-bound: this is free)
-  real w_con = 0, w_pre = 0, w_grav = 0;
+  real w_con = 0, w_pre = 0, w_grav = 0, far = 0, lost = 0;
   if (dev_) {
     host_current_ = false;
     const AdvanceSums a = dev_->advance(*this, dt);
     bad = long(a.bad);
     ke = a.kinetic2;
+    far = a.far, lost = a.lost;
     if (contacts.enabled()) w_con = 0.5 * dt * (p_contact_ + a.contact_power);
     if (scene_.confinement.enabled) w_pre = 0.5 * dt * (p_pressure_ + a.pressure_power);
     const Vec3 g = scene_.gravity;
     if (g.x != 0 || g.y != 0 || g.z != 0) w_grav = 0.5 * dt * (p_gravity_ + a.gravity_power);
   } else {
-    advance_host(dt, bad, ke, w_con, w_pre, w_grav);
+    advance_host(dt, bad, ke, w_con, w_pre, w_grav, far, lost);
   }
-  real sums[] = {real(bad), ke, w_con, w_pre, w_grav};
-  sum(sums, 5);
-  if (sums[0] > 0) sync_host();
+  real sums[] = {real(bad), ke, w_con, w_pre, w_grav, far, lost};
+  sum(sums, 7);
+  if (sums[0] > 0 || sums[6] > 0) sync_host();
   check_finite(long(sums[0]));
+  if (sums[6] > 0) {  // every rank stops: those with the node name it
+    contacts.check_reach(model_, x);
+    throw RunError("tet-tet contact across ranks: a node on another rank has moved half the contact reach " +
+                   fmt(dd_.reach, 3) + " m since the contact ghosts were last gathered (that rank names it)");
+  }
   ke = sums[1];
   w_contact_ += sums[2];
   w_external_ += sums[3] + sums[4];
@@ -553,6 +618,9 @@ void Solver::step() {
   top_offset += speed * dt;
   time_ += dt;
   ++step_;
+  // Several ranks: a node a quarter of the contact reach from where the contact ghosts were
+  // gathered (on any rank): every rank gathers them again, before the broad phase looks.
+  if (sums[5] > 0) grow_contact_ghosts();
   compute_forces();
   if (dev_ && dev_->backend() == Backend::debug) dev_->poison_host(*this);
 }
@@ -825,8 +893,15 @@ std::uint64_t physics_fingerprint(const Scene& s, const Model& m, real dt) {
 
 void Solver::save(CheckpointOut& out) const {
   sync_host();
+  // After the contact ghosts grew, the rank model is no longer the one the run started with.
+  out.put(growth_);
+  if (growth_.count > 0) put_rank_model(out, {model_, dd_}, 0);
   out.put(physics_fingerprint(scene_, model_, dt_));
   out.put(std::uint64_t(fixed_node_.size()));
+  save_state(out);
+}
+
+void Solver::save_state(CheckpointOut& out) const {
   out.put(step_);
   out.put(time_);
   out.put(top_offset);
@@ -847,12 +922,30 @@ void Solver::save(CheckpointOut& out) const {
 }
 
 void Solver::load(CheckpointIn& in) {
+  in.get(growth_);
+  if (growth_.count > 0) {  // the grown rank model replaces the one the run started with
+    RankModel rm = get_rank_model(in, 0);
+    if (!dd_.distributed() || rm.dd.rank != dd_.rank || rm.dd.size != dd_.size)
+      in.mismatch("a rank model of rank " + std::to_string(rm.dd.rank) + " of " + std::to_string(rm.dd.size));
+    dev_.reset();
+    halo_.reset();
+    model_ = std::move(rm.model);
+    dd_ = std::move(rm.dd);
+    setup();
+    if (backend_ != Backend::cpu) dev_ = make_device_loop(backend_, *this);
+  }
   std::uint64_t fp = 0, fixed = 0;
   in.get(fp);
   if (fp != physics_fingerprint(scene_, model_, dt_))
     in.mismatch("the mesh, the material, the loading, mass scaling or the time step differ");
   in.get(fixed);
   if (fixed != fixed_node_.size()) in.mismatch("a different set of prescribed nodes");
+  load_state(in);
+  host_current_ = true;
+  host_changed();
+}
+
+void Solver::load_state(CheckpointIn& in, const GhostState* appended) {
   in.get(step_);
   in.get(time_);
   in.get(top_offset);
@@ -863,6 +956,13 @@ void Solver::load(CheckpointIn& in) {
   in.get(ce6);
   in.get(ce6_broke_);
   in.get(platen_anchor);
+  if (appended) {  // the ghosts' state after the old layout's (forces: the next evaluation's)
+    x.insert(x.end(), appended->x.begin(), appended->x.end());
+    v.insert(v.end(), appended->v.begin(), appended->v.end());
+    f.resize(nn, Vec3{0, 0, 0});
+    ce6.insert(ce6.end(), appended->ce6.begin(), appended->ce6.end());
+    ce6_broke_.resize(nc, 0);
+  }
   if (x.size() != nn || v.size() != nn || f.size() != nn || ce6.size() != nc || ce6_broke_.size() != nc ||
       platen_anchor.size() != np)
     in.mismatch("node, CE6 or platen node counts differ");
@@ -873,10 +973,9 @@ void Solver::load(CheckpointIn& in) {
   for (real* r : scalars) in.get(*r);
   in.get(touching_);
   in.get(lateral_force_);
+  if (appended) lateral_force_.resize(nl, Vec3{0, 0, 0});  // faces of the ghosts: never owned
   if (lateral_force_.size() != nl) in.mismatch("the lateral surface differs");
-  contacts.load(in);
-  host_current_ = true;
-  host_changed();
+  contacts.load(in, appended ? &appended->active : nullptr);
 }
 
 }  // namespace fdem

@@ -22,6 +22,7 @@ namespace fdem {
 
 class CheckpointOut;
 class CheckpointIn;
+struct GhostState;
 
 /// One row of the monitor CSV (SI units; stresses and strains compression positive).
 struct Monitors {
@@ -39,6 +40,14 @@ struct Monitors {
   real lateral_stress = 0;
   real indirect_tensile = 0;  // Pa, 2 P / (pi D t) of a line-loaded disc (Brazilian test), else 0
   real energy_error = 0;      // |external - (everything else)| / max(external, floor)
+};
+
+/// Growths of the contact ghosts so far (several ranks, partition/grow.hpp).
+struct GhostGrowths {
+  long count = 0;      // how often every rank gathered its contact ghosts again
+  long tets = 0;       // tets added to the rank models, all ranks together
+  long step = -1;      // the step of the last growth
+  double seconds = 0;  // wall time of the gatherings and the set-ups of the grown layouts
 };
 
 struct StableStep {
@@ -66,6 +75,11 @@ class Solver {
   const std::vector<std::uint8_t>& owned_ce6() const { return own_ce6_; }
   /// Bytes and wall time of the node halo exchanges so far (0 on one rank).
   std::size_t halo_bytes_per_step() const { return halo_ ? halo_->node_bytes_sent() : 0; }
+  /// Several ranks with contact: the contact ghosts are gathered again, with the current
+  /// positions, at the end of a step in which an owned node (of any rank) has come a quarter
+  /// of the contact reach from where they were last gathered; the model() then holds the new
+  /// ghosts after the old ones (every local id keeps its meaning). Counts of that so far.
+  const GhostGrowths& ghost_growths() const { return growth_; }
   double halo_seconds() const { return halo_seconds_; }
 
   const Model& model() const { return model_; }
@@ -125,14 +139,28 @@ class Solver {
   friend class DeviceLoopImpl;  // the device loop's passes read and write this state
   /// Names the first inverted TET4 of the current state (host copy) and throws RunError.
   [[noreturn]] void report_inverted() const;
+  /// The constructor's work on model_ and dd_: the initial state and every derived array (the
+  /// halo, the contact set, masses, the stable step, the lateral faces); not the forces and
+  /// not the device loop.
+  void setup();
+  /// Every rank together: the contact ghosts gathered again (partition/grow.hpp) and the layout
+  /// set up for the grown rank model, the state carried over.
+  void grow_contact_ghosts();
+  /// A new device loop for the layout, with the host state uploaded (device backends).
+  void restart_device();
+  /// The evolving state in checkpoint order; load_state with `appended` reads a state saved
+  /// before the contact ghosts grew and appends the ghosts' state.
+  void save_state(CheckpointOut& out) const;
+  void load_state(CheckpointIn& in, const GhostState* appended = nullptr);
   void compute_forces();
   /// This rank's sums for a monitor row from the host state, in the order of
   /// DeviceLoop::measure_sums.
   std::array<real, 16> measure_sums_host() const;
   /// The CPU backend's integration: central difference, prescribed velocities, the halo, and
   /// this rank's sums (non-finite nodes, 2 x kinetic energy, the works of contact, pressure and
-  /// gravity over the step).
-  void advance_host(real dt, long& bad, real& ke, real& w_con, real& w_pre, real& w_grav);
+  /// gravity over the step, owned nodes a quarter and half the contact reach from
+  /// ContactSet::plan_x).
+  void advance_host(real dt, long& bad, real& ke, real& w_con, real& w_pre, real& w_grav, real& far, real& lost);
   StableStep stable_step_bound() const;
   void check_finite(long bad_nodes) const;
   /// Throws RunError when the kinetic energy ke (J) far exceeds the work put in.
@@ -185,6 +213,7 @@ class Solver {
   real energy_floor_ = 0;
   Backend backend_ = Backend::cpu;
   std::unique_ptr<DeviceLoop> dev_;
+  GhostGrowths growth_;
   bool device_current_ = false;       // the device arrays hold the newest state
   mutable bool host_current_ = true;  // the host copy holds it
 };

@@ -1,0 +1,379 @@
+#include "partition/grow.hpp"
+
+#include <algorithm>
+#include <cstring>
+#include <limits>
+#include <map>
+#include <string>
+#include <unordered_map>
+
+#include "contact/broad_phase.hpp"
+#include "core/error.hpp"
+#include "io/checkpoint.hpp"
+#include "partition/halo.hpp"
+
+namespace fdem {
+namespace {
+
+/// Byte strings to every rank of comm and from every rank (out[r] goes to rank r; the result's
+/// [r] came from rank r). Collective.
+std::vector<std::string> exchange_all(MPI_Comm comm, const std::vector<std::string>& out) {
+  const int size = size_of(comm);
+  std::vector<std::uint64_t> n_out(size), n_in(size);
+  for (int r = 0; r < size; ++r) n_out[r] = out[r].size();
+  MPI_Alltoall(n_out.data(), 1, MPI_UINT64_T, n_in.data(), 1, MPI_UINT64_T, comm);
+  std::vector<std::string> in(size);
+  std::vector<MPI_Request> req;
+  constexpr std::uint64_t kPiece = std::uint64_t(1) << 30;  // MPI counts are int
+  constexpr int kTag = 110;
+  for (int r = 0; r < size; ++r) {
+    in[r].resize(n_in[r]);
+    for (std::uint64_t at = 0; at < n_in[r]; at += kPiece) {
+      req.emplace_back();
+      MPI_Irecv(in[r].data() + at, int(std::min(kPiece, n_in[r] - at)), MPI_BYTE, r, kTag, comm, &req.back());
+    }
+  }
+  for (int r = 0; r < size; ++r)
+    for (std::uint64_t at = 0; at < n_out[r]; at += kPiece) {
+      req.emplace_back();
+      MPI_Isend(out[r].data() + at, int(std::min(kPiece, n_out[r] - at)), MPI_BYTE, r, kTag, comm, &req.back());
+    }
+  MPI_Waitall(int(req.size()), req.data(), MPI_STATUSES_IGNORE);
+  return in;
+}
+
+bool overlap(const Aabb& a, const Aabb& b) {
+  for (int d = 0; d < 3; ++d)
+    if (a.lo[d] > b.hi[d] || b.lo[d] > a.hi[d]) return false;
+  return true;
+}
+
+/// What a node brings along with a tet.
+struct NodeRec {
+  long id = 0;
+  Vec3 X{0, 0, 0}, x{0, 0, 0}, v{0, 0, 0};
+  real mass = 0;
+  std::uint8_t groups = 0;  // 1 top, 2 bottom, 4 lateral
+};
+struct Ce6Rec {
+  long id = 0, a = 0, b = 0;  // global ids of the CE6 and its tets (A side, B side)
+  std::array<long, 6> nodes{};
+  real h = 0;
+  Ce6State state{};
+};
+struct TetRec {
+  long id = 0;
+  int input = 0;
+  Mat3 Xinv{};
+  real V0 = 0, eta = 0;
+  std::uint8_t active = 0;
+  std::vector<int> holders;  // every rank holding it once this growth is done, ascending
+  std::array<long, 4> nodes{};
+  std::vector<std::array<long, 3>> faces;  // its surface faces
+};
+
+}  // namespace
+
+GrownRank grow_contact_ghosts(MPI_Comm comm, const Model& m, const Decomposition& dd, const GhostState& now) {
+  const int rank = dd.rank, size = dd.size;
+  const int nt = int(m.tet_nodes.size()), nn = int(m.X.size()), nc = int(m.ce6_nodes.size());
+  if (size_of(comm) != size || int(now.x.size()) != nn || int(now.v.size()) != nn || int(now.ce6.size()) != nc)
+    throw RunError("contact ghosts: the state does not match the rank model");
+  const bool flags = !now.active.empty();
+  const real half = 0.5 * dd.reach;
+
+  // 1. This rank's tets, boxed at the current positions and grown by half the reach (two boxes
+  // overlap when the tets come within the reach), and the bounds of all of them.
+  constexpr real kBig = std::numeric_limits<real>::max();
+  std::vector<Aabb> box(nt);
+  Aabb bounds{{kBig, kBig, kBig}, {-kBig, -kBig, -kBig}};
+  for (int t = 0; t < nt; ++t) {
+    if (!dd.tet_owned[t]) continue;
+    const auto& q = m.tet_nodes[t];
+    Aabb b{now.x[q[0]], now.x[q[0]]};
+    for (int n : q)
+      for (int d = 0; d < 3; ++d) b.lo[d] = std::min(b.lo[d], now.x[n][d]), b.hi[d] = std::max(b.hi[d], now.x[n][d]);
+    for (int d = 0; d < 3; ++d) {
+      b.lo[d] -= half, b.hi[d] += half;
+      bounds.lo[d] = std::min(bounds.lo[d], b.lo[d]), bounds.hi[d] = std::max(bounds.hi[d], b.hi[d]);
+    }
+    box[t] = b;
+  }
+  std::vector<Aabb> all_bounds(size);
+  MPI_Allgather(&bounds, int(sizeof(Aabb)), MPI_BYTE, all_bounds.data(), int(sizeof(Aabb)), MPI_BYTE, comm);
+
+  // 2. Each rank gets the boxes of this rank's tets that reach into its bounds.
+  std::vector<int> shell;  // own tets whose boxes went somewhere
+  std::vector<std::string> in;
+  {
+    std::vector<CheckpointOut> o(size);
+    for (int t = 0; t < nt; ++t) {
+      if (!dd.tet_owned[t]) continue;
+      bool sent = false;
+      for (int r = 0; r < size; ++r)
+        if (r != rank && overlap(box[t], all_bounds[r])) o[r].put(dd.tet_global[t]), o[r].put(box[t]), sent = true;
+      if (sent) shell.push_back(t);
+    }
+    std::vector<std::string> out(size);
+    for (int r = 0; r < size; ++r) out[r] = o[r].payload();
+    in = exchange_all(comm, out);
+  }
+
+  // 3. The received tets whose boxes overlap one of this rank's: the contact ghosts it needs.
+  std::vector<Aabb> boxes;
+  std::vector<long> id;
+  std::vector<int> from;
+  for (int t : shell) boxes.push_back(box[t]);
+  for (int r = 0; r < size; ++r) {
+    CheckpointIn rd(in[r], "the tet boxes from rank " + std::to_string(r));
+    while (rd.remaining() > 0) {
+      long g = 0;
+      Aabb b;
+      rd.get(g), rd.get(b);
+      boxes.push_back(b), id.push_back(g), from.push_back(r);
+    }
+  }
+  std::vector<int> ids(boxes.size());
+  for (std::size_t i = 0; i < ids.size(); ++i) ids[i] = int(i);
+  std::vector<std::array<int, 2>> pairs;
+  find_box_pairs(boxes, ids, 0, pairs);
+  std::unordered_map<long, int> tet_local;
+  for (int t = 0; t < nt; ++t) tet_local[dd.tet_global[t]] = t;
+  std::vector<std::vector<long>> want(size);
+  const int ns = int(shell.size());
+  for (const auto& p : pairs)  // (min, max): an own box and a received one
+    if (p[0] < ns && p[1] >= ns && !tet_local.count(id[p[1] - ns])) want[from[p[1] - ns]].push_back(id[p[1] - ns]);
+  std::vector<std::string> ask(size);
+  for (int r = 0; r < size; ++r) {
+    std::sort(want[r].begin(), want[r].end());
+    want[r].erase(std::unique(want[r].begin(), want[r].end()), want[r].end());
+    CheckpointOut w;
+    w.put(want[r]);
+    ask[r] = w.payload();
+  }
+  // Requests, every rank's to every rank (requests for tets a rank does not own are errors).
+  const std::vector<std::string> asked = exchange_all(comm, ask);
+
+  // 4. The owner's answer: each requested tet's record for the rank that asked, and to every
+  // other rank holding it already, who holds it now.
+  std::vector<std::vector<long>> asked_ids(size);
+  std::map<long, std::vector<int>> new_holders;  // own tet -> the ranks asking for it
+  for (int r = 0; r < size; ++r) {
+    CheckpointIn rd(asked[r], "the contact-ghost requests of rank " + std::to_string(r));
+    rd.get(asked_ids[r]);
+    for (long g : asked_ids[r]) {
+      auto it = tet_local.find(g);
+      if (it == tet_local.end() || !dd.tet_owned[it->second])
+        throw RunError("contact ghosts: rank " + std::to_string(r) + " asked rank " + std::to_string(rank) +
+                       " for tet " + std::to_string(g) + ", which it does not own");
+      new_holders[g].push_back(r);
+    }
+  }
+  std::vector<std::string> answer(size);
+  // Holders now of the own tets asked for: this rank, the neighbours sharing it, those asking.
+  std::unordered_map<long, std::vector<int>> own_holders;
+  {
+    for (const auto& [g, rs] : new_holders) own_holders[g] = {rank};
+    for (const Neighbour& nb : dd.neighbours)
+      for (int t : nb.shared_tets)
+        if (auto it = own_holders.find(dd.tet_global[t]); it != own_holders.end()) it->second.push_back(nb.rank);
+    std::vector<std::uint8_t> groups(nn, 0);
+    for (int n : m.top_nodes) groups[n] |= 1;
+    for (int n : m.bottom_nodes) groups[n] |= 2;
+    for (int n : m.lateral_nodes) groups[n] |= 4;
+    std::unordered_map<int, std::vector<int>> ce6_of, faces_of;  // only the requested tets'
+    for (const auto& [g, rs] : new_holders) ce6_of[tet_local[g]], faces_of[tet_local[g]];
+    for (int c = 0; c < nc; ++c)
+      for (int t : m.ce6_tets[c])
+        if (auto it = ce6_of.find(t); it != ce6_of.end()) it->second.push_back(c);
+    for (std::size_t i = 0; i < m.surface_tet.size(); ++i)
+      if (auto it = faces_of.find(m.surface_tet[i]); it != faces_of.end()) it->second.push_back(int(i));
+    std::vector<CheckpointOut> rec(size), upd(size);
+    std::vector<long> n_rec(size, 0), n_upd(size, 0);
+    for (auto& [g, asking] : new_holders) {
+      std::vector<int>& h = own_holders[g];
+      const std::vector<int> before = h;
+      h.insert(h.end(), asking.begin(), asking.end());
+      std::sort(h.begin(), h.end());
+      for (int r : before)
+        if (r != rank) upd[r].put(g), upd[r].put(h), ++n_upd[r];
+      const int t = tet_local[g];
+      for (int r : asking) {
+        CheckpointOut& o = rec[r];
+        ++n_rec[r];
+        o.put(g), o.put(m.tet_input[t]), o.put(m.tet_Xinv[t]), o.put(m.tet_V0[t]), o.put(m.tet_eta[t]);
+        o.put(std::uint8_t(flags ? now.active[t] : 0)), o.put(h);
+        for (int n : m.tet_nodes[t]) {
+          o.put(dd.node_global[n]), o.put(m.X[n]), o.put(m.mass[n]), o.put(now.x[n]);
+          o.put(now.v[n]), o.put(groups[n]);
+        }
+        o.put(std::uint64_t(ce6_of[t].size()));
+        for (int c : ce6_of[t]) {
+          o.put(dd.ce6_global[c]), o.put(dd.tet_global[m.ce6_tets[c][0]]), o.put(dd.tet_global[m.ce6_tets[c][1]]);
+          for (int n : m.ce6_nodes[c]) o.put(dd.node_global[n]);
+          o.put(m.ce6_h[c]), o.put(now.ce6[c]);
+        }
+        o.put(std::uint64_t(faces_of[t].size()));
+        for (int i : faces_of[t])
+          for (int n : m.surface_faces[i]) o.put(dd.node_global[n]);
+      }
+    }
+    for (int r = 0; r < size; ++r) {
+      CheckpointOut o;
+      o.put(n_rec[r]);
+      o.put(n_upd[r]);
+      answer[r] = o.payload() + rec[r].payload() + upd[r].payload();
+    }
+  }
+  const std::vector<std::string> got = exchange_all(comm, answer);
+
+  // 5. The records and the holder updates that arrived.
+  std::vector<TetRec> tets;
+  std::map<long, NodeRec> nodes;
+  std::map<long, Ce6Rec> ce6s;
+  std::unordered_map<long, std::vector<int>> updates;
+  for (int r = 0; r < size; ++r) {
+    CheckpointIn rd(got[r], "the contact ghosts from rank " + std::to_string(r));
+    long k_rec = 0, k_upd = 0;
+    rd.get(k_rec), rd.get(k_upd);
+    for (long k = 0; k < k_rec; ++k) {
+      TetRec t;
+      rd.get(t.id), rd.get(t.input), rd.get(t.Xinv), rd.get(t.V0), rd.get(t.eta), rd.get(t.active), rd.get(t.holders);
+      for (long& nid : t.nodes) {
+        NodeRec nr;
+        rd.get(nr.id), rd.get(nr.X), rd.get(nr.mass), rd.get(nr.x), rd.get(nr.v), rd.get(nr.groups);
+        nid = nr.id;
+        nodes.emplace(nr.id, nr);
+      }
+      std::uint64_t kc = 0;
+      rd.get(kc);
+      for (std::uint64_t j = 0; j < kc; ++j) {
+        Ce6Rec c;
+        rd.get(c.id), rd.get(c.a), rd.get(c.b);
+        for (long& nid : c.nodes) rd.get(nid);
+        rd.get(c.h), rd.get(c.state);
+        ce6s.emplace(c.id, c);
+      }
+      std::uint64_t kf = 0;
+      rd.get(kf);
+      t.faces.resize(kf);
+      for (auto& f : t.faces)
+        for (long& nid : f) rd.get(nid);
+      tets.push_back(std::move(t));
+    }
+    for (long k = 0; k < k_upd; ++k) {
+      long g = 0;
+      std::vector<int> h;
+      rd.get(g), rd.get(h);
+      updates[g] = std::move(h);
+    }
+    rd.finish();
+  }
+  std::sort(tets.begin(), tets.end(), [](const TetRec& a, const TetRec& b) { return a.id < b.id; });
+
+  // 6. The grown rank model: the old one, then the new nodes, tets, CE6s and faces, each in
+  // global order.
+  GrownRank out;
+  out.rm.model = m;
+  out.rm.dd = dd;
+  Model& gm = out.rm.model;
+  Decomposition& gd = out.rm.dd;
+  std::unordered_map<long, int> node_local;
+  for (int n = 0; n < nn; ++n) node_local[dd.node_global[n]] = n;
+  // Mesh vertices: a new node at the position of a held one shares its vertex (split nodes
+  // keep their vertex's reference position).
+  auto key_of = [](const Vec3& p) {
+    std::string k(sizeof(Vec3), '\0');
+    std::memcpy(k.data(), &p, sizeof(Vec3));
+    return k;
+  };
+  std::unordered_map<std::string, int> vertex_at;
+  int vertices = 0;
+  for (int n = 0; n < nn; ++n) {
+    vertex_at.emplace(key_of(m.X[n]), m.node_vertex[n]);
+    vertices = std::max(vertices, m.node_vertex[n] + 1);
+  }
+  for (const auto& [g, nr] : nodes) {
+    if (node_local.count(g)) continue;
+    const int n = int(gm.X.size());
+    node_local[g] = n;
+    gm.X.push_back(nr.X);
+    gm.mass.push_back(nr.mass);
+    auto vit = vertex_at.emplace(key_of(nr.X), vertices).first;
+    if (vit->second == vertices) ++vertices;
+    gm.node_vertex.push_back(vit->second);
+    if (nr.groups & 1) gm.top_nodes.push_back(n);
+    if (nr.groups & 2) gm.bottom_nodes.push_back(n);
+    if (nr.groups & 4) gm.lateral_nodes.push_back(n);
+    gd.node_global.push_back(g);
+    gd.node_owned.push_back(0);
+    out.added.x.push_back(nr.x);
+    out.added.v.push_back(nr.v);
+  }
+  // Holders of every tet held: the old ones from the shared lists, then the updates, then the
+  // new tets' records.
+  std::vector<std::vector<int>> holders(nt);
+  for (int t = 0; t < nt; ++t) holders[t] = {rank};
+  for (const Neighbour& nb : dd.neighbours)
+    for (int t : nb.shared_tets) holders[t].push_back(nb.rank);
+  for (auto* given : {&updates, &own_holders})
+    for (auto& [g, h] : *given) {
+      auto it = tet_local.find(g);
+      if (it == tet_local.end())
+        throw RunError("contact ghosts: rank " + std::to_string(rank) + " was told who holds tet " + std::to_string(g) +
+                       ", which it does not hold");
+      holders[it->second] = h;
+    }
+  for (TetRec& t : tets) {
+    const int i = int(gm.tet_nodes.size());
+    tet_local[t.id] = i;
+    std::array<int, 4> q;
+    for (int k = 0; k < 4; ++k) q[k] = node_local.at(t.nodes[k]);
+    append_tet(gm, q, t.input, t.Xinv, t.V0, t.eta);
+    gd.tet_global.push_back(t.id);
+    gd.tet_owned.push_back(0);
+    holders.push_back(std::move(t.holders));
+    out.added.active.push_back(t.active);
+    for (const auto& f : t.faces) {
+      gm.surface_faces.push_back({node_local.at(f[0]), node_local.at(f[1]), node_local.at(f[2])});
+      gm.surface_tet.push_back(i);
+    }
+  }
+  std::unordered_map<long, int> ce6_local;
+  for (int c = 0; c < nc; ++c) ce6_local[dd.ce6_global[c]] = c;
+  for (const auto& [g, c] : ce6s) {  // a CE6 whose two tets are both held now
+    if (ce6_local.count(g) || !tet_local.count(c.a) || !tet_local.count(c.b)) continue;
+    std::array<int, 6> q;
+    for (int k = 0; k < 6; ++k) q[k] = node_local.at(c.nodes[k]);
+    gm.ce6_nodes.push_back(q);
+    gm.ce6_tets.push_back({tet_local[c.a], tet_local[c.b]});
+    gm.ce6_h.push_back(c.h);
+    gd.ce6_global.push_back(g);
+    gd.ce6_owned.push_back(0);
+    out.added.ce6.push_back(c.state);
+  }
+  // The neighbours: node lists as before (the new ghosts are never computed here), shared
+  // tets from the holders, in global order.
+  std::vector<Neighbour> nb(size);
+  for (int r = 0; r < size; ++r) nb[r].rank = r;
+  for (const Neighbour& old : dd.neighbours) {
+    nb[old.rank].send_nodes = old.send_nodes;
+    nb[old.rank].recv_nodes = old.recv_nodes;
+  }
+  const int gt = int(gm.tet_nodes.size());
+  std::vector<int> by_global(gt);
+  for (int t = 0; t < gt; ++t) by_global[t] = t;
+  std::sort(by_global.begin(), by_global.end(), [&](int a, int b) { return gd.tet_global[a] < gd.tet_global[b]; });
+  for (int t : by_global)
+    for (int r : holders[t])
+      if (r != rank) nb[r].shared_tets.push_back(t);
+  gd.neighbours.clear();
+  for (int r = 0; r < size; ++r)
+    if (r != rank && (!nb[r].send_nodes.empty() || !nb[r].recv_nodes.empty() || !nb[r].shared_tets.empty()))
+      gd.neighbours.push_back(std::move(nb[r]));
+  out.added_tets = long(tets.size());
+  out.added_total = long(sum_over_ranks(comm, double(out.added_tets)));
+  return out;
+}
+
+}  // namespace fdem
