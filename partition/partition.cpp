@@ -129,8 +129,8 @@ void append_tet(Model& m, const std::array<int, 4>& nodes, int input, const Mat3
 real default_reach(const Model& m, const Scene& s) {
   if (!s.contact.enabled()) return 0;
   // The platen travel by the end (axial strain x height, or velocity x time, whichever ends the
-  // run first): the specimen's loaded end moves that far, and the run stops once a node has
-  // moved half the reach.
+  // run first): the specimen's loaded end moves that far, and the ranks gather their contact
+  // ghosts again each time a node has moved a quarter of the reach.
   real travel = 0;
   const EndCondition& end = s.solver.end;
   if (end.axial_strain > 0) travel = end.axial_strain * m.height0;

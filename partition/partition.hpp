@@ -108,8 +108,8 @@ void append_tet(Model& m, const std::array<int, 4>& nodes, int input, const Mat3
 
 /// The default contact reach (0 without contact): two mean edge lengths, or 2.5 times the
 /// platen travel by the end of the run where the scene's end condition bounds it (axial strain
-/// x height, platen velocity x time), whichever is larger, so that a run to its end condition
-/// does not meet the reach guard through the platen's motion alone.
+/// x height, platen velocity x time), whichever is larger, so that the platen's motion alone
+/// makes the ranks gather their contact ghosts again (partition/grow.hpp) at most once.
 real default_reach(const Model& m, const Scene& s);
 
 /// A hash of every scene value the model build uses (mesh, material density and elasticity,

@@ -51,7 +51,7 @@ if command -v compute-sanitizer >/dev/null; then
 fi
 step backend_tests build-gpu/tests/test_backends --gtest_filter='-*Cli*'
 for np in 1 2; do
-  step "ranks_$np" mpiexec --oversubscribe -n $np build-gpu/tests/test_ranks --gtest_filter='*Device*:*GpuAware*'
+  step "ranks_$np" mpiexec --oversubscribe -n $np build-gpu/tests/test_ranks --gtest_filter='*Device*:*GpuAware*:*Fragments*'
 done
 step bench build-gpu/bench/bench_device --tets 10000,100000,700000,2000000 --steps 200
 cp "$OUT/bench.log" "$OUT/bench_device.md"

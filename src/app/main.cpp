@@ -172,9 +172,10 @@ int run_main(int argc, char** argv) {
   partition->add_option("-o,--output", output, "Folder for rank_<r>.fdp (default: <output.folder>/partition_<N>)");
   for (auto* sub : {run, partition})
     sub->add_option("--contact-reach", contact_reach,
-                    "m: each rank also holds the tets within this distance of its own (reference positions), "
-                    "for contact across ranks; the run stops if a node moves half of it (default with contact: two "
-                    "mean edge lengths, or 2.5 times the platen travel to the end condition if larger)")
+                    "m: each rank also holds the tets within this distance of its own, for contact across ranks "
+                    "(reference positions, gathered again with the current ones whenever a node has moved a "
+                    "quarter of it; it must exceed twice a node's motion in one step). Default with contact: two "
+                    "mean edge lengths, or 2.5 times the platen travel to the end condition if larger")
         ->check(CLI::PositiveNumber);
 
   std::string sigma3;
