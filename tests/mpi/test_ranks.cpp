@@ -357,9 +357,10 @@ TEST(Ranks, FragmentsTravellingBeyondTheReachGatherTheirContactGhosts) {
   // The upper block starts 1 mm above the lower one and falls at 5 m/s onto it; the contact
   // reach is 0.4 mm, so at the start neither rank holds a tet of the other block. Each time a
   // node has come a quarter of the reach from where the contact ghosts were gathered, every
-  // rank gathers them again with the current positions: the blocks then meet with the contact
-  // forces of one rank. The same on the debug backend (the check runs in its integration) and,
-  // where a GPU is visible, on the CUDA backend.
+  // rank gathers them again with the current positions (the tets, with their nodes and the CE6s
+  // between them): the blocks then meet with the contact forces of one rank, and a restart from
+  // a checkpoint written after gatherings continues bit for bit. The same on the debug backend (the check runs in its
+  // integration) and, where a GPU is visible, on the CUDA backend.
   const real reach = 4e-4, gap = 1e-3;
   for (const std::string backend : {"cpu", "debug", "cuda"}) {
     if (backend == "cuda" && cuda_device_count() == 0) {
@@ -368,9 +369,11 @@ TEST(Ranks, FragmentsTravellingBeyondTheReachGatherTheirContactGhosts) {
     }
     Scene scene = two_blocks_scene();
     scene.solver.backend = backend;
+    scene.fracture.everywhere = true;  // CE6s inside each block: the ghosts bring them, with their damage
     const Model global = build_model(two_blocks(gap), scene);
     Solver ref(scene, global);
     RankModel rm = extract_rank(global, block_per_rank(global), world_rank(), reach);
+    const double ce6_start = sum_over_ranks(double(rm.model.ce6_nodes.size()));
     const long held_at_start = long(rm.model.tet_nodes.size());
     const RankModel start = rm;
     Solver d(scene, std::move(rm.model), std::move(rm.dd), MPI_COMM_WORLD);
@@ -425,8 +428,10 @@ TEST(Ranks, FragmentsTravellingBeyondTheReachGatherTheirContactGhosts) {
     EXPECT_LT(worst_x, 1e-10) << backend << ": displacements";
     EXPECT_LT(std::fabs(md.contact - mr.contact), 1e-10 * std::fabs(mr.contact)) << backend;
     const GhostGrowths& g = d.ghost_growths();
+    const double ce6_added = sum_over_ranks(double(d.model().ce6_nodes.size())) - ce6_start;
     if (world_size() > 1) {
       EXPECT_GT(g.count, 3) << backend;
+      EXPECT_GT(ce6_added, 0) << backend;
       EXPECT_GT(g.tets, 0) << backend;
       EXPECT_GT(long(d.model().tet_nodes.size()), held_at_start) << backend;
       // Every tet whose box comes within half the reach of an own tet's box now is held: the
@@ -460,9 +465,9 @@ TEST(Ranks, FragmentsTravellingBeyondTheReachGatherTheirContactGhosts) {
     }
     if (world_rank() == 0)
       std::printf(
-          "%s, %d rank(s): contact ghosts gathered %ld times, %ld tets added; %ld touching; forces %.2e, "
-          "displacements %.2e (relative)\n",
-          backend.c_str(), world_size(), g.count, g.tets, touching, worst_f, worst_x);
+          "%s, %d rank(s): contact ghosts gathered %ld times, %ld tets and %g CE6s added; %ld touching, %ld CE6 "
+          "broken; forces %.2e, displacements %.2e (relative)\n",
+          backend.c_str(), world_size(), g.count, g.tets, ce6_added, touching, mr.broken, worst_f, worst_x);
   }
 }
 
