@@ -354,14 +354,14 @@ TEST(Ranks, ContactPairAcrossRanksGivesOneRankForces) {
 }
 
 TEST(Ranks, FragmentsTravellingBeyondTheReachGatherTheirContactGhosts) {
-  // The upper block starts 1 mm above the lower one and falls at 5 m/s onto it; the contact
-  // reach is 0.4 mm, so at the start neither rank holds a tet of the other block. Each time a
+  // The upper block starts 0.5 mm above the lower one and falls at 5 m/s onto it; the contact
+  // reach is 0.3 mm, so at the start neither rank holds a tet of the other block. Each time a
   // node has come a quarter of the reach from where the contact ghosts were gathered, every
   // rank gathers them again with the current positions (the tets, with their nodes and the CE6s
   // between them): the blocks then meet with the contact forces of one rank, and a restart from
   // a checkpoint written after gatherings continues bit for bit. The same on the debug backend (the check runs in its
   // integration) and, where a GPU is visible, on the CUDA backend.
-  const real reach = 4e-4, gap = 1e-3;
+  const real reach = 3e-4, gap = 5e-4;
   for (const std::string backend : {"cpu", "debug", "cuda"}) {
     if (backend == "cuda" && cuda_device_count() == 0) {
       if (world_rank() == 0) std::printf("cuda: not run, no CUDA device visible\n");
@@ -389,6 +389,8 @@ TEST(Ranks, FragmentsTravellingBeyondTheReachGatherTheirContactGhosts) {
     long touching = 0, touching_d = 0;
     Monitors mr, md;
     std::unique_ptr<Solver> restarted;
+    real pushed = 0;
+    double worst_e = 0;
     for (int i = 1; i <= 2500; ++i) {
       ref.step();
       d.step();
@@ -403,14 +405,25 @@ TEST(Ranks, FragmentsTravellingBeyondTheReachGatherTheirContactGhosts) {
         restarted->load(in);
         in.finish();
       }
-      if (i % 20) continue;
       mr = ref.measure();
       md = d.measure();
+      ref.sync_host();  // (a device backend's monitor row leaves the host copy as it was)
       d.sync_host();
+      real vz = 0;  // the lower block's mean velocity: it moves once the upper one hits it
+      int count = 0;
+      for (std::size_t t = 0; t < global.tet_nodes.size(); ++t)
+        if (!upper(global, int(t)))
+          for (int n : global.tet_nodes[t]) vz += ref.v[n].z, ++count;
+      pushed = std::min(pushed, vz / count);
+      // Exact until the impact breaks CE6s; after that the order of the contact sums (the
+      // ghosts' local ids) changes the last bits, and fracture amplifies them, as it does any
+      // rounding: then the tolerance on broken CE6s.
+      if (mr.broken > 0) continue;
       const std::vector<Vec3> zero_d(d.f.size());
       worst_x = std::max(worst_x, node_error(d, d.x, ref.x, ref.model().X, d.model().X));
       if (mr.contacts == 0) continue;
       worst_f = std::max(worst_f, node_error(d, d.f, ref.f, zero_r, zero_d));
+      worst_e = std::max(worst_e, std::fabs(md.contact - mr.contact) / std::fabs(mr.contact));
       touching = std::max(touching, mr.contacts);
       touching_d = std::max(touching_d, md.contacts);
     }
@@ -422,11 +435,14 @@ TEST(Ranks, FragmentsTravellingBeyondTheReachGatherTheirContactGhosts) {
     };
     EXPECT_TRUE(same(restarted->x, d.x) && same(restarted->v, d.v)) << backend << ": the restarted run differs";
     EXPECT_EQ(restarted->ghost_growths().count, d.ghost_growths().count) << backend;
-    EXPECT_GT(touching, 0) << backend << ": the blocks meet";
+    EXPECT_LT(pushed, -0.5) << backend << ": the blocks meet (m/s, the lower block's mean velocity)";
+    EXPECT_GT(touching, 0) << backend << ": pairs touch before a CE6 breaks";
     EXPECT_EQ(touching_d, touching) << backend;
     EXPECT_LT(worst_f, 1e-10) << backend << ": forces";
     EXPECT_LT(worst_x, 1e-10) << backend << ": displacements";
-    EXPECT_LT(std::fabs(md.contact - mr.contact), 1e-10 * std::fabs(mr.contact)) << backend;
+    EXPECT_LT(worst_e, 1e-10) << backend << ": contact energy";
+    EXPECT_GT(mr.broken, 20) << backend << ": the impact breaks CE6s";
+    EXPECT_LE(std::fabs(double(md.broken - mr.broken)), 0.02 * mr.broken) << backend;
     const GhostGrowths& g = d.ghost_growths();
     const double ce6_added = sum_over_ranks(double(d.model().ce6_nodes.size())) - ce6_start;
     if (world_size() > 1) {
@@ -465,9 +481,11 @@ TEST(Ranks, FragmentsTravellingBeyondTheReachGatherTheirContactGhosts) {
     }
     if (world_rank() == 0)
       std::printf(
-          "%s, %d rank(s): contact ghosts gathered %ld times, %ld tets and %g CE6s added; %ld touching, %ld CE6 "
-          "broken; forces %.2e, displacements %.2e (relative)\n",
-          backend.c_str(), world_size(), g.count, g.tets, ce6_added, touching, mr.broken, worst_f, worst_x);
+          "%s, %d rank(s): contact ghosts gathered %ld times, %ld tets and %g CE6s added; lower block pushed to "
+          "%.2f m/s; before CE6s break: %ld pairs touching, forces %.2e, displacements %.2e (relative); broken "
+          "CE6s %ld against %ld\n",
+          backend.c_str(), world_size(), g.count, g.tets, ce6_added, pushed, touching, worst_f, worst_x, md.broken,
+          mr.broken);
   }
 }
 
