@@ -48,7 +48,7 @@ std::unique_ptr<Solver> decomposed(const Scene& scene, const Model& global, std:
 }
 
 /// Largest difference of owned node vectors (by global id) over the ranks, relative to the
-/// largest reference value.
+/// largest reference value (infinite where a value is NaN).
 double node_error(const Solver& d, const std::vector<Vec3>& a, const std::vector<Vec3>& ref,
                   const std::vector<Vec3>& ref_origin, const std::vector<Vec3>& origin) {
   const Decomposition& dd = d.decomposition();
@@ -57,7 +57,8 @@ double node_error(const Solver& d, const std::vector<Vec3>& a, const std::vector
     if (!d.owned_nodes()[n]) continue;
     const long g = dd.distributed() ? dd.node_global[n] : long(n);
     const Vec3 u = a[n] - origin[n], ur = ref[g] - ref_origin[g];
-    diff = std::max(diff, norm(u - ur));
+    const double e = norm(u - ur);
+    diff = std::isnan(e) ? INFINITY : std::max(diff, e);  // a NaN (a stale host copy) fails
     scale = std::max(scale, norm(ur));
   }
   return max_over_ranks(diff) / max_over_ranks(scale);
