@@ -931,7 +931,10 @@ void Solver::load(CheckpointIn& in) {
     halo_.reset();
     model_ = std::move(rm.model);
     dd_ = std::move(rm.dd);
+    const real dt = dt_;  // the run's time step, as in grow_contact_ghosts
+    const StableStep stable = stable_;
     setup();
+    dt_ = dt, stable_ = stable;
     if (backend_ != Backend::cpu) dev_ = make_device_loop(backend_, *this);
   }
   std::uint64_t fp = 0, fixed = 0;
