@@ -252,11 +252,11 @@ class DeviceLoopImpl final : public DeviceLoop {
     kPressurePower,  // second
     kBad,
     kKinetic2,
+    kFar,
+    kLost,
     kConPowerNew,
     kPressurePowerNew,
-    kGravityNew,
-    kFar,
-    kLost,  // integration
+    kGravityNew,  // integration
     kSums = 24
   };
 
@@ -554,13 +554,24 @@ class DeviceLoopImpl final : public DeviceLoop {
     real* sums = sums_.data();
     const std::uint8_t* own_n = own_node_.data();
     clear_sums(kBad, kSums);
-    Exec::template sum_to<2>(
+    // Several ranks with contact: the owned nodes a quarter of the contact reach from where the
+    // contact ghosts were last gathered (time to gather them again) and half the reach (too
+    // late: Solver::step). Prescribed nodes count before their prescription below.
+    const bool reach_check = s.halo_ && s.contacts.enabled() && s.dd_.reach > 0;
+    const Vec3* px = reach_check ? plan_x_.data() : nullptr;
+    const real lim2 = 0.0625 * s.dd_.reach * s.dd_.reach;
+    Exec::template sum_to<4>(
         int(x_.size()),
         [=] FDEM_LAMBDA(int n, real* acc) {
           central_difference(x[n], v[n], f[n], inv_mass[n], dt);  // ghosts too: overwritten below
           if (!own_n[n]) return;
           acc[0] += !finite_value(v[n].x + v[n].y + v[n].z);
           acc[1] += mass[n] * dot(v[n], v[n]);
+          if (px) {
+            const Vec3 d = x[n] - px[n];
+            acc[2] += dot(d, d) >= lim2;
+            acc[3] += dot(d, d) >= 4 * lim2;
+          }
         },
         sums + kBad);
     const int* fn = fixed_node_.data();
@@ -574,21 +585,6 @@ class DeviceLoopImpl final : public DeviceLoop {
           v[n][d] = fv[i][d];
         }
     });
-    if (s.halo_ && s.contacts.enabled() && s.dd_.reach > 0) {
-      // Owned nodes a quarter of the contact reach from where the contact ghosts were last
-      // gathered (time to gather them again), and half the reach (too late: Solver::step).
-      const Vec3* px = plan_x_.data();
-      const real lim2 = 0.0625 * s.dd_.reach * s.dd_.reach;
-      Exec::template sum_to<2>(
-          int(x_.size()),
-          [=] FDEM_LAMBDA(int n, real* acc) {
-            if (!own_n[n]) return;
-            const Vec3 d = x[n] - px[n];
-            if (dot(d, d) >= lim2) acc[0] += 1;
-            if (dot(d, d) >= 4 * lim2) acc[1] += 1;
-          },
-          sums + kFar);
-    }
     t0 = lap(t0, t_.integrate);
     if (s.halo_) halo_update(s);  // ghosts take their owners' new positions and velocities
     if (s.contacts.enabled()) contact_power(v, sums + kConPowerNew);

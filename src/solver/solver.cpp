@@ -130,16 +130,8 @@ void Solver::grow_contact_ghosts() {
   GrownRank g = fdem::grow_contact_ghosts(comm_, model_, dd_, now);
   CheckpointOut kept;
   save_state(kept);
-  // The grown layout: every derived array, the halo, the contact set and the device loop
-  // afresh; then the state, extended by the ghosts' (the time step stays the one of the run).
-  dev_.reset();
-  halo_.reset();
-  model_ = std::move(g.rm.model);
-  dd_ = std::move(g.rm.dd);
-  const real dt = dt_;
-  const StableStep stable = stable_;
-  setup();
-  dt_ = dt, stable_ = stable;
+  // The grown layout, then the state, extended by the ghosts'.
+  adopt_layout(std::move(g.rm));
   CheckpointIn in(kept.payload(), "the state before the contact ghosts grew");
   load_state(in, &g.added);
   in.finish();
@@ -149,6 +141,17 @@ void Solver::grow_contact_ghosts() {
   growth_.step = step_;
   restart_device();
   growth_.seconds += MPI_Wtime() - t0;
+}
+
+void Solver::adopt_layout(RankModel rm) {
+  dev_.reset();
+  halo_.reset();
+  model_ = std::move(rm.model);
+  dd_ = std::move(rm.dd);
+  const real dt = dt_;  // the run's time step stays
+  const StableStep stable = stable_;
+  setup();
+  dt_ = dt, stable_ = stable;
 }
 
 void Solver::restart_device() {
@@ -507,17 +510,28 @@ std::string Solver::instability_advice() const {
 void Solver::advance_host(real dt, long& bad_out, real& ke_out, real& w_con, real& w_pre, real& w_grav, real& far_out,
                           real& lost_out) {
   const int nn = int(x.size());
-  long bad = 0;
+  long bad = 0, far = 0, lost = 0;
   real ke = 0;
-#pragma omp parallel for schedule(static) reduction(+ : bad, ke)
+  // Several ranks with contact: the owned nodes a quarter of the contact reach from where the
+  // contact ghosts were gathered (time to gather them again) and half the reach (too late:
+  // step()). Prescribed nodes count before their prescription below.
+  const Vec3* px = halo_ && contacts.enabled() && dd_.reach > 0 ? contacts.plan_x().data() : nullptr;
+  const real lim2 = 0.0625 * dd_.reach * dd_.reach;
+#pragma omp parallel for schedule(static) reduction(+ : bad, ke, far, lost)
   for (int n = 0; n < nn; ++n) {
     central_difference(x[n], v[n], f[n], inv_mass_[n], dt);  // ghosts too: overwritten below
     if (!own_node_[n]) continue;
     bad += !std::isfinite(v[n].x + v[n].y + v[n].z);
     ke += model_.mass[n] * dot(v[n], v[n]);
+    if (px) {
+      const Vec3 d = x[n] - px[n];
+      far += dot(d, d) >= lim2;
+      lost += dot(d, d) >= 4 * lim2;
+    }
   }
   bad_out = bad;
   ke_out = ke;
+  far_out = real(far), lost_out = real(lost);
   for (std::size_t i = 0; i < fixed_node_.size(); ++i) {
     const int n = fixed_node_[i];
     for (int d = 0; d < 3; ++d)
@@ -525,20 +539,6 @@ void Solver::advance_host(real dt, long& bad_out, real& ke_out, real& w_con, rea
         x[n][d] += dt * (fixed_velocity_[i][d] - v[n][d]);
         v[n][d] = fixed_velocity_[i][d];
       }
-  }
-  if (halo_ && contacts.enabled() && dd_.reach > 0) {
-    // Owned nodes a quarter of the contact reach from where the contact ghosts were gathered
-    // (time to gather them again), and half the reach (too late: step()).
-    const std::vector<Vec3>& px = contacts.plan_x();
-    const real lim2 = 0.0625 * dd_.reach * dd_.reach;
-    long far = 0, lost = 0;
-#pragma omp parallel for schedule(static) reduction(+ : far, lost)
-    for (int n = 0; n < nn; ++n) {
-      const Vec3 d = x[n] - px[n];
-      far += own_node_[n] && dot(d, d) >= lim2;
-      lost += own_node_[n] && dot(d, d) >= 4 * lim2;
-    }
-    far_out = real(far), lost_out = real(lost);
   }
   if (halo_) {  // ghosts take their owners' new positions and velocities
     const double t0 = MPI_Wtime();
@@ -927,14 +927,7 @@ void Solver::load(CheckpointIn& in) {
     RankModel rm = get_rank_model(in, 0);
     if (!dd_.distributed() || rm.dd.rank != dd_.rank || rm.dd.size != dd_.size)
       in.mismatch("a rank model of rank " + std::to_string(rm.dd.rank) + " of " + std::to_string(rm.dd.size));
-    dev_.reset();
-    halo_.reset();
-    model_ = std::move(rm.model);
-    dd_ = std::move(rm.dd);
-    const real dt = dt_;  // the run's time step, as in grow_contact_ghosts
-    const StableStep stable = stable_;
-    setup();
-    dt_ = dt, stable_ = stable;
+    adopt_layout(std::move(rm));
     if (backend_ != Backend::cpu) dev_ = make_device_loop(backend_, *this);
   }
   std::uint64_t fp = 0, fixed = 0;

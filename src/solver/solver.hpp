@@ -146,6 +146,9 @@ class Solver {
   /// Every rank together: the contact ghosts gathered again (partition/grow.hpp) and the layout
   /// set up for the grown rank model, the state carried over.
   void grow_contact_ghosts();
+  /// A rank model replaces the one running (grown contact ghosts): the derived arrays set up
+  /// afresh, halo and contact set included, the device loop dropped; the time step kept.
+  void adopt_layout(RankModel rm);
   /// A new device loop for the layout, with the host state uploaded (device backends).
   void restart_device();
   /// The evolving state in checkpoint order; load_state with `appended` reads a state saved
