@@ -29,6 +29,7 @@
 #include <vector>
 
 #include "core/device_memory.hpp"
+#include "core/forall.hpp"
 #include "model/structured.hpp"
 #include "solver/device_loop.hpp"
 #include "solver/solver.hpp"
@@ -53,6 +54,7 @@ std::vector<long> parse_list(const std::string& s) {
 struct Row {
   long tets = 0, ce6 = 0, nodes = 0, pairs = 0;
   double step_us = 0, floor_us = 0, bytes = 0, monitor_ms = 0, sync_ms = 0, mem_mb = 0, dt = 0;
+  double copies_to_host = 0, bytes_to_host = 0;  // per step, between monitor rows (device::traffic)
   DeviceTimes pass;
 };
 
@@ -82,6 +84,9 @@ int main(int argc, char** argv) {
   }
   MPI_Init(&argc, &argv);
   const Backend b = parse_backend(backend, "--backend");
+  // The debug backend scrambles the order of each pass's iterations to expose races
+  // (core/forall.hpp), at a cost in cache misses; timings run them in index order.
+  set_host_order(HostOrder::forward);
   const double bw = device::copy_bandwidth(b, std::size_t(1) << (b == Backend::cuda ? 30 : 27));
   std::printf("# bench_device: backend %s%s, measured copy bandwidth %.0f GB/s\n\n", backend.c_str(),
               b == Backend::cuda ? (" (" + cuda_device_description() + ")").c_str() : " (host memory)", bw);
@@ -111,10 +116,13 @@ int main(int argc, char** argv) {
     r.ce6 = long(solver.model().ce6_nodes.size());
     r.nodes = long(solver.model().X.size());
     r.dt = solver.dt();
+    device::reset_traffic();
     auto t0 = Clock::now();
     for (int i = 0; i < steps; ++i) solver.step();
     device::synchronize(b);
     r.step_us = 1e6 * since(t0) / steps;
+    r.copies_to_host = double(device::traffic().to_host) / steps;
+    r.bytes_to_host = double(device::traffic().host_bytes) / steps;
     const DeviceTimes before = dev->times();
     dev->set_timing(true);
     for (int i = 0; i < steps; ++i) solver.step();
@@ -144,11 +152,13 @@ int main(int argc, char** argv) {
 
   std::printf(
       "| tets | CE6 | nodes | pairs | step, us | floor, us | step / floor | GB/s | of measured | monitor row, ms | "
-      "state to host, ms | device memory peak, MB |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+      "state to host, ms | device memory peak, MB | copies to host per step | bytes to host per step "
+      "|\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const Row& r : rows)
-    std::printf("| %ld | %ld | %ld | %ld | %.1f | %.1f | %.2f | %.0f | %.0f %% | %.2f | %.2f | %.0f |\n", r.tets, r.ce6,
-                r.nodes, r.pairs, r.step_us, r.floor_us, r.step_us / r.floor_us, r.bytes / (r.step_us * 1e3),
-                100 * r.bytes / (r.step_us * 1e3) / bw, r.monitor_ms, r.sync_ms, r.mem_mb);
+    std::printf("| %ld | %ld | %ld | %ld | %.1f | %.1f | %.2f | %.0f | %.0f %% | %.2f | %.2f | %.0f | %.1f | %.0f |\n",
+                r.tets, r.ce6, r.nodes, r.pairs, r.step_us, r.floor_us, r.step_us / r.floor_us,
+                r.bytes / (r.step_us * 1e3), 100 * r.bytes / (r.step_us * 1e3) / bw, r.monitor_ms, r.sync_ms, r.mem_mb,
+                r.copies_to_host, r.bytes_to_host);
   std::printf(
       "\nPer pass, us per step (device waited for after each pass):\n\n| tets | TET4 | CE6 | activation | broad "
       "| narrow | friction | contact sum | platens | pressure | integrate | energy sums | copies | "

@@ -147,6 +147,7 @@ struct CudaExec {
     cuda_check(cudaMemsetAsync(buf, 0, N * sizeof(real)), "cudaMemsetAsync");
     sum_to<N>(n, body, buf);
     cuda_check(cudaMemcpy(out.data(), buf, N * sizeof(real), cudaMemcpyDeviceToHost), "cudaMemcpy of sums");
+    device::count_copy(true, N * sizeof(real));
     return out;
   }
   template <int N, class Body>
@@ -166,9 +167,11 @@ struct CudaExec {
     if (n <= 0) return out;
     real* buf = cuda_detail::device_scratch().sums;
     cuda_check(cudaMemcpy(buf, out.data(), N * sizeof(real), cudaMemcpyHostToDevice), "cudaMemcpy");
+    device::count_copy(false, N * sizeof(real));
     cuda_detail::max_kernel<N><<<cuda_detail::reduction_blocks(n), cuda_detail::kBlock>>>(n, body, buf);
     check_launch();
     cuda_check(cudaMemcpy(out.data(), buf, N * sizeof(real), cudaMemcpyDeviceToHost), "cudaMemcpy of maxima");
+    device::count_copy(true, N * sizeof(real));
     return out;
   }
   static long scan(long n, const long* in, long* out) {
@@ -183,6 +186,7 @@ struct CudaExec {
                      ". Fix: a smaller model per GPU, or more ranks");
     }
     cuda_check(cudaMemcpy(&last[1], out + n - 1, sizeof(long), cudaMemcpyDeviceToHost), "cudaMemcpy");
+    device::count_copy(true, sizeof(long)), device::count_copy(true, sizeof(long));
     return last[0] + last[1];
   }
   template <class T, class Less>

@@ -106,7 +106,24 @@ int select_cuda_device(int local_rank) {
 namespace device {
 namespace {
 std::atomic<std::size_t> in_use{0}, peak{0};
+Traffic copies;
 }  // namespace
+
+const Traffic& traffic() {
+  return copies;
+}
+void reset_traffic() {
+  copies = Traffic{};
+}
+void count_copy(bool to_host, std::size_t bytes) {
+  if (to_host) {
+    ++copies.to_host, copies.host_bytes += bytes;
+    copies.largest_to_host = std::max(copies.largest_to_host, bytes);
+  } else {
+    ++copies.to_device, copies.device_bytes += bytes;
+    copies.largest_to_device = std::max(copies.largest_to_device, bytes);
+  }
+}
 
 void* allocate(Backend b, std::size_t bytes) {
   if (bytes == 0) return nullptr;
@@ -135,6 +152,7 @@ void release(Backend b, void* p, std::size_t bytes) noexcept {
 }
 
 void to_device(Backend b, void* dst, const void* src, std::size_t bytes) {
+  count_copy(false, bytes);
   if (b == Backend::cuda) {
     cuda_impl::to_device(dst, src, bytes);
   } else {
@@ -143,6 +161,7 @@ void to_device(Backend b, void* dst, const void* src, std::size_t bytes) {
 }
 
 void to_host(Backend b, void* dst, const void* src, std::size_t bytes) {
+  count_copy(true, bytes);
   if (b == Backend::cuda) {
     cuda_impl::to_host(dst, src, bytes);
   } else {

@@ -49,6 +49,21 @@ double copy_bandwidth(Backend b, std::size_t bytes);
 /// Bytes allocated now and at most so far, over all arrays of all backends but cpu.
 std::size_t bytes_in_use();
 std::size_t peak_bytes();
+
+/// Copies between host and device memory (debug and cuda backends), counted since the last
+/// reset_traffic(): the copies of to_host/to_device and the values a reduction or scan returns
+/// to the host. The device loop's contract is that between monitor rows and output only a few
+/// scalars cross per step, whatever the model's size (tests/regression/test_backends.cpp).
+/// Counted on the host thread that drives the device.
+struct Traffic {
+  long to_host = 0, to_device = 0;               // copies
+  std::size_t host_bytes = 0, device_bytes = 0;  // bytes copied device to host, host to device
+  std::size_t largest_to_host = 0, largest_to_device = 0;
+};
+const Traffic& traffic();
+void reset_traffic();
+/// Counts one copy of `bytes` (to the host or to the device).
+void count_copy(bool to_host, std::size_t bytes);
 }  // namespace device
 
 /// An array in a backend's memory. Its capacity grows geometrically (x 1.5), and growth after the

@@ -12,11 +12,25 @@
 //   Exec::sort(first, n, less) sorts n elements in place by a FDEM_LAMBDA comparator
 // Bodies are lambdas marked FDEM_LAMBDA that capture raw device pointers by value ([=]), so
 // one source compiles for both.
+//
+// A GPU runs the iterations of a launch in no fixed order, so a body that reads what another
+// iteration of the same launch writes (a race) gives results that change from run to run. On the
+// host, HostExec therefore runs each launch's iterations in a scrambled order by default (a
+// different permutation per launch, the same from run to run): such a race then changes the
+// debug backend's results, and the tests that hold them bit for bit to the CPU backend's fail
+// without a GPU. Sums are still added in index order, so they do not change with the order.
+// FDEM_DEBUG_ORDER=forward (or set_host_order) runs iterations in index order instead.
 #include <algorithm>
 #include <array>
+#include <cstdlib>
 #include <limits>
+#include <numeric>
+#include <stdexcept>
+#include <string>
+#include <vector>
 
 #include "core/config.hpp"
+#include "core/device_memory.hpp"
 
 #if defined(__CUDACC__)
 #define FDEM_LAMBDA __host__ __device__
@@ -26,43 +40,82 @@
 
 namespace fdem {
 
+/// The order in which HostExec runs the iterations of a launch.
+enum class HostOrder { forward, scrambled };
+
+/// HostExec's order now: scrambled unless FDEM_DEBUG_ORDER=forward was set at start-up.
+inline HostOrder& host_order() {
+  static HostOrder order = [] {
+    const char* e = std::getenv("FDEM_DEBUG_ORDER");
+    return e && std::string(e) == "forward" ? HostOrder::forward : HostOrder::scrambled;
+  }();
+  return order;
+}
+inline void set_host_order(HostOrder o) {
+  host_order() = o;
+}
+
+/// The k-th iteration of a launch of n runs index (a k + b) mod n, with a coprime to n (so every
+/// index runs once): a is near 0.618 n, so neighbouring indices run far apart, and b moves on
+/// with every launch. Forward order is a = 1, b = 0.
+struct HostPermutation {
+  long a = 1, b = 0, n = 1;
+  int operator()(int k) const { return int((a * k + b) % n); }
+};
+
+/// The permutation of the next launch of n iterations (the host thread calls it, once per launch).
+inline HostPermutation next_host_permutation(int n) {
+  static unsigned long launches = 0;
+  HostPermutation p;
+  p.n = std::max(n, 1);
+  if (host_order() == HostOrder::forward || n < 2) return p;
+  ++launches;
+  p.a = std::max(n > 2 ? 2L : 1L, long(0.6180339887 * n));
+  while (std::gcd(p.a, p.n) != 1) ++p.a;
+  p.b = long((launches * 2654435761UL) % static_cast<unsigned long>(n));
+  return p;
+}
+
 struct HostExec {
   static constexpr bool on_gpu = false;
   template <class Body>
   static void forall(int n, Body body) {
+    const HostPermutation p = next_host_permutation(n);
 #pragma omp parallel for schedule(static)
-    for (int i = 0; i < n; ++i) body(i);
+    for (int k = 0; k < n; ++k) body(p(k));
   }
+  // The values a reduction returns cross to the host on a GPU: counted as such.
   template <int N, class Body>
   static std::array<real, N> sum(int n, Body body) {
-    real acc[N] = {};
-#pragma omp parallel for schedule(static) reduction(+ : acc[:N])
-    for (int i = 0; i < n; ++i) body(i, acc);
-    std::array<real, N> out;
-    for (int k = 0; k < N; ++k) out[k] = acc[k];
-    return out;
+    device::count_copy(true, N * sizeof(real));
+    return sum_here<N>(n, body);
   }
   template <int N, class Body>
   static void sum_to(int n, Body body, real* out) {
-    const std::array<real, N> r = sum<N>(n, body);
+    const std::array<real, N> r = sum_here<N>(n, body);
     for (int k = 0; k < N; ++k) out[k] += r[k];
   }
   template <int N, class Body>
   static std::array<real, N> max(int n, Body body) {
+    device::count_copy(false, N * sizeof(real));  // CudaExec's start values and maxima
+    device::count_copy(true, N * sizeof(real));
     std::array<real, N> out;
     out.fill(-std::numeric_limits<real>::infinity());
+    const HostPermutation p = next_host_permutation(n);
 #pragma omp parallel
     {
       real acc[N];
       for (int k = 0; k < N; ++k) acc[k] = -std::numeric_limits<real>::infinity();
 #pragma omp for schedule(static) nowait
-      for (int i = 0; i < n; ++i) body(i, acc);
+      for (int k = 0; k < n; ++k) body(p(k), acc);
 #pragma omp critical(fdem_exec_max)
       for (int k = 0; k < N; ++k) out[k] = std::max(out[k], acc[k]);
     }
     return out;
   }
   static long scan(long n, const long* in, long* out) {
+    // CudaExec copies the last input and the last output (a long each) to the host.
+    device::count_copy(true, sizeof(long)), device::count_copy(true, sizeof(long));
     long total = 0;
     for (long i = 0; i < n; ++i) {
       const long c = in[i];
@@ -74,8 +127,38 @@ struct HostExec {
   template <class T, class Less>
   static void sort(T* first, long n, Less less) {
     std::sort(first, first + n, less);
+    // Elements that compare equal could come out in another order from the GPU's sort.
+    if (host_order() == HostOrder::scrambled)
+      for (long k = 1; k < n; ++k)
+        if (!less(first[k - 1], first[k]))
+          throw std::logic_error("HostExec::sort: elements " + std::to_string(k - 1) + " and " + std::to_string(k) +
+                                 " of " + std::to_string(n) + " compare equal, so their order is not fixed");
   }
   static void synchronize() {}
+
+ private:
+  template <int N, class Body>
+  static std::array<real, N> sum_here(int n, Body body) {
+    std::array<real, N> out{};
+    if (host_order() == HostOrder::forward) {
+      real acc[N] = {};
+#pragma omp parallel for schedule(static) reduction(+ : acc[:N])
+      for (int i = 0; i < n; ++i) body(i, acc);
+      for (int k = 0; k < N; ++k) out[k] = acc[k];
+      return out;
+    }
+    // Each iteration's terms kept apart, then added in index order.
+    const HostPermutation p = next_host_permutation(n);
+    std::vector<std::array<real, N>> part(std::size_t(std::max(n, 0)), std::array<real, N>{});
+#pragma omp parallel for schedule(static)
+    for (int k = 0; k < n; ++k) {
+      const int i = p(k);
+      body(i, part[i].data());
+    }
+    for (int i = 0; i < n; ++i)
+      for (int k = 0; k < N; ++k) out[k] += part[i][k];
+    return out;
+  }
 };
 
 }  // namespace fdem

@@ -135,6 +135,9 @@ class DeviceLoopImpl final : public DeviceLoop {
       if (s.contacts.enabled()) {
         vt_ptr_.upload(s.contacts.vertex_tet_ptr_);
         vt_tets_.upload(s.contacts.vertex_tets_);
+        // The broad phase's filters: the CE6s on each tet's faces and the tets of each CE6.
+        tet_ce6_.upload(reinterpret_cast<const int*>(s.contacts.tet_ce6_.data()), 4 * s.contacts.tet_ce6_.size());
+        ce6_tets_.upload(reinterpret_cast<const int*>(m.ce6_tets.data()), 2 * m.ce6_tets.size());
       }
       // Confining pressure: the lateral faces and, per node, the faces it sums in face order
       // (the order of the CPU loop, so the sums agree bit for bit).
@@ -764,12 +767,6 @@ class DeviceLoopImpl final : public DeviceLoop {
   void rebuild_pairs(Solver& s) {
     using namespace device_build;
     ContactSet& cs = s.contacts;
-    const Model& m = s.model_;
-    if (!tet_ce6_ready_) {
-      tet_ce6_.upload(reinterpret_cast<const int*>(cs.tet_ce6_.data()), 4 * cs.tet_ce6_.size());
-      ce6_tets_.upload(reinterpret_cast<const int*>(m.ce6_tets.data()), 2 * m.ce6_tets.size());
-      tet_ce6_ready_ = true;
-    }
     const int nt = int(V0_.size()), nn = int(x_.size());
     const Vec3* x = x_.data();
     const int* tn = tet_nodes_.data();
@@ -1196,7 +1193,7 @@ class DeviceLoopImpl final : public DeviceLoop {
 
  private:
   Backend b_;
-  bool constants_ = false, timing_ = false, tet_ce6_ready_ = false;
+  bool constants_ = false, timing_ = false;
   bool pairs_on_host_ = true;  // the host ContactSet holds the current pair list and indices
   // The broad phase's scratch arrays (kept between builds, so they are allocated once).
   DeviceArray<long> tet_global_;  // several ranks with contact: a pair counts by its tet of lower global id

@@ -94,6 +94,47 @@ TEST(DebugBackend, GravityHydrostaticPressureAndPrescribedNodesMatchCpu) {
   EXPECT_NEAR(a.external_work, b.external_work, 1e-9 * std::fabs(a.external_work));
 }
 
+TEST(DebugBackend, OnlyAFewScalarsCrossToTheHostBetweenMonitorRows) {
+  // The device loop keeps the state on the device: between monitor rows a step sends the host
+  // only its reductions (energies, the platen reaction, counts), and nothing goes to the device,
+  // whatever the model's size. Counted by the debug backend as the CUDA backend would copy.
+  struct Seen {
+    device::Traffic traffic;
+    long steps = 0, rebuilds = 0, broken = 0;
+  };
+  auto run = [](int cells, real velocity, int steps) {
+    Scene s = backend_fracture_scene("debug");
+    s.platens.velocity = velocity;
+    Solver solver(s, build_model(structured_box_mesh({0.006, 0.006, 0.012}, cells, cells, 2 * cells), s));
+    solver.step();  // the first step uploads the state
+    device::reset_traffic();
+    const long rebuilds0 = solver.contacts.times.rebuilds;
+    for (int i = 0; i < steps; ++i) solver.step();
+    Seen seen{device::traffic(), steps, solver.contacts.times.rebuilds - rebuilds0, 0};
+    seen.broken = solver.measure().broken;
+    return seen;
+  };
+  // Elastic: 324 tets and 2,592 tets send the host the same bytes, step for step.
+  const Seen small = run(3, 0.5, 200), big = run(6, 0.5, 200);
+  EXPECT_EQ(small.broken, 0);
+  EXPECT_GT(small.traffic.host_bytes, 0u) << "the reductions are counted";
+  EXPECT_EQ(small.traffic.to_host, big.traffic.to_host);
+  EXPECT_EQ(small.traffic.host_bytes, big.traffic.host_bytes);
+  EXPECT_EQ(small.traffic.to_device + big.traffic.to_device, 0);
+  // Through fracture, activation and broad-phase rebuilds on the device: still a few hundred
+  // bytes per step, none larger than one block of sums.
+  const Seen frac = run(3, 4.0, 4000);
+  EXPECT_GT(frac.broken, 20) << "the run should fracture";
+  EXPECT_GT(frac.rebuilds, 1);
+  RecordProperty("bytes_to_host_per_step", std::to_string(double(frac.traffic.host_bytes) / frac.steps));
+  RecordProperty("copies_to_host_per_step", std::to_string(double(frac.traffic.to_host) / frac.steps));
+  EXPECT_LE(frac.traffic.largest_to_host, 16 * sizeof(real) * 2);
+  EXPECT_LE(double(frac.traffic.host_bytes) / frac.steps, 1024);
+  // To the device: only the start values of the broad phase's box bounds (a reduction of 6
+  // maxima) at each rebuild.
+  EXPECT_LE(frac.traffic.device_bytes, std::size_t(frac.rebuilds) * 6 * sizeof(real));
+}
+
 TEST(DebugBackend, HostCopyIsPoisonedUntilSynced) {
   auto dbg = backend_solver(backend_elastic_scene("debug"));
   dbg->step();
