@@ -67,7 +67,8 @@ class ContactSet {
   /// reach/2 or more from there, so no partner it lacks can touch. The vectors must outlive
   /// the set.
   /// A pair counts on the owner of its tet of lower global id (tet_global; the local order is
-  /// the global one except for contact ghosts appended by a growth).
+  /// the global one except for contact ghosts appended by a growth). Pairs are built in global
+  /// order: that tet first, sorted by the global ids, so node sums run as on one rank.
   void set_ownership(const std::vector<std::uint8_t>* node_owned, const std::vector<std::uint8_t>* tet_owned,
                      const std::vector<long>* tet_global, real reach, const std::vector<Vec3>& plan_x);
   /// Several ranks: throws RunError, naming the tet and a reach to try, when a node of an owned

@@ -767,6 +767,10 @@ class DeviceLoopImpl final : public DeviceLoop {
   void rebuild_pairs(Solver& s) {
     using namespace device_build;
     ContactSet& cs = s.contacts;
+    // Pairs in global order, as ContactSet::rebuild: a is the tet of lower global id, sorted by
+    // the global ids of (a, b) (the local ids after a growth of the contact ghosts are not).
+    const long* tg = tet_global_.size() > 0 ? tet_global_.data() : nullptr;
+    auto gid = [=] FDEM_LAMBDA(int t) -> long { return tg ? tg[t] : long(t); };
     const int nt = int(V0_.size()), nn = int(x_.size());
     const Vec3* x = x_.data();
     const int* tn = tet_nodes_.data();
@@ -901,7 +905,7 @@ class DeviceLoopImpl final : public DeviceLoop {
                 g.index(ba.lo.z > bb.lo.z ? ba.lo.z : bb.lo.z, 2) != key.iz)
               continue;
             int ta = ids[en[j].box], tb = ids[en[k].box];
-            if (ta > tb) {
+            if (gid(ta) > gid(tb)) {
               const int t = ta;
               ta = tb, tb = t;
             }
@@ -941,14 +945,14 @@ class DeviceLoopImpl final : public DeviceLoop {
       next_pairs_.resize(npairs);
       ContactPair* np = next_pairs_.data();
       Exec::forall(int(cells), [=] FDEM_LAMBDA(int c) { test(c, np + co[c], nullptr); });
-      Exec::sort(np, npairs, [] FDEM_LAMBDA(const ContactPair& a, const ContactPair& b) {
-        return a.a != b.a ? a.a < b.a : a.b < b.b;
+      Exec::sort(np, npairs, [=] FDEM_LAMBDA(const ContactPair& a, const ContactPair& b) {
+        return gid(a.a) != gid(b.a) ? gid(a.a) < gid(b.a) : gid(a.b) < gid(b.b);
       });
     } else {
       next_pairs_.resize(0);
     }
 
-    // Friction springs carry over to the pairs that stay (both lists sorted by (a, b)).
+    // Friction springs carry over to the pairs that stay (both lists in that order).
     next_spring_.resize(npairs);
     {
       const ContactPair* oldp = pairs_.data();
@@ -960,7 +964,8 @@ class DeviceLoopImpl final : public DeviceLoop {
         long lo = 0, hi = nold;
         while (lo < hi) {
           const long mid = (lo + hi) / 2;
-          const bool less = oldp[mid].a != np[i].a ? oldp[mid].a < np[i].a : oldp[mid].b < np[i].b;
+          const bool less =
+              gid(oldp[mid].a) != gid(np[i].a) ? gid(oldp[mid].a) < gid(np[i].a) : gid(oldp[mid].b) < gid(np[i].b);
           if (less)
             lo = mid + 1;
           else
