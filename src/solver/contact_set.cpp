@@ -190,22 +190,21 @@ void ContactSet::rebuild(const Model& m, const std::vector<Vec3>& x) {
   // ids of (a, b). The local order is the global one except for contact ghosts appended by a
   // growth; in global order every node sums its contact forces as on one rank, bit for bit.
   const long* tg = tet_global_ ? tet_global_->data() : nullptr;
-  if (tg) {
+  auto gid = [tg](int t) { return tg ? tg[t] : long(t); };
+  auto global_less = [&gid](const ContactPair& p, const ContactPair& q) {
+    return gid(p.a) != gid(q.a) ? gid(p.a) < gid(q.a) : gid(p.b) < gid(q.b);
+  };
+  if (tg) {  // (one rank: find_box_pairs' order already)
     for (ContactPair& p : next)
-      if (tg[p.b] < tg[p.a]) std::swap(p.a, p.b);
-    std::sort(next.begin(), next.end(), [tg](const ContactPair& p, const ContactPair& q) {
-      return tg[p.a] != tg[q.a] ? tg[p.a] < tg[q.a] : tg[p.b] < tg[q.b];
-    });
+      if (gid(p.b) < gid(p.a)) std::swap(p.a, p.b);
+    std::sort(next.begin(), next.end(), global_less);
   }
   // Carry each surviving pair's friction spring over (both lists are in that order).
   std::vector<Vec3> next_spring(next.size(), Vec3{0, 0, 0});
   const int nn = int(next.size());
 #pragma omp parallel for schedule(static)
   for (int i = 0; i < nn; ++i) {
-    auto it = std::lower_bound(pairs_.begin(), pairs_.end(), next[i], [tg](const ContactPair& p, const ContactPair& q) {
-      const long pa = tg ? tg[p.a] : p.a, pb = tg ? tg[p.b] : p.b, qa = tg ? tg[q.a] : q.a, qb = tg ? tg[q.b] : q.b;
-      return pa != qa ? pa < qa : pb < qb;
-    });
+    auto it = std::lower_bound(pairs_.begin(), pairs_.end(), next[i], global_less);
     if (it != pairs_.end() && it->a == next[i].a && it->b == next[i].b) next_spring[i] = spring[it - pairs_.begin()];
   }
   pairs_.swap(next);

@@ -116,10 +116,8 @@ class ContactSet {
   std::vector<Vec3> plan_x_;
   bool node_counts(int n) const { return !node_owned_ || (*node_owned_)[n]; }
   const std::vector<long>* tet_global_ = nullptr;
-  bool pair_counts(const ContactPair& p) const {
-    if (!tet_owned_) return true;
-    return (*tet_owned_)[tet_global_ && (*tet_global_)[p.b] < (*tet_global_)[p.a] ? p.b : p.a];
-  }
+  // A pair's first tet is its tet of lower global id (rebuild).
+  bool pair_counts(const ContactPair& p) const { return !tet_owned_ || (*tet_owned_)[p.a]; }
 
   bool enabled_ = false;
   real penalty_ = 0, mu_ = 0, buffer_ = 0;

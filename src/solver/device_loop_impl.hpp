@@ -65,12 +65,6 @@ FDEM_HD real max3(real a, real b, real c) {
 }
 }  // namespace device_build
 
-/// The tet of a pair whose owner counts it: the one of lower global id (tg: global ids, null on
-/// one rank, where the local order is the global one).
-FDEM_HD int first_tet(const ContactPair& p, const long* tg) {
-  return tg && tg[p.b] < tg[p.a] ? p.b : p.a;
-}
-
 template <class Exec>
 class DeviceLoopImpl final : public DeviceLoop {
  public:
@@ -406,7 +400,6 @@ class DeviceLoopImpl final : public DeviceLoop {
       Vec3* pf = pair_force_.data();
       Vec3* spring = spring_.data();
       const real P = cs.penalty_, mu_rock = cs.mu_, dt = s.dt_;
-      const long* tg = tet_global_.size() > 0 ? tet_global_.data() : nullptr;
       Exec::template sum_to<1>(
           np,
           [=] FDEM_LAMBDA(int k, real* acc) {
@@ -420,7 +413,7 @@ class DeviceLoopImpl final : public DeviceLoop {
             Vec3 xa[4], xb[4], fa[4], fb[4];
             for (int i = 0; i < 4; ++i) xa[i] = x[tn[4 * cp.a + i]], xb[i] = x[tn[4 * cp.b + i]];
             ev[k] = contact_tet_pair(xa, xb, P, fa, fb);
-            if (ev[k].weight > 0 && own_t[first_tet(cp, tg)]) acc[0] += 1;
+            if (ev[k].weight > 0 && own_t[cp.a]) acc[0] += 1;
             for (int i = 0; i < 4; ++i) fp[i] = fa[i], fp[4 + i] = fb[i];
           },
           sums + kTouching);
@@ -441,7 +434,7 @@ class DeviceLoopImpl final : public DeviceLoop {
             }
             const real k_t = contact_tangential_stiffness(xa, xb, P);
             const real d = contact_friction(xa, xb, va, vb, ev[k], mu_rock, k_t, dt, spring[k], fa, fb);
-            if (own_t[first_tet(cp, tg)]) {
+            if (own_t[cp.a]) {
               acc[0] += d;
               acc[1] += 0.5 * k_t * dot(spring[k], spring[k]);
             }
@@ -694,11 +687,10 @@ class DeviceLoopImpl final : public DeviceLoop {
     if (s.contacts.enabled()) {
       const std::uint8_t* active = active_.data();
       const ContactPair* pairs = pairs_.data();
-      const long* tg = tet_global_.size() > 0 ? tet_global_.data() : nullptr;
       out[14] = Exec::template sum<1>(int(active_.size()),
                                       [=] FDEM_LAMBDA(int t, real* acc) { acc[0] += active[t] == 1 && own_t[t]; })[0];
-      out[15] = Exec::template sum<1>(
-          int(pairs_.size()), [=] FDEM_LAMBDA(int k, real* acc) { acc[0] += own_t[first_tet(pairs[k], tg)]; })[0];
+      out[15] = Exec::template sum<1>(int(pairs_.size()),
+                                      [=] FDEM_LAMBDA(int k, real* acc) { acc[0] += own_t[pairs[k].a]; })[0];
     }
     t_.monitor += seconds_since(t0);
     return out;
@@ -1201,7 +1193,7 @@ class DeviceLoopImpl final : public DeviceLoop {
   bool constants_ = false, timing_ = false;
   bool pairs_on_host_ = true;  // the host ContactSet holds the current pair list and indices
   // The broad phase's scratch arrays (kept between builds, so they are allocated once).
-  DeviceArray<long> tet_global_;  // several ranks with contact: a pair counts by its tet of lower global id
+  DeviceArray<long> tet_global_;  // several ranks with contact: pairs in global order (rebuild_pairs)
   DeviceArray<long> flags_, offsets_, counts_, entry_offsets_, head_, head_offsets_, cell_start_, cell_counts_,
       cell_offsets_;
   DeviceArray<int> ids_, tet_ce6_, ce6_tets_;
