@@ -31,6 +31,7 @@
 
 #include "core/config.hpp"
 #include "core/device_memory.hpp"
+#include "core/error.hpp"
 
 #if defined(__CUDACC__)
 #define FDEM_LAMBDA __host__ __device__
@@ -43,11 +44,17 @@ namespace fdem {
 /// The order in which HostExec runs the iterations of a launch.
 enum class HostOrder { forward, scrambled };
 
-/// HostExec's order now: scrambled unless FDEM_DEBUG_ORDER=forward was set at start-up.
+/// HostExec's order now: scrambled unless FDEM_DEBUG_ORDER=forward was set at start-up. Another
+/// value throws InputError (the debug backend reads it when it is set up).
 inline HostOrder& host_order() {
   static HostOrder order = [] {
     const char* e = std::getenv("FDEM_DEBUG_ORDER");
-    return e && std::string(e) == "forward" ? HostOrder::forward : HostOrder::scrambled;
+    const std::string v = e ? e : "";
+    if (v.empty() || v == "scrambled") return HostOrder::scrambled;
+    if (v == "forward") return HostOrder::forward;
+    throw InputError("FDEM_DEBUG_ORDER=" + v +
+                     ": unknown order of the debug backend's iterations. Fix: FDEM_DEBUG_ORDER=scrambled (the "
+                     "default) or forward, or unset it");
   }();
   return order;
 }

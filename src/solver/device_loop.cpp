@@ -23,6 +23,7 @@ std::unique_ptr<DeviceLoop> make_device_loop(Backend b, const Solver& s) {
   const bool direct_mpi = s.decomposition().distributed() && device_buffers_to_mpi(b == Backend::cuda);
   switch (b) {
     case Backend::debug:
+      host_order();  // FDEM_DEBUG_ORDER, checked before the run starts
       return std::make_unique<DeviceLoopImpl<HostExec>>(Backend::debug, direct_mpi);
     case Backend::cuda:
       if (cuda_built()) {

@@ -223,3 +223,15 @@ TEST(DebugBackend, CudaWithoutAGpuIsAClearInputError) {
   EXPECT_TRUE(has(o.text, "--backend cpu")) << o.text;
   EXPECT_FALSE(fs::exists(dir.path / "out" / "monitors.csv"));
 }
+
+TEST(DebugBackend, AnUnknownIterationOrderIsAClearInputError) {
+  using namespace cli_test;
+  TempDir dir("debug_order");
+  const Outcome o = run_cmd("FDEM_DEBUG_ORDER=backwards " + kEnv + quote(kExe) + " run " +
+                            quote((kData / "cli" / "restart_box.yaml").string()) + " -q --backend debug -o " +
+                            quote((dir.path / "out").string()));
+  EXPECT_EQ(o.code, 2) << o.text;
+  EXPECT_TRUE(has(o.text, "FDEM_DEBUG_ORDER=backwards")) << o.text;
+  EXPECT_TRUE(has(o.text, "scrambled (the default) or forward")) << o.text;
+  EXPECT_FALSE(fs::exists(dir.path / "out" / "monitors.csv"));
+}
