@@ -1,17 +1,20 @@
 #pragma once
 // Helpers for the tests that run the real `fdem` executable (FDEM_EXE): run a command and
-// capture its output and exit status, temporary folders, CSV reading.
+// capture its output and exit status, temporary folders, CSV and HDF5 reading.
 #include <gtest/gtest.h>
+#include <hdf5.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace cli_test {
@@ -113,6 +116,49 @@ inline std::string slurp(const fs::path& p) {
   std::stringstream ss;
   ss << in.rdbuf();
   return ss.str();
+}
+
+/// Raw bytes of a dataset of an open HDF5 file (read in its own type), or "" if absent.
+inline std::string dataset_bytes(hid_t file, const std::string& path) {
+  if (H5Lexists(file, path.c_str(), H5P_DEFAULT) <= 0) return "";
+  const hid_t ds = H5Dopen2(file, path.c_str(), H5P_DEFAULT);
+  const hid_t type = H5Dget_type(ds);
+  const hid_t space = H5Dget_space(ds);
+  const hssize_t n = H5Sget_simple_extent_npoints(space);
+  std::string bytes(std::size_t(n) * H5Tget_size(type), '\0');
+  if (n > 0) H5Dread(ds, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, bytes.data());
+  H5Sclose(space);
+  H5Tclose(type);
+  H5Dclose(ds);
+  return bytes;
+}
+
+/// A dataset of doubles (fields.h5's x, u, v, stress, von_mises ...) of the file at `file`;
+/// empty if the file or the dataset is absent.
+inline std::vector<double> h5_doubles(const fs::path& file, const std::string& path) {
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  const hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  if (f < 0) return {};
+  const std::string bytes = dataset_bytes(f, path);
+  H5Fclose(f);
+  std::vector<double> out(bytes.size() / sizeof(double));
+  if (!out.empty()) std::memcpy(out.data(), bytes.data(), out.size() * sizeof(double));
+  return out;
+}
+
+/// A copy of the scene `base` in `dir` with each `from` replaced by its `to` (one occurrence,
+/// which must exist).
+inline fs::path scene_variant(const fs::path& base, const fs::path& dir, const std::string& name,
+                              const std::vector<std::pair<std::string, std::string>>& edits) {
+  std::string text = slurp(base);
+  for (const auto& [from, to] : edits) {
+    const std::size_t at = text.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    if (at != std::string::npos) text.replace(at, from.size(), to);
+  }
+  const fs::path p = dir / (name + ".yaml");
+  std::ofstream(p) << text;
+  return p;
 }
 
 /// The path of mpiexec, or "" if there is none.

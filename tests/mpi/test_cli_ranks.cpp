@@ -3,8 +3,10 @@
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <regex>
 #include <thread>
 
 #include "cli_support.hpp"
@@ -33,6 +35,26 @@ double monitor_difference(const Csv& a, const Csv& b) {
       if (x != y) worst = std::max(worst, std::fabs(x - y) / std::max(std::fabs(x), 1e-300));
     }
   return worst;
+}
+
+struct FrameInfo {
+  std::string group;  // the frame's group in the HDF5 file: "/frame_000006"
+  long step = -1;
+};
+
+/// The frame of an XDMF index with this label ("pre-peak", "peak", "post-peak"); step -1 if none.
+FrameInfo frame_labelled(const std::string& xdmf, const std::string& label) {
+  const std::regex grid("<Grid Name=\"frame_([0-9]{6})_" + label +
+                        "\"[^>]*>\\s*<Time[^>]*>\\s*<Information Name=\"step\" Value=\"([0-9]+)\"");
+  std::smatch m;
+  if (!std::regex_search(xdmf, m, grid)) return {};
+  return {"/frame_" + m[1].str(), std::stol(m[2].str())};
+}
+
+/// Sorted values: the same multiset of tet values on one rank and split over two.
+std::vector<double> sorted(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v;
 }
 
 }  // namespace
@@ -230,4 +252,68 @@ TEST(CliRanks, TwoRanksRestartBitForBitFromTheirCheckpoints) {
   ASSERT_EQ(d.code, 0) << d.text;
   for (const char* f : {"monitors.csv", "broken_ce6.csv", "fields.xdmf"})
     EXPECT_EQ(slurp(whole / f), slurp(term / f)) << f;
+}
+
+TEST(CliRanks, PeakFramesKeptBeforeContactGhostsGrowAreWrittenWhole) {
+  // The pre-peak and peak frames are kept in memory and written once the stress has fallen 5 %
+  // past the peak. On several ranks the contact ghosts may be gathered again in between and add
+  // tets (and their nodes and CE6s) to a rank model: the kept frames are then written in the
+  // grown layout, the new ghosts with their present state (a rank writes its own tets only).
+  // A finer box than the other tests' (2.5 mm elements) and a contact reach of 0.02 mm: after the
+  // peak (near step 2600) the fragments slide far enough that a gathering adds a tet before the
+  // 5 % drop (near step 2850). The kept frames must hold the state of their own step, as the
+  // same frames of a run on one rank do.
+  if (mpiexec(2).empty()) GTEST_SKIP() << "mpiexec not found";
+  TempDir tmp("peak_ghosts");
+  const fs::path scene = scene_variant(
+      kScene, tmp.path, "fine",
+      {{"element_size: 0.005", "element_size: 0.0025"}, {"plot: false", "plot: false, peak_frames: true"}});
+  const fs::path one = tmp.path / "one", two = tmp.path / "two";
+  const Outcome a = fdem("run " + quote(scene.string()) + " -q -o " + quote(one.string()));
+  ASSERT_EQ(a.code, 0) << a.text;
+  const Outcome b = run_cmd(mpiexec(2) + quote(kExe) + " run " + quote(scene.string()) + " --contact-reach 2e-5 -o " +
+                            quote(two.string()));
+  ASSERT_EQ(b.code, 0) << b.text;
+
+  const std::string x1 = slurp(one / "fields.xdmf");
+  const std::string xr[2] = {slurp(two / "fields_rank0.xdmf"), slurp(two / "fields_rank1.xdmf")};
+  const FrameInfo pre = frame_labelled(xr[0], "pre-peak"), post = frame_labelled(xr[0], "post-peak");
+  ASSERT_GE(pre.step, 0) << xr[0];
+  ASSERT_GT(post.step, pre.step) << xr[0];
+  // The case this test is for: a gathering that added tets after the first kept frame, before
+  // the kept frames were written (the log line comes before the frames at the same row).
+  const std::regex grew("gathered again [0-9]+ time\\(s\\) by step ([0-9]+) [^\\n]*, ([0-9]+) tets added");
+  long added = 0;
+  for (std::sregex_iterator it(b.text.begin(), b.text.end(), grew), end; it != end; ++it)
+    if (const long step = std::stol((*it)[1].str()); step > pre.step && step <= post.step)
+      added += std::stol((*it)[2].str());
+  ASSERT_GT(added, 0) << "no gathering added tets between step " << pre.step << " and " << post.step
+                      << ": the scene no longer reaches the case this test is for\n"
+                      << b.text;
+
+  long grown_frames = 0;
+  for (const char* label : {"pre-peak", "peak"}) {
+    const FrameInfo f1 = frame_labelled(x1, label);
+    std::vector<double> vm2;
+    for (int r = 0; r < 2; ++r) {
+      const FrameInfo f = frame_labelled(xr[r], label);
+      EXPECT_EQ(f.step, f1.step) << label;
+      const fs::path h5 = two / ("fields_rank" + std::to_string(r) + ".h5");
+      // Every node of the rank model at writing time, as in the frames written after it.
+      const std::size_t nodes = h5_doubles(h5, f.group + "/x").size();
+      EXPECT_EQ(nodes, h5_doubles(h5, frame_labelled(xr[r], "post-peak").group + "/x").size()) << label << r;
+      grown_frames += nodes > h5_doubles(h5, "/frame_000000/x").size();
+      const std::vector<double> vm = h5_doubles(h5, f.group + "/von_mises");
+      vm2.insert(vm2.end(), vm.begin(), vm.end());
+    }
+    // The state of the frame's own step: each tet's von Mises stress as on one rank.
+    const std::vector<double> vm1 = sorted(h5_doubles(one / "fields.h5", f1.group + "/von_mises"));
+    vm2 = sorted(vm2);
+    ASSERT_EQ(vm1.size(), vm2.size()) << label;
+    ASSERT_FALSE(vm1.empty());
+    double worst = 0;
+    for (std::size_t t = 0; t < vm1.size(); ++t) worst = std::max(worst, std::fabs(vm1[t] - vm2[t]));
+    EXPECT_LT(worst, 1e-9 * vm1.back()) << label;
+  }
+  EXPECT_GT(grown_frames, 0) << "no kept frame was written in a grown layout";
 }

@@ -4,8 +4,6 @@
 // fields.h5); a damaged newest checkpoint falls back to the one before; a checkpoint of another
 // scene is refused with exit 2; an interrupted `fdem series` continues its run from its checkpoint;
 // a checkpoint that cannot be written is a warning, not the end of the run.
-#include <hdf5.h>
-
 #include <regex>
 
 #include "cli_support.hpp"
@@ -17,37 +15,13 @@ namespace {
 
 const fs::path kScene = kData / "cli" / "restart_box.yaml";
 
-/// The test scene with each `from` replaced by its `to` (one occurrence, which must exist).
 fs::path scene_variant(const fs::path& dir, const std::string& name,
                        const std::vector<std::pair<std::string, std::string>>& edits) {
-  std::string text = slurp(kScene);
-  for (const auto& [from, to] : edits) {
-    const std::size_t at = text.find(from);
-    EXPECT_NE(at, std::string::npos) << from;
-    if (at != std::string::npos) text.replace(at, from.size(), to);
-  }
-  const fs::path p = dir / (name + ".yaml");
-  std::ofstream(p) << text;
-  return p;
+  return cli_test::scene_variant(kScene, dir, name, edits);
 }
 
 std::string run_args(const fs::path& scene, const fs::path& out) {
   return "run " + quote(scene.string()) + " -o " + quote(out.string());
-}
-
-/// Raw bytes of a dataset (read in its own type), or "" if absent.
-std::string dataset_bytes(hid_t file, const std::string& path) {
-  if (H5Lexists(file, path.c_str(), H5P_DEFAULT) <= 0) return "";
-  const hid_t ds = H5Dopen2(file, path.c_str(), H5P_DEFAULT);
-  const hid_t type = H5Dget_type(ds);
-  const hid_t space = H5Dget_space(ds);
-  const hssize_t n = H5Sget_simple_extent_npoints(space);
-  std::string bytes(std::size_t(n) * H5Tget_size(type), '\0');
-  if (n > 0) H5Dread(ds, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, bytes.data());
-  H5Sclose(space);
-  H5Tclose(type);
-  H5Dclose(ds);
-  return bytes;
 }
 
 std::string attribute_text(hid_t group, const char* name) {
