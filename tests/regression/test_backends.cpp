@@ -220,8 +220,8 @@ TEST(DebugBackend, CudaWithoutAGpuIsAClearInputError) {
   if (cuda_device_count() > 0) GTEST_SKIP() << "a GPU is visible here: tests/gpu covers the CUDA backend";
   using namespace cli_test;
   TempDir dir("backend_cuda");
-  const Outcome o = cli_test::fdem("run " + quote(kNoGmshScene.string()) +
-                                   " -q --backend cuda -o " + quote((dir.path / "out").string()));
+  const Outcome o = cli_test::fdem("run " + quote(kNoGmshScene.string()) + " -q --backend cuda -o " +
+                                   quote((dir.path / "out").string()));
   EXPECT_EQ(o.code, 2) << o.text;
   EXPECT_TRUE(has(o.text, cuda_built() ? "no CUDA device is visible" : "built without CUDA")) << o.text;
   EXPECT_TRUE(has(o.text, "--backend cpu")) << o.text;
@@ -231,9 +231,9 @@ TEST(DebugBackend, CudaWithoutAGpuIsAClearInputError) {
 TEST(DebugBackend, AnUnknownIterationOrderIsAClearInputError) {
   using namespace cli_test;
   TempDir dir("debug_order");
-  const Outcome o = run_cmd("FDEM_DEBUG_ORDER=backwards " + kEnv + quote(kExe) + " run " +
-                            quote(kNoGmshScene.string()) + " -q --backend debug -o " +
-                            quote((dir.path / "out").string()));
+  const Outcome o =
+      run_cmd("FDEM_DEBUG_ORDER=backwards " + kEnv + quote(kExe) + " run " + quote(kNoGmshScene.string()) +
+              " -q --backend debug -o " + quote((dir.path / "out").string()));
   EXPECT_EQ(o.code, 2) << o.text;
   EXPECT_TRUE(has(o.text, "FDEM_DEBUG_ORDER=backwards")) << o.text;
   EXPECT_TRUE(has(o.text, "scrambled (the default) or forward")) << o.text;
