@@ -93,6 +93,12 @@ __device__ inline void atomic_max(real* a, real v) {
   } while (old != seen);
 }
 
+// The start values of a reduction set on the device (no copy from the host).
+template <int N>
+__global__ void fill_kernel(real* out, real value) {
+  if (threadIdx.x < N) out[threadIdx.x] = value;
+}
+
 template <int N, class Body>
 __global__ void __launch_bounds__(kBlock) max_kernel(int n, Body body, real* out) {
   real acc[N];
@@ -166,8 +172,8 @@ struct CudaExec {
     out.fill(-INFINITY);
     if (n <= 0) return out;
     real* buf = cuda_detail::device_scratch().sums;
-    cuda_check(cudaMemcpy(buf, out.data(), N * sizeof(real), cudaMemcpyHostToDevice), "cudaMemcpy");
-    device::count_copy(false, N * sizeof(real));
+    cuda_detail::fill_kernel<N><<<1, N>>>(buf, -INFINITY);
+    check_launch();
     cuda_detail::max_kernel<N><<<cuda_detail::reduction_blocks(n), cuda_detail::kBlock>>>(n, body, buf);
     check_launch();
     cuda_check(cudaMemcpy(out.data(), buf, N * sizeof(real), cudaMemcpyDeviceToHost), "cudaMemcpy of maxima");

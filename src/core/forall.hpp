@@ -104,8 +104,7 @@ struct HostExec {
   }
   template <int N, class Body>
   static std::array<real, N> max(int n, Body body) {
-    device::count_copy(false, N * sizeof(real));  // CudaExec's start values and maxima
-    device::count_copy(true, N * sizeof(real));
+    device::count_copy(true, N * sizeof(real));  // CudaExec's maxima (the start values are set there)
     std::array<real, N> out;
     out.fill(-std::numeric_limits<real>::infinity());
     const HostPermutation p = next_host_permutation(n);
