@@ -88,3 +88,29 @@ TEST(CudaBackend, TwoRunsThroughFractureAreTheSameBitForBit) {
   EXPECT_EQ(ma.kinetic, mb.kinetic);
   EXPECT_EQ(ma.contacts, mb.contacts);
 }
+
+TEST(CudaBackend, TheDebugBackendCountsTheCopiesTheCudaBackendMakes) {
+  // device::traffic() is the CUDA backend's count of its copies between host and device; the
+  // debug backend counts the copies the CUDA backend would make, and the CI's traffic test
+  // (test_backends: OnlyAFewScalarsCrossToTheHostBetweenMonitorRows) relies on that. The same
+  // steps and monitor rows on both: the same copies, bytes and largest copy.
+  need_gpu();
+  if (IsSkipped()) return;
+  auto run = [](const char* backend) {
+    auto s = backend_solver(backend_elastic_scene(backend));
+    s->step();  // the first step uploads the state
+    device::reset_traffic();
+    for (int i = 1; i <= 300; ++i) {
+      s->step();
+      if (i % 100 == 0) s->measure();
+    }
+    return device::traffic();
+  };
+  const device::Traffic d = run("debug"), c = run("cuda");
+  EXPECT_GT(c.to_host, 0);
+  EXPECT_EQ(d.to_host, c.to_host);
+  EXPECT_EQ(d.host_bytes, c.host_bytes);
+  EXPECT_EQ(d.to_device, c.to_device);
+  EXPECT_EQ(d.device_bytes, c.device_bytes);
+  EXPECT_EQ(d.largest_to_host, c.largest_to_host);
+}
