@@ -29,6 +29,7 @@
 #include <cmath>
 
 #include "core/config.hpp"
+#include "core/portable_math.hpp"
 #include "core/vec.hpp"
 #include "scene/scene.hpp"
 
@@ -65,7 +66,7 @@ FDEM_HD real softening_z(real D, int softening) {
   const real ab = a + b;
   const real u2 = u * u;
   const real uc = u2 * u2 * u2;  // (1-D)^c with c = 6
-  return (1 - ((ab - 1) / ab) * std::exp(D * (a + c * b) / (ab * (1 - ab)))) * (a * u + b * uc);
+  return (1 - ((ab - 1) / ab) * portable_exp(D * (a + c * b) / (ab * (1 - ab)))) * (a * u + b * uc);
 }
 
 /// Z = integral of z over [0,1]: exact 1/2 for linear, composite Simpson (1024 intervals,

@@ -26,6 +26,7 @@
 // candidate-list rebuilds. k_t = P (V_min)^(1/3): the normal stiffness scale of the pair.
 #include <cmath>
 
+#include "core/portable_math.hpp"
 #include "core/vec.hpp"
 #include "physics/tet4.hpp"
 
@@ -244,7 +245,7 @@ FDEM_HD ContactEval contact_tet_pair(const Vec3 (&a)[4], const Vec3 (&b)[4], rea
 /// of the pair (two faces pressed together stiffen by about 8 P A / h).
 FDEM_HD real contact_tangential_stiffness(const Vec3 (&a)[4], const Vec3 (&b)[4], real P) {
   const real va = std::fabs(tet4_volume(a)), vb = std::fabs(tet4_volume(b));
-  return P * std::cbrt(va < vb ? va : vb);
+  return P * portable_cbrt(va < vb ? va : vb);
 }
 
 /// Coulomb friction of one contact pair after contact_tet_pair. u is the pair's tangential

@@ -9,6 +9,7 @@
 // vector of the face opposite node i. They sum to zero by construction.
 #include <cmath>
 
+#include "core/portable_math.hpp"
 #include "core/vec.hpp"
 
 namespace fdem {
@@ -68,7 +69,7 @@ FDEM_HD Tet4Eval tet4_forces(const Vec3 (&x)[4], const Vec3 (&v)[4], const Mat3&
   const Mat3 L = Vd * Xcinv;
   const Sym3 D = to_sym(L);
   const Mat3 B = F * transpose(F);
-  const real lnJ = std::log(J);
+  const real lnJ = portable_log(J);
   const real vol = J * V0;
   // Kirchhoff-like part times V0 (= Cauchy times current volume), then the viscous part.
   const real s = V0;
