@@ -91,6 +91,12 @@ int main(int argc, char** argv) {
   std::printf("# bench_device: backend %s%s, measured copy bandwidth %.0f GB/s\n\n", backend.c_str(),
               b == Backend::cuda ? (" (" + cuda_device_description() + ")").c_str() : " (host memory)", bw);
   std::printf("%d steps per measurement, mass scaling %g, contact %s\n\n", steps, mass_scaling, contact.c_str());
+#ifdef FDEM_CUDA_FMAD
+  const char* fmad = "on (FDEM_CUDA_FMAD=ON: not the CPU backend's bits)";
+#else
+  const char* fmad = "off (the CPU backend's bits)";
+#endif
+  if (b == Backend::cuda) std::printf("nvcc fused multiply-adds: %s\n\n", fmad);
 
   std::vector<Row> rows;
   for (long target : sizes) {
