@@ -6,7 +6,9 @@
 #   bash scripts/gpu_check.sh --prepare      here, on the Debian machine: fill the ignored deps/
 #   bash scripts/gpu_check.sh [PHASE...]     there, with deps/ carried
 #
-# PHASEs, in the order they run (default: all of them): build tests sanitizer ranks bench.
+# PHASEs, in the order they run (default: the first five): build tests sanitizer ranks bench
+# fmad. fmad builds a second tree with FDEM_CUDA_FMAD=ON (nvcc fuses multiply-adds; no longer
+# the CPU backend's bits) and times it as bench does: what the bit-for-bit agreement costs.
 # Each step has its own time limit (below), so one slow step cannot take the whole call; a
 # later call may run the phases that are left (build-gpu/ is kept while the machine is warm).
 #
@@ -34,9 +36,9 @@ phases=("$@")
 [[ ${#phases[@]} -eq 0 ]] && phases=(build tests sanitizer ranks bench)
 for p in "${phases[@]}"; do
   case $p in
-    build | tests | sanitizer | ranks | bench) ;;
+    build | tests | sanitizer | ranks | bench | fmad) ;;
     *)
-      echo "gpu_check.sh: unknown phase '$p'. Fix: one or more of build tests sanitizer ranks bench, or --prepare" >&2
+      echo "gpu_check.sh: unknown phase '$p'. Fix: one or more of build tests sanitizer ranks bench fmad, or --prepare" >&2
       exit 2
       ;;
   esac
@@ -76,10 +78,12 @@ if wanted build; then
   step build 400 cmake --build build-gpu -j "$(nproc)" --target fdem test_cuda_backend test_backends test_ranks \
     bench_device || exit 1
 fi
-if [[ ! -x build-gpu/tests/test_cuda_backend ]]; then
-  echo "gpu_check.sh: build-gpu/ has no test programs. Fix: run the build phase first (in this call or a warm earlier one)" |
-    tee -a "$OUT/summary.txt"
-  exit 1
+if wanted tests || wanted sanitizer || wanted ranks || wanted bench; then
+  if [[ ! -x build-gpu/tests/test_cuda_backend ]]; then
+    echo "gpu_check.sh: build-gpu/ has no test programs. Fix: run the build phase first (in this call or a warm earlier one)" |
+      tee -a "$OUT/summary.txt"
+    exit 1
+  fi
 fi
 # CPU = CUDA on one rank (tests/gpu) and the debug backend as everywhere.
 if wanted tests; then
@@ -107,4 +111,11 @@ fi
 if wanted bench; then
   step bench 300 build-gpu/bench/bench_device --tets 10000,100000,700000,2000000 --steps 200
   cp "$OUT/bench.log" "$OUT/bench_device.md"
+fi
+if wanted fmad; then
+  step fmad_configure 120 cmake -S . -B build-gpu-fmad -DCMAKE_BUILD_TYPE=Release -DFDEM_ENABLE_CUDA=ON \
+    -DFDEM_CUDA_FMAD=ON -DFDEM_BUILD_TESTS=OFF -DFDEM_ENABLE_GMSH=OFF -DFDEM_ENABLE_PETSC=OFF \
+    -DCMAKE_PREFIX_PATH="$DEPS/usr" -DCMAKE_CUDA_ARCHITECTURES="90-real;90-virtual" &&
+    step fmad_build 400 cmake --build build-gpu-fmad -j "$(nproc)" --target bench_device &&
+    step fmad_bench 300 build-gpu-fmad/bench/bench_device --tets 10000,100000,700000,2000000 --steps 200
 fi
