@@ -11,8 +11,9 @@
 //    data once per element corner) over the measured copy bandwidth of the backend's memory;
 //  - monitor row: Solver::measure() (its sums on the device);
 //  - state to host: Solver::sync_host() after a step (what output, checkpoints and peak frames cost).
-// Then the projected wall time of the paper's UCS run (674,790 tets, 0.02 m/s, to the post-peak
-// stage: 4.5 million steps at m = 5, docs/validation.md, times sqrt(5 / m)) from the step time
+// Then the projected wall time of the paper's UCS run (scenes/ucs_paper.yaml: 670,005 tets,
+// 0.02 m/s, to the post-peak stage: 0.0192 s of loading, 3.31 million steps of 5.79 ns at m = 5,
+// docs/validation.md, times sqrt(5 / m)) from the step time
 // per tet of the largest size, with its pre-peak contact (fracture adds pairs).
 //
 // Usage: bench_device [--backend cuda|debug] [--tets 10000,100000,700000] [--steps N]
@@ -175,10 +176,10 @@ int main(int argc, char** argv) {
                 r.pass.contact_sum, r.pass.platens, r.pass.pressure, r.pass.integrate, r.pass.energy, r.pass.copies,
                 r.pass.total());
   const Row& big = rows.back();
-  const double paper_tets = 674790, paper_steps = 4.5e6 * std::sqrt(5.0 / mass_scaling);
+  const double paper_tets = 670005, paper_steps = 0.0192 / 5.79e-9 * std::sqrt(5.0 / mass_scaling);
   const double us_per_step = big.step_us * paper_tets / double(big.tets);
   std::printf(
-      "\nPaper UCS (674,790 tets, 0.02 m/s, m = %g): %.3g steps to the post-peak stage; at %.1f us per step "
+      "\nPaper UCS (670,005 tets, 0.02 m/s, m = %g): %.3g steps to the post-peak stage; at %.1f us per step "
       "(the largest size scaled by tets) %.0f s = %.1f min of steps (pre-peak contact; the floor alone "
       "gives %.1f min)\n",
       mass_scaling, paper_steps, us_per_step, us_per_step * 1e-6 * paper_steps, us_per_step * 1e-6 * paper_steps / 60,

@@ -662,8 +662,9 @@ Mesh mesh_with_gmsh(const MeshSpec& s, const std::string& what) {
   gmsh::option::setNumber("Mesh.MeshSizeMin", 0.5 * h);
   gmsh::option::setNumber("Mesh.MeshSizeFromPoints", 0);
   gmsh::option::setNumber("Mesh.MeshSizeExtendFromBoundary", 1);
-  gmsh::option::setNumber("Mesh.Optimize", 1);   // tetrahedron optimiser: removes slivers
-  gmsh::option::setNumber("Mesh.Smoothing", 5);  // Laplacian passes; with 1 (default) a few poor tets stay
+  gmsh::option::setNumber("Mesh.Optimize", 1);  // tetrahedron optimiser: removes slivers
+  gmsh::option::setNumber("Mesh.OptimizeThreshold", s.optimize_threshold);
+  gmsh::option::setNumber("Mesh.Smoothing", s.smoothing);  // Laplacian passes; with 1 a few poor tets stay
 
   if (s.shape == "cylinder") {
     occ::addCylinder(0, 0, 0, 0, 0, s.height, s.diameter / 2);

@@ -19,7 +19,9 @@ Mesh read_msh(const std::string& path, real scale = 1);
 
 /// Generate a tetrahedral mesh with gmsh (OpenCASCADE kernel, Delaunay, optimised, single
 /// thread, so the same spec always gives the same mesh) with target edge length
-/// spec.element_size (gmsh MeshSizeMax = element_size, MeshSizeMin = element_size / 2).
+/// spec.element_size (gmsh MeshSizeMax = element_size, MeshSizeMin = element_size / 2),
+/// optimising the tets of quality below spec.optimize_threshold and then smoothing
+/// spec.smoothing times.
 /// Shapes (the loading axis is z):
 ///   "cylinder": axis z, radius diameter/2, base centred at the origin, z in [0, height];
 ///   "disc":     axis y, centre (0, 0, diameter/2), y in [-height/2, height/2], so z in

@@ -322,26 +322,29 @@ class Reader {
 
   void generate(const YAML::Node& n, MeshSpec& m) {
     const std::string p = "mesh.generate";
+    const std::vector<std::string> kGenerateKeys = {"shape",        "diameter",           "height",   "size",
+                                                    "element_size", "optimize_threshold", "smoothing"};
     const std::vector<std::string> shapes = {"cylinder", "disc", "box"};
     if (!n.IsMap()) {
-      check_map(n, p, {"shape", "diameter", "height", "size", "element_size"});
+      check_map(n, p, kGenerateKeys);
       return;
     }
     if (!n["shape"]) {
       error(p + ".shape", "missing", "allowed: cylinder | disc | box");
-      check_map(n, p, {"shape", "diameter", "height", "size", "element_size"});
+      check_map(n, p, kGenerateKeys);
       return;
     }
     std::string shape;
     if (!choice(n, p, "shape", shapes, shape)) {
-      check_map(n, p, {"shape", "diameter", "height", "size", "element_size"});
+      check_map(n, p, kGenerateKeys);
       return;
     }
     const size_t errors_before = errors_.size();
     const bool round = shape != "box";
     check_map(n, p,
-              round ? std::vector<std::string>{"shape", "diameter", "height", "element_size"}
-                    : std::vector<std::string>{"shape", "size", "element_size"});
+              round ? std::vector<std::string>{"shape", "diameter", "height", "element_size", "optimize_threshold",
+                                               "smoothing"}
+                    : std::vector<std::string>{"shape", "size", "element_size", "optimize_threshold", "smoothing"});
     m.shape = shape;
     m.file.clear();
     auto require = [&](const std::string& key, const std::string& what) {
@@ -358,6 +361,8 @@ class Reader {
     }
     require("element_size", "the target element edge length in m");
     number(n, p, "element_size", positive(), m.element_size);
+    number(n, p, "optimize_threshold", Range{0, 1, true, false}, m.optimize_threshold);
+    number(n, p, "smoothing", count_at_least(0, 1000), m.smoothing);
     if (errors_.size() != errors_before) return;
     const double smallest = round ? std::min(m.diameter, m.height) : std::min({m.size.x, m.size.y, m.size.z});
     if (!(m.element_size < smallest))

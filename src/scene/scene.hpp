@@ -37,7 +37,12 @@ struct MeshSpec {
   real height = 0;        // m (cylinder height; disc thickness)
   Vec3 size{0, 0, 0};     // m (box edge lengths; the box spans [0,size])
   real element_size = 0;  // m (target edge length of generated meshes)
-  real scale = 1;         // factor applied to coordinates read from a file (e.g. 1e-3 for mm)
+  // gmsh's optimisation of generated meshes: tets of quality below optimize_threshold (0..1)
+  // are optimised, then `smoothing` Laplacian passes. Better shapes raise the stable step,
+  // which the worst element sets (docs/scene-format.md has the measured effect).
+  real optimize_threshold = 0.3;
+  int smoothing = 5;
+  real scale = 1;  // factor applied to coordinates read from a file (e.g. 1e-3 for mm)
 
   /// A generated cylinder or disc: diameter, height (disc: thickness) and element size, m.
   static MeshSpec round(const std::string& shape, real diameter, real height, real element_size) {

@@ -61,7 +61,9 @@ TEST(Scene, EveryShippedSceneParsesWithSiValues) {
   const Scene paper = load_scene(std::string(FDEM_SOURCE_DIR) + "/scenes/ucs_paper.yaml");
   EXPECT_DOUBLE_EQ(paper.mesh.diameter, 0.057);
   EXPECT_DOUBLE_EQ(paper.mesh.height, 0.129);
-  EXPECT_DOUBLE_EQ(paper.mesh.element_size, 0.0013);
+  EXPECT_DOUBLE_EQ(paper.mesh.element_size, 0.00129);
+  EXPECT_DOUBLE_EQ(paper.mesh.optimize_threshold, 0.5);  // a larger stable step (docs/scene-format.md)
+  EXPECT_EQ(paper.mesh.smoothing, 20);
   EXPECT_DOUBLE_EQ(paper.solver.mass_scaling, 5);
 }
 
@@ -117,6 +119,8 @@ TEST(Scene, MinimalSceneGetsTable2Defaults) {
   EXPECT_DOUBLE_EQ(m.friction_platen, 0.1);
   EXPECT_DOUBLE_EQ(m.friction_rock, 0.5);
   EXPECT_EQ(m.softening, "munjiza");
+  EXPECT_DOUBLE_EQ(s.mesh.optimize_threshold, 0.3);  // gmsh's own default
+  EXPECT_EQ(s.mesh.smoothing, 5);
   const Platens pl;
   EXPECT_TRUE(s.platens.enabled);
   EXPECT_DOUBLE_EQ(s.platens.velocity, pl.velocity);
@@ -161,6 +165,16 @@ TEST(Scene, MeshFileRelativeToSceneFolderWithRegions) {
   EXPECT_DOUBLE_EQ(s.solver.end.time, 1e-3);
   EXPECT_FALSE(s.output.plot);
   EXPECT_DOUBLE_EQ(s.output.progress_interval, 0);
+}
+
+TEST(Scene, MeshOptimisationKeysAreRead) {
+  const Scene s = parse_scene(
+      "mesh: {generate: {shape: cylinder, diameter: 0.02, height: 0.04, element_size: 0.004, "
+      "optimize_threshold: 0.5, smoothing: 20}}\n"
+      "solver: {end: {steps: 10}}\n",
+      "mem.yaml");
+  EXPECT_DOUBLE_EQ(s.mesh.optimize_threshold, 0.5);
+  EXPECT_EQ(s.mesh.smoothing, 20);
 }
 
 TEST(Scene, BoxAndNoFractureRegions) {
@@ -252,6 +266,9 @@ INSTANTIATE_TEST_SUITE_P(
         BadScene{"missing_mesh_file.yaml", "mesh.file: '"},
         BadScene{"generate_and_file.yaml", "mesh: both generate and file"},
         BadScene{"bad_shape.yaml", "mesh.generate.shape: 'sphere'"},
+        BadScene{"optimize_threshold_above_one.yaml",
+                 "mesh.generate.optimize_threshold: 1.5 is out of range; allowed 0 < optimize_threshold <= 1"},
+        BadScene{"smoothing_fraction.yaml", "mesh.generate.smoothing: 2.5 is not a whole number"},
         BadScene{"missing_diameter.yaml", "mesh.generate.diameter: missing"},
         BadScene{"box_size_two.yaml", "mesh.generate.size"}, BadScene{"scale_with_generate.yaml", "mesh.scale"},
         BadScene{"invalid_yaml.yaml", "invalid YAML"}, BadScene{"empty.yaml", "empty"},
