@@ -58,8 +58,16 @@ class DeviceLoop {
   /// Solver::compute_forces on the device.
   virtual void compute_forces(Solver& s) = 0;
   /// Central difference with time step dt, prescribed velocities, and the powers with the new
-  /// velocities.
-  virtual AdvanceSums advance(Solver& s, real dt) = 0;
+  /// velocities. Several ranks: the sums come to the host now, with the last force evaluation's
+  /// scalars if settle() has not brought them, into `out`, and it returns true. One rank: they
+  /// stay on the device and it returns false; the next compute_forces reads them in the copy
+  /// that brings the broad phase's decision and finishes the step there (Solver::finish_step),
+  /// so a step copies to the host once.
+  virtual bool advance(Solver& s, real dt, AdvanceSums& out) = 0;
+  /// The last force evaluation's scalars to the Solver now (one copy), if they are still on the
+  /// device: Solver::measure and Solver::sync_host call it, so that between steps the Solver's
+  /// platen reactions, powers and slip energies are those of the forces on the device.
+  virtual void settle(Solver& s) = 0;
   /// A monitor row's sums from the device state, without copying it to the host: lateral
   /// displacement ratio, lateral node count, kinetic energy, strain energy, lateral stress x
   /// volume and volume (middle third), CE6 stored energy (intact, broken), damaged, broken,

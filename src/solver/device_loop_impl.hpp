@@ -81,7 +81,7 @@ class DeviceLoopImpl final : public DeviceLoop {
     set(ids_, tet_ce6_, ce6_tets_, boxes_, entries_, node_slots_, next_pairs_, next_spring_);
     set(halo_send_node_, halo_send_x_, halo_send_v_, halo_recv_node_, halo_recv_x_, halo_recv_v_, halo_flag_tet_,
         halo_send_, halo_recv_, flag_send_, flag_recv_);
-    sums_.resize(kSums);
+    sums_.resize(kAll);
   }
 
   Backend backend() const override { return b_; }
@@ -153,6 +153,7 @@ class DeviceLoopImpl final : public DeviceLoop {
       lat_face_.upload(face);
       constants_ = true;
     }
+    forces_pending_ = advance_pending_ = false;  // the host copy, its scalars included, is the state
     x_.upload(s.x);
     v_.upload(s.v);
     f_.upload(s.f);
@@ -227,9 +228,14 @@ class DeviceLoopImpl final : public DeviceLoop {
     })[0];
   }
 
-  // Sums of a step stay in device memory (sums_) and come to the host three times per step:
-  // after the CE6 pass (breaks, activation, the broad-phase watch), at the end of the forces,
-  // and after integration.
+  // Sums of a step stay in device memory (sums_). On one rank they come to the host once per
+  // step, after the CE6 pass of the next force evaluation (breaks, activation, the broad-phase
+  // watch: the broad phase's decision), with the integration's sums (slots kBad to kSums) and
+  // the last force evaluation's scalars (platen reactions, powers, slip: slots below kBad, moved
+  // to kPrev before the new evaluation clears them) in the same copy. Several ranks read them
+  // four times: after the CE6 pass, twice at the end of the forces (the sums over the ranks,
+  // before and after the pressure) and after the integration (the contact reach decides whether
+  // to gather ghosts before the next forces).
   enum Slot {
     kVisc,
     kInverted,
@@ -254,10 +260,22 @@ class DeviceLoopImpl final : public DeviceLoop {
     kConPowerNew,
     kPressurePowerNew,
     kGravityNew,  // integration
-    kSums = 24
+    kSums = 24,
+    kPrev = kSums,  // [kPrev, kPrev + kBad): the last evaluation's [0, kBad), kept for its step
+    kAll = kPrev + kBad
   };
 
   void compute_forces(Solver& s) override {
+    // A step's integration not read yet (one rank): its sums come with this evaluation's first
+    // copy, and so do the last evaluation's scalars, kept at kPrev. A second evaluation without a
+    // step between brings the first's scalars to the Solver first.
+    const bool finish = advance_pending_;
+    if (forces_pending_ && !finish) settle(s);
+    const bool prev = forces_pending_;
+    if (prev) {
+      real* p = sums_.data();
+      Exec::forall(int(kBad), [=] FDEM_LAMBDA(int k) { p[kPrev + k] = p[k]; });
+    }
     const Model& m = s.model_;
     const Scene& scene = s.scene_;
     const int nn = int(x_.size());
@@ -373,7 +391,13 @@ class DeviceLoopImpl final : public DeviceLoop {
     } else {
       Exec::forall(nc, [=] FDEM_LAMBDA(int i) { broke[i] = 0; });
     }
-    const std::array<real, kTouching> a = read_sums<kTouching>(0);
+    const std::array<real, kAll> a = finish ? read_sums<kAll>(0) : pad<kAll>(read_sums<kTouching>(0));
+    if (finish) {  // the step that led here: its bookkeeping, checks and clock (may throw)
+      advance_pending_ = false;
+      if (prev) apply_force_sums(s, a.data() + kPrev);
+      if (s.finish_step(s.step_sums(advance_sums(a.data()))))
+        throw RunError("device loop: a step on one rank asked to gather contact ghosts");
+    }
     t0 = lap(t0, t_.activation);
     if (a[kInverted] > 0) {  // rare: the host finds and names the element
       download(s);
@@ -519,10 +543,29 @@ class DeviceLoopImpl final : public DeviceLoop {
       });
       pressure_power(v, sums + kPressurePower);
     }
-    std::array<real, kBad> b = read_sums<kBad>(0);
-    if (dist)
+    // One rank: the scalars stay on the device until the next evaluation's first copy (or
+    // settle()); several ranks read them here, summed over the ranks.
+    if (dist) {
+      std::array<real, kBad> b = read_sums<kBad>(0);
       for (int k : whole) b[k] = reduced[k];
-    t0 = lap(t0, t_.pressure);
+      apply_force_sums(s, b.data());
+    } else {
+      forces_pending_ = true;
+    }
+    lap(t0, t_.pressure);
+  }
+
+  void settle(Solver& s) override {
+    if (!forces_pending_) return;
+    const std::array<real, kBad> b = read_sums<kBad>(0);
+    apply_force_sums(s, b.data());
+  }
+
+ private:
+  /// The Solver's bookkeeping of a force evaluation from its sums (b: slots [0, kBad)).
+  void apply_force_sums(Solver& s, const real* b) {
+    forces_pending_ = false;
+    const Confinement& cf = s.scene_.confinement;
     s.p_contact_ = b[kConPower];
     s.w_contact_slip_ += b[kConDiss];
     s.contact_spring_ = b[kConStored];
@@ -540,7 +583,8 @@ class DeviceLoopImpl final : public DeviceLoop {
     s.w_platen_friction_ += b[kPlatenFric];
   }
 
-  AdvanceSums advance(Solver& s, real dt) override {
+ public:
+  bool advance(Solver& s, real dt, AdvanceSums& out) override {
     auto t0 = now();
     Vec3* x = x_.data();
     Vec3* v = v_.data();
@@ -593,16 +637,37 @@ class DeviceLoopImpl final : public DeviceLoop {
             if (own_n[n]) acc[0] += mass[n] * dot(g, v[n]);
           },
           sums + kGravityNew);
-    const std::array<real, kSums> r = read_sums<kSums>(0);
-    lap(t0, t_.energy);
     ++t_.steps;
+    if (!s.dd_.distributed()) {  // read with the next evaluation's first copy
+      advance_pending_ = true;
+      lap(t0, t_.energy);
+      return false;
+    }
+    const std::array<real, kSums> r = read_sums<kSums>(0);
+    if (forces_pending_) apply_force_sums(s, r.data());  // slots [0, kBad) are the last evaluation's
+    lap(t0, t_.energy);
+    out = advance_sums(r.data());
+    return true;
+  }
+
+ private:
+  /// The integration's sums in slots [kBad, kSums) of r.
+  static AdvanceSums advance_sums(const real* r) {
     AdvanceSums out;
     out.bad = r[kBad], out.kinetic2 = r[kKinetic2], out.contact_power = r[kConPowerNew];
     out.pressure_power = r[kPressurePowerNew], out.gravity_power = r[kGravityNew], out.far = r[kFar];
     out.lost = r[kLost];
     return out;
   }
+  /// a in the first N0 of N values, zeros after.
+  template <int N, std::size_t N0>
+  static std::array<real, N> pad(const std::array<real, N0>& a) {
+    std::array<real, N> out{};
+    for (std::size_t k = 0; k < N0; ++k) out[k] = a[k];
+    return out;
+  }
 
+ public:
   std::array<real, 16> measure_sums(const Solver& s) override {
     const auto t0 = now();
     const Model& m = s.model_;
@@ -734,10 +799,9 @@ class DeviceLoopImpl final : public DeviceLoop {
   /// sums_[from, from + N) on the host (one copy).
   template <int N>
   std::array<real, N> read_sums(int from) const {
-    real all[kSums];
-    sums_.download(all);
+    static_assert(N <= kAll, "beyond the sums");
     std::array<real, N> out;
-    for (int k = 0; k < N; ++k) out[k] = all[from + k];
+    device::to_host(b_, out.data(), sums_.data() + from, N * sizeof(real));
     return out;
   }
 
@@ -1191,6 +1255,10 @@ class DeviceLoopImpl final : public DeviceLoop {
  private:
   Backend b_;
   bool constants_ = false, timing_ = false;
+  // The last force evaluation's scalars are in sums_ [0, kBad) and not yet in the Solver.
+  bool forces_pending_ = false;
+  // One rank: a step's integration sums are on the device, its bookkeeping not yet done.
+  bool advance_pending_ = false;
   bool pairs_on_host_ = true;  // the host ContactSet holds the current pair list and indices
   // The broad phase's scratch arrays (kept between builds, so they are allocated once).
   DeviceArray<long> tet_global_;  // several ranks with contact: pairs in global order (rebuild_pairs)

@@ -163,7 +163,11 @@ void Solver::restart_device() {
 }
 
 void Solver::sync_host() const {
-  if (!dev_ || host_current_) return;
+  if (!dev_) return;
+  // The scalars of the last force evaluation come with the state: completing the bookkeeping
+  // of the step already taken does not change the solver's state either.
+  dev_->settle(const_cast<Solver&>(*this));
+  if (host_current_) return;
   // The host copy is a cache of the device state: bringing it up to date does not change the
   // solver's state, so it is allowed on a const solver.
   dev_->download(const_cast<Solver&>(*this));
@@ -578,30 +582,49 @@ void Solver::step() {
     sum(&ke, 1);
     initial_kinetic_ = ke;
   }
+  // The platen speed over [t, t+dt], for the works of the interval (finish_step).
+  step_speed_ = scene_.platens.enabled ? ramped_speed(time_ + 0.5 * dt, scene_.platens.velocity, ramp_) : 0;
+  bool gather_ghosts = false;
+  if (dev_) {
+    host_current_ = false;
+    // One rank: the device loop finishes the step inside the next force evaluation, whose first
+    // copy to the host brings the integration's sums too (DeviceLoop::advance).
+    AdvanceSums a;
+    if (dev_->advance(*this, dt, a)) gather_ghosts = finish_step(step_sums(a));
+  } else {
+    StepSums st;
+    long bad = 0;  // NaN passes through max(), so count non-finite nodes instead
+    advance_host(dt, bad, st.ke, st.w_con, st.w_pre, st.w_grav, st.far, st.lost);
+    st.bad = real(bad);
+    gather_ghosts = finish_step(st);
+  }
+  // Several ranks: a node a quarter of the contact reach from where the contact ghosts were
+  // gathered (on any rank): every rank gathers them again, before the broad phase looks.
+  if (gather_ghosts) grow_contact_ghosts();
+  compute_forces();
+  if (dev_ && dev_->backend() == Backend::debug) dev_->poison_host(*this);
+}
+
+Solver::StepSums Solver::step_sums(const AdvanceSums& a) const {
+  // The works over the step of the forces at t, with the mean of the velocities before and after.
+  const real dt = dt_;
+  StepSums st;
+  st.bad = a.bad, st.ke = a.kinetic2, st.far = a.far, st.lost = a.lost;
+  if (contacts.enabled()) st.w_con = 0.5 * dt * (p_contact_ + a.contact_power);
+  if (scene_.confinement.enabled) st.w_pre = 0.5 * dt * (p_pressure_ + a.pressure_power);
+  const Vec3 g = scene_.gravity;
+  if (g.x != 0 || g.y != 0 || g.z != 0) st.w_grav = 0.5 * dt * (p_gravity_ + a.gravity_power);
+  return st;
+}
+
+bool Solver::finish_step(const StepSums& st) {
+  const real dt = dt_, speed = step_speed_;
   // Energies of the interval [t, t+dt] from the forces at t.
-  const real speed = scene_.platens.enabled ? ramped_speed(time_ + 0.5 * dt, scene_.platens.velocity, ramp_) : 0;
   w_external_ += force_top_ * (-speed * dt);
   w_viscous_ += p_viscous_ * dt;
   w_cohesive_ += p_cohesive_ * dt;
   w_friction_ += p_friction_ * dt;
-
-  long bad = 0;  // NaN passes through max(), so count non-finite nodes instead
-  real ke = 0;   // for the runaway check of every step (the loop is memory-bound: this is free)
-  real w_con = 0, w_pre = 0, w_grav = 0, far = 0, lost = 0;
-  if (dev_) {
-    host_current_ = false;
-    const AdvanceSums a = dev_->advance(*this, dt);
-    bad = long(a.bad);
-    ke = a.kinetic2;
-    far = a.far, lost = a.lost;
-    if (contacts.enabled()) w_con = 0.5 * dt * (p_contact_ + a.contact_power);
-    if (scene_.confinement.enabled) w_pre = 0.5 * dt * (p_pressure_ + a.pressure_power);
-    const Vec3 g = scene_.gravity;
-    if (g.x != 0 || g.y != 0 || g.z != 0) w_grav = 0.5 * dt * (p_gravity_ + a.gravity_power);
-  } else {
-    advance_host(dt, bad, ke, w_con, w_pre, w_grav, far, lost);
-  }
-  real sums[] = {real(bad), ke, w_con, w_pre, w_grav, far, lost};
+  real sums[] = {st.bad, st.ke, st.w_con, st.w_pre, st.w_grav, st.far, st.lost};
   sum(sums, 7);
   if (sums[0] > 0 || sums[6] > 0) sync_host();
   check_finite(long(sums[0]));
@@ -610,7 +633,8 @@ void Solver::step() {
     throw RunError("tet-tet contact across ranks: a node on another rank has moved half the contact reach " +
                    fmt(dd_.reach, 3) + " m since the contact ghosts were last gathered (that rank names it)");
   }
-  ke = sums[1];
+  // for the runaway check of every step (the loop is memory-bound: this is free)
+  const real ke = sums[1];
   w_contact_ += sums[2];
   w_external_ += sums[3] + sums[4];
   // After every work of this step is counted (pressure and gravity just above).
@@ -618,11 +642,7 @@ void Solver::step() {
   top_offset += speed * dt;
   time_ += dt;
   ++step_;
-  // Several ranks: a node a quarter of the contact reach from where the contact ghosts were
-  // gathered (on any rank): every rank gathers them again, before the broad phase looks.
-  if (sums[5] > 0) grow_contact_ghosts();
-  compute_forces();
-  if (dev_ && dev_->backend() == Backend::debug) dev_->poison_host(*this);
+  return sums[5] > 0;
 }
 
 std::array<real, 16> Solver::measure_sums_host() const {
@@ -723,6 +743,7 @@ std::array<real, 16> Solver::measure_sums_host() const {
 }
 
 Monitors Solver::measure() {
+  if (dev_) dev_->settle(*this);  // the platen reactions and energies of the forces on the device
   const Model& m = model_;
   Monitors r;
   r.step = step_;

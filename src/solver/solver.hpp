@@ -164,6 +164,20 @@ class Solver {
   /// gravity over the step, owned nodes a quarter and half the contact reach from
   /// ContactSet::plan_x).
   void advance_host(real dt, long& bad, real& ke, real& w_con, real& w_pre, real& w_grav, real& far, real& lost);
+  /// What the integration gives the bookkeeping of a step (this rank's): non-finite nodes,
+  /// 2 x kinetic energy, the works of contact, pressure and gravity over the step, owned nodes a
+  /// quarter and half the contact reach from ContactSet::plan_x.
+  struct StepSums {
+    real bad = 0, ke = 0, w_con = 0, w_pre = 0, w_grav = 0, far = 0, lost = 0;
+  };
+  /// A device integration's sums as StepSums (the works with the last force evaluation's powers).
+  StepSums step_sums(const AdvanceSums& a) const;
+  /// The host's part of a step after its integration: the works of the interval (platen speed
+  /// step_speed_), the stability checks (they throw), the clock. True when the contact ghosts
+  /// are to be gathered again. A device backend on one rank calls it from inside the next force
+  /// evaluation (DeviceLoop::advance).
+  bool finish_step(const StepSums& st);
+  real step_speed_ = 0;
   StableStep stable_step_bound() const;
   void check_finite(long bad_nodes) const;
   /// Throws RunError when the kinetic energy ke (J) far exceeds the work put in.
