@@ -10,13 +10,21 @@
 //  - floor: the bytes of one step (DeviceLoop::bytes_per_step, a traffic model that counts node
 //    data once per element corner) over the measured copy bandwidth of the backend's memory;
 //  - monitor row: Solver::measure() (its sums on the device);
-//  - state to host: Solver::sync_host() after a step (what output, checkpoints and peak frames cost).
+//  - state to host: Solver::sync_host() after a step (what output, checkpoints and peak frames cost);
+//  - host peak: the process's peak resident memory over what was resident before the size, per
+//    tet; set-up: the structured mesh, the model and the Solver built on the host.
 // Then the projected wall time of the paper's UCS run (scenes/ucs_paper.yaml: 670,005 tets,
 // 0.02 m/s, to the post-peak stage: 0.0192 s of loading, 3.31 million steps of 5.79 ns at m = 5,
 // docs/validation.md, times sqrt(5 / m)) from the step time
 // per tet of the largest size, with its pre-peak contact (fracture adds pairs).
 //
-// Usage: bench_device [--backend cuda|debug] [--tets 10000,100000,700000] [--steps N]
+// Then the largest model that fits: the memory free at the start (device and host) over the
+// bytes per tet the largest size took (device arrays; the host's peak resident memory, model
+// and host copies included), with a tenth kept free. `max` in --tets runs that size (after at
+// least one smaller size, which gives the bytes per tet; the host builds the model single
+// threaded: the set-up column; 6.4 us per tet on the dev VM, so 10 million tets take a minute).
+//
+// Usage: bench_device [--backend cuda|debug] [--tets 10000,100000,700000[,max]] [--steps N]
 //                     [--mass-scaling m] [--contact adaptive|full|none]
 // Default backend: cuda where a GPU is visible, else debug (the same loop on the host).
 // Prints Markdown on stdout. A benchmark, not a test: it checks nothing.
@@ -44,11 +52,13 @@ double since(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
 }
 
+constexpr long kLargest = -1;  // "max" in --tets
+
 std::vector<long> parse_list(const std::string& s) {
   std::vector<long> out;
   std::stringstream ss(s);
   std::string item;
-  while (std::getline(ss, item, ',')) out.push_back(std::atol(item.c_str()));
+  while (std::getline(ss, item, ',')) out.push_back(item == "max" ? kLargest : std::atol(item.c_str()));
   return out;
 }
 
@@ -56,8 +66,32 @@ struct Row {
   long tets = 0, ce6 = 0, nodes = 0, pairs = 0;
   double step_us = 0, floor_us = 0, bytes = 0, monitor_ms = 0, sync_ms = 0, mem_mb = 0, dt = 0;
   double copies_to_host = 0, bytes_to_host = 0;  // per step, between monitor rows (device::traffic)
+  double host_bytes = 0;                         // peak resident memory over the size's start
+  double setup_s = 0;                            // mesh, model and Solver built on the host
   DeviceTimes pass;
 };
+
+/// Bytes per tet of the largest size run so far, and the largest model the memory free at the
+/// start holds with a tenth kept free.
+struct Fit {
+  double device_per_tet = 0, host_per_tet = 0, device_free = 0, host_free = 0;
+  long tets = 0;
+};
+Fit largest_fit(Backend b, const std::vector<Row>& rows, double device_free, double host_free) {
+  Fit f;
+  f.device_free = device_free, f.host_free = host_free;
+  const Row* big = nullptr;
+  for (const Row& r : rows)
+    if (!big || r.tets > big->tets) big = &r;
+  if (!big) return f;
+  f.device_per_tet = double(device::peak_bytes()) / double(big->tets);
+  f.host_per_tet = big->host_bytes / double(big->tets);
+  // The debug backend's device arrays are host memory, already in the resident peak.
+  double n = f.host_per_tet > 0 ? 0.9 * host_free / f.host_per_tet : 1e300;
+  if (b == Backend::cuda && f.device_per_tet > 0) n = std::min(n, 0.9 * device_free / f.device_per_tet);
+  f.tets = n < 1e300 ? long(n) : 0;
+  return f;
+}
 
 }  // namespace
 
@@ -85,6 +119,8 @@ int main(int argc, char** argv) {
   }
   MPI_Init(&argc, &argv);
   const Backend b = parse_backend(backend, "--backend");
+  const double device_free = double(device::memory_available(b)),
+               host_free = double(device::memory_available(Backend::cpu));
   // The debug backend scrambles the order of each pass's iterations to expose races
   // (core/forall.hpp), at a cost in cache misses; timings run them in index order.
   set_host_order(HostOrder::forward);
@@ -101,9 +137,24 @@ int main(int argc, char** argv) {
 
   std::vector<Row> rows;
   for (long target : sizes) {
+    if (target == kLargest) {
+      target = largest_fit(b, rows, device_free, host_free).tets;
+      if (target <= 0) {
+        std::fprintf(stderr,
+                     "bench_device: --tets max needs a smaller size before it (it scales the bytes per tet of "
+                     "the largest size run before it). Fix: e.g. --tets 100000,max\n");
+        MPI_Finalize();
+        return 2;
+      }
+      std::printf("--tets max: %ld tets\n\n", target);
+      std::fflush(stdout);
+    }
     // Cells n x n x round(2.26 n), 6 tets each.
     const int n = std::max(2, int(std::lround(std::cbrt(double(target) / (6 * 2.263)))));
     const int nz = std::max(2, int(std::lround(2.263 * n)));
+    // The host's peak resident memory over what is resident before this size's model.
+    const bool peak_reset = device::reset_host_peak();
+    const double resident0 = double(device::host_resident());
     Scene s;
     s.name = "bench_device";
     s.file = "(bench_device)";
@@ -113,7 +164,9 @@ int main(int argc, char** argv) {
     s.solver.backend = backend;
     s.solver.max_energy_error = 0;
     s.output.progress_interval = 0;
+    const auto t_setup = Clock::now();
     Solver solver(s, build_model(structured_box_mesh({0.057, 0.057, 0.129}, n, n, nz), s));
+    const double setup_s = since(t_setup);
     DeviceLoop* dev = solver.device_loop();
     for (int i = 0; i < 20; ++i) solver.step();
     solver.sync_host();
@@ -123,6 +176,7 @@ int main(int argc, char** argv) {
     r.ce6 = long(solver.model().ce6_nodes.size());
     r.nodes = long(solver.model().X.size());
     r.dt = solver.dt();
+    r.setup_s = setup_s;
     device::reset_traffic();
     auto t0 = Clock::now();
     for (int i = 0; i < steps; ++i) solver.step();
@@ -154,18 +208,21 @@ int main(int argc, char** argv) {
     solver.sync_host();  // the whole evolving state to the host (output, checkpoints, peak frames)
     r.sync_ms = 1e3 * since(t0);
     r.mem_mb = double(device::peak_bytes()) / 1e6;
+    r.host_bytes = double(device::host_peak_resident()) - (peak_reset ? resident0 : 0.0);
     rows.push_back(r);
   }
 
   std::printf(
       "| tets | CE6 | nodes | pairs | step, us | floor, us | step / floor | GB/s | of measured | monitor row, ms | "
       "state to host, ms | device memory peak, MB | copies to host per step | bytes to host per step "
-      "|\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+      "| host peak, bytes per tet | set-up, s |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const Row& r : rows)
-    std::printf("| %ld | %ld | %ld | %ld | %.1f | %.1f | %.2f | %.0f | %.0f %% | %.2f | %.2f | %.0f | %.1f | %.0f |\n",
-                r.tets, r.ce6, r.nodes, r.pairs, r.step_us, r.floor_us, r.step_us / r.floor_us,
-                r.bytes / (r.step_us * 1e3), 100 * r.bytes / (r.step_us * 1e3) / bw, r.monitor_ms, r.sync_ms, r.mem_mb,
-                r.copies_to_host, r.bytes_to_host);
+    std::printf(
+        "| %ld | %ld | %ld | %ld | %.1f | %.1f | %.2f | %.0f | %.0f %% | %.2f | %.2f | %.0f | %.1f | %.0f | %.0f | "
+        "%.1f |\n",
+        r.tets, r.ce6, r.nodes, r.pairs, r.step_us, r.floor_us, r.step_us / r.floor_us, r.bytes / (r.step_us * 1e3),
+        100 * r.bytes / (r.step_us * 1e3) / bw, r.monitor_ms, r.sync_ms, r.mem_mb, r.copies_to_host, r.bytes_to_host,
+        r.host_bytes / double(r.tets), r.setup_s);
   std::printf(
       "\nPer pass, us per step (device waited for after each pass):\n\n| tets | TET4 | CE6 | activation | broad "
       "| narrow | friction | contact sum | platens | pressure | integrate | energy sums | copies | "
@@ -175,6 +232,13 @@ int main(int argc, char** argv) {
                 r.tets, r.pass.tet4, r.pass.ce6, r.pass.activation, r.pass.broad, r.pass.narrow, r.pass.friction,
                 r.pass.contact_sum, r.pass.platens, r.pass.pressure, r.pass.integrate, r.pass.energy, r.pass.copies,
                 r.pass.total());
+  const Fit fit = largest_fit(b, rows, device_free, host_free);
+  std::printf(
+      "\nLargest model that fits: about %.3g tets (%s: %.1f GB free at the start, %.0f bytes per tet on the "
+      "device; host: %.1f GB available, %.0f bytes per tet of peak resident memory; a tenth kept free; from the "
+      "largest size above)\n",
+      double(fit.tets), b == Backend::cuda ? "GPU" : "host memory", fit.device_free / 1e9, fit.device_per_tet,
+      fit.host_free / 1e9, fit.host_per_tet);
   const Row& big = rows.back();
   const double paper_tets = 670005, paper_steps = 0.0192 / 5.79e-9 * std::sqrt(5.0 / mass_scaling);
   const double us_per_step = big.step_us * paper_tets / double(big.tets);

@@ -77,6 +77,12 @@ void synchronize() {
   cuda_check(cudaDeviceSynchronize(), "cudaDeviceSynchronize");
 }
 
+std::size_t memory_free() {
+  std::size_t free = 0, total = 0;
+  cuda_check(cudaMemGetInfo(&free, &total), "cudaMemGetInfo");
+  return free;
+}
+
 double copy_bandwidth(std::size_t bytes) {
   void *a = nullptr, *b = nullptr;
   cuda_check(cudaMalloc(&a, bytes), "cudaMalloc (bandwidth)");

@@ -5,6 +5,8 @@
 #include <chrono>
 #include <cstdlib>
 #include <cstring>
+#include <fstream>
+#include <string>
 #include <vector>
 
 #include "core/error.hpp"
@@ -24,6 +26,7 @@ void to_device(void* dst, const void* src, std::size_t bytes);
 void to_host(void* dst, const void* src, std::size_t bytes);
 void synchronize();
 double copy_bandwidth(std::size_t bytes);
+std::size_t memory_free();
 }  // namespace cuda_impl
 
 #ifndef FDEM_HAVE_CUDA
@@ -62,6 +65,9 @@ void to_host(void*, const void*, std::size_t) {
 }
 void synchronize() {}
 double copy_bandwidth(std::size_t) {
+  refuse();
+}
+std::size_t memory_free() {
   refuse();
 }
 }  // namespace cuda_impl
@@ -183,6 +189,38 @@ double copy_bandwidth(Backend b, std::size_t bytes) {
     best = std::min(best, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
   }
   return 2.0 * double(bytes) / best / 1e9;
+}
+
+namespace {
+/// The number in kB after `key` in a /proc file, as bytes; 0 where missing.
+std::size_t proc_kb(const char* file, const std::string& key) {
+  std::ifstream in(file);
+  std::string line;
+  while (std::getline(in, line))
+    if (line.compare(0, key.size(), key) == 0)
+      return std::size_t(std::strtoull(line.c_str() + key.size(), nullptr, 10)) * 1024;
+  return 0;
+}
+}  // namespace
+
+std::size_t memory_available(Backend b) {
+  if (b == Backend::cuda) return cuda_impl::memory_free();
+  return proc_kb("/proc/meminfo", "MemAvailable:");
+}
+
+std::size_t host_resident() {
+  return proc_kb("/proc/self/status", "VmRSS:");
+}
+
+std::size_t host_peak_resident() {
+  return proc_kb("/proc/self/status", "VmHWM:");
+}
+
+bool reset_host_peak() {
+  std::ofstream out("/proc/self/clear_refs");
+  out << "5";
+  out.flush();
+  return bool(out);
 }
 
 std::size_t bytes_in_use() {

@@ -46,6 +46,15 @@ void synchronize(Backend b);
 /// Measured copy bandwidth of the backend's memory, GB/s (bytes read + written per second),
 /// from copying `bytes` within it a few times (the best run). For benchmarks.
 double copy_bandwidth(Backend b, std::size_t bytes);
+/// Bytes the backend's memory has free now: the GPU's (cudaMemGetInfo) for cuda, the host's
+/// MemAvailable (/proc/meminfo; 0 where it cannot be read) for cpu and debug. For benchmarks.
+std::size_t memory_available(Backend b);
+/// Resident memory of this process now and at its peak (VmRSS, VmHWM of /proc/self/status),
+/// bytes; 0 where unknown. reset_host_peak() starts the peak afresh from now (Linux's
+/// /proc/self/clear_refs); false where that is refused.
+std::size_t host_resident();
+std::size_t host_peak_resident();
+bool reset_host_peak();
 /// Bytes allocated now and at most so far, over all arrays of all backends but cpu.
 std::size_t bytes_in_use();
 std::size_t peak_bytes();
