@@ -6,8 +6,14 @@
 #   bash scripts/gpu_check.sh --prepare      here, on the Debian machine: fill the ignored deps/
 #   bash scripts/gpu_check.sh [PHASE...]     there, with deps/ carried
 #
-# PHASEs run in this order, most wanted first (default: the first five): build tests bench ranks
-# sanitizer fmad. fmad builds a second tree with FDEM_CUDA_FMAD=ON (nvcc fuses multiply-adds; no
+# --prepare also builds the programs here (nvcc is here too) and packs them with every library
+# they load and Debian's Open MPI into deps/bundle.tar.xz (scripts/gpu_bundle.sh; about 14 MB):
+# there the checks then run those programs, so they need neither a build nor that machine's MPI,
+# HDF5, yaml-cpp or GoogleTest, which its image may lack. Name the phase build to build there
+# instead (that needs those packages there).
+#
+# PHASEs run in this order, most wanted first (default: build tests bench ranks sanitizer, with
+# the bundle tests bench ranks sanitizer): build tests bench ranks sanitizer fmad. fmad builds a second tree with FDEM_CUDA_FMAD=ON (nvcc fuses multiply-adds; no
 # longer the CPU backend's bits) and times it as bench does: what the bit-for-bit agreement costs.
 # The whole call has a budget of FDEM_GPU_BUDGET seconds (default 540, under the tool's 600 s a
 # call): each step runs under its own limit (below) cut to what is left of the budget, and a step
@@ -32,12 +38,17 @@ if [[ "${1:-}" == "--prepare" ]]; then
   mkdir -p "$DEPS"
   for p in "$tmp"/*.deb; do dpkg -x "$p" "$DEPS"; done
   rm -rf "$tmp"
-  echo "deps/ is ready: carry it with the run (device tool: carry [\"deps\"])"
+  bash scripts/gpu_bundle.sh
+  tar -C "$DEPS" -cJf "$DEPS/bundle.tar.xz" bundle && rm -rf "$DEPS/bundle"  # only the archive travels
+  echo "deps/ is ready ($(du -sh --exclude=bundle "$DEPS" | cut -f1) to carry): carry it with the run (device tool: carry [\"deps\"])"
   exit 0
 fi
 
 phases=("$@")
-[[ ${#phases[@]} -eq 0 ]] && phases=(build tests bench ranks sanitizer)
+if [[ ${#phases[@]} -eq 0 ]]; then
+  phases=(build tests bench ranks sanitizer)
+  [[ -f $DEPS/bundle.tar.xz ]] && phases=(tests bench ranks sanitizer)
+fi
 for p in "${phases[@]}"; do
   case $p in
     build | tests | sanitizer | ranks | bench | fmad) ;;
@@ -62,6 +73,21 @@ OUT=${OUT:-out/gpu_check}
 mkdir -p "$OUT"
 export LD_LIBRARY_PATH="$DEPS/usr/lib/x86_64-linux-gnu:${LD_LIBRARY_PATH:-}"
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_mpi_yield_when_idle=1
+# The programs: built here (phase build) in build-gpu/, or the bundle's, built on the Debian
+# machine, with its libraries and Open MPI (relocated by OPAL_PREFIX and PMIX_INSTALL_PREFIX).
+TESTS=build-gpu/tests BENCH=build-gpu/bench
+if ! wanted build && [[ -f $DEPS/bundle.tar.xz ]]; then
+  rm -rf "$DEPS/bundle" && tar -C "$DEPS" -xJf "$DEPS/bundle.tar.xz" || exit 1
+  TESTS=$DEPS/bundle/bin BENCH=$DEPS/bundle/bin
+  mpi=$DEPS/bundle/mpi/usr
+  export PATH="$mpi/bin:$PATH" OPAL_PREFIX="$mpi" PMIX_INSTALL_PREFIX="$mpi/lib/x86_64-linux-gnu/pmix2" \
+    PMIX_MCA_mca_base_component_path="$mpi/lib/x86_64-linux-gnu/pmix2/lib/pmix" HWLOC_PLUGINS_PATH="$DEPS/bundle/none"
+  export LD_LIBRARY_PATH="$DEPS/bundle/lib:$mpi/lib/x86_64-linux-gnu:$mpi/lib/x86_64-linux-gnu/pmix2/lib:$LD_LIBRARY_PATH"
+  # The tests find tests/data under the checkout they were built from.
+  src=$(cat "$DEPS/bundle/SOURCE_DIR")
+  if [[ $src != "$PWD" && ! -e $src ]]; then mkdir -p "$(dirname "$src")" && ln -s "$PWD" "$src"; fi
+  echo "programs: deps/bundle ($(cat "$DEPS/bundle/SOURCE_DIR"))" >> "$OUT/machine.txt"
+fi
 {
   date -u
   nvidia-smi || true
@@ -95,30 +121,30 @@ if wanted build; then
     bench_device || exit 1
 fi
 if wanted tests || wanted sanitizer || wanted ranks || wanted bench; then
-  if [[ ! -x build-gpu/tests/test_cuda_backend ]]; then
-    echo "gpu_check.sh: build-gpu/ has no test programs. Fix: run the build phase first (in this call or a warm earlier one)" |
+  if [[ ! -x $TESTS/test_cuda_backend ]]; then
+    echo "gpu_check.sh: $TESTS has no test programs. Fix: run the build phase first (in this call or a warm earlier one), or carry deps/ with its bundle (--prepare)" |
       tee -a "$OUT/summary.txt"
     exit 1
   fi
 fi
 # CPU = CUDA on one rank (tests/gpu) and the debug backend as everywhere.
 if wanted tests; then
-  step gpu_tests 180 build-gpu/tests/test_cuda_backend --gtest_output="xml:$OUT/gpu_tests.xml"
+  step gpu_tests 180 "$TESTS/test_cuda_backend" --gtest_output="xml:$OUT/gpu_tests.xml"
   # A GPU that nvidia-smi lists but the tests skipped (a driver older than the CUDA runtime, for
   # one) is a failure here, not a green run.
   if nvidia-smi -L 2>/dev/null | grep -q GPU && grep -q 'SKIPPED' "$OUT/gpu_tests.log"; then
     echo "gpu_tests: nvidia-smi lists a GPU but the tests skipped (see gpu_tests.log)" | tee -a "$OUT/summary.txt"
   fi
-  step backend_tests 120 build-gpu/tests/test_backends --gtest_filter='-*Cli*'
+  step backend_tests 120 "$TESTS/test_backends" --gtest_filter='-*Cli*'
 fi
 if wanted bench; then
-  step bench 300 build-gpu/bench/bench_device --tets 10000,100000,700000,2000000 --steps 200
+  step bench 300 "$BENCH/bench_device" --tets 10000,100000,700000,2000000 --steps 200
   [[ -f "$OUT/bench.log" ]] && cp "$OUT/bench.log" "$OUT/bench_device.md"
 fi
 # The 1-vs-2-rank device checks with both device backends (the ranks share the GPU).
 if wanted ranks; then
   for np in 1 2; do
-    step "ranks_$np" 150 mpiexec --oversubscribe -n $np build-gpu/tests/test_ranks \
+    step "ranks_$np" 150 mpiexec --oversubscribe -n $np "$TESTS/test_ranks" \
       --gtest_filter='*Device*:*GpuAware*:*Fragments*'
   done
 fi
@@ -126,7 +152,7 @@ fi
 # the toolkit has it; the kernels are waited for after each launch (FDEM_CUDA_SYNC=1).
 if wanted sanitizer && command -v compute-sanitizer > /dev/null; then
   FDEM_CUDA_SYNC=1 step sanitizer 180 compute-sanitizer --tool memcheck --error-exitcode 3 \
-    build-gpu/tests/test_cuda_backend --gtest_filter='*Elastic*:*Gravity*'
+    "$TESTS/test_cuda_backend" --gtest_filter='*Elastic*:*Gravity*'
 fi
 if wanted fmad; then
   step fmad_configure 120 cmake -S . -B build-gpu-fmad -DCMAKE_BUILD_TYPE=Release -DFDEM_ENABLE_CUDA=ON \
