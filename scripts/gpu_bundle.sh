@@ -9,7 +9,8 @@
 #           OPAL_PREFIX and PMIX_INSTALL_PREFIX, and the libraries its plugins load;
 #   SOURCE_DIR  this checkout's path: the tests find tests/data through it (gpu_check.sh links it
 #           to the checkout there when the paths differ).
-# The device tool carries at most 64 MiB: the script prints the bundle's size.
+# The device tool carries at most 64 MiB: the script prints the bundle's size. Debian 12's
+# libraries need the C library 2.36 or newer there (gpu_check.sh checks; Ubuntu 24.04 has 2.39).
 #
 #   bash scripts/gpu_bundle.sh --check   runs two of the bundle's checks here as they run there
 #   (one process, and two ranks through the bundle's mpiexec) and fails if a process loads a

@@ -77,6 +77,13 @@ export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_mpi_yi
 # machine, with its libraries and Open MPI (relocated by OPAL_PREFIX and PMIX_INSTALL_PREFIX).
 TESTS=build-gpu/tests BENCH=build-gpu/bench
 if ! wanted build && [[ -f $DEPS/bundle.tar.xz ]]; then
+  # Built on Debian 12: its libraries need the C library 2.36 or newer (Ubuntu 24.04 has 2.39).
+  glibc=$(getconf GNU_LIBC_VERSION | awk '{print $2}')
+  if [[ $(printf '%s\n2.36\n' "$glibc" | sort -V | head -1) != 2.36 ]]; then
+    echo "gpu_check.sh: this machine's C library is $glibc, older than the bundle's 2.36. Fix: name the phase build (it builds here)" |
+      tee -a "$OUT/summary.txt"
+    exit 1
+  fi
   rm -rf "$DEPS/bundle" && tar -C "$DEPS" -xJf "$DEPS/bundle.tar.xz" || exit 1
   TESTS=$DEPS/bundle/bin BENCH=$DEPS/bundle/bin
   mpi=$DEPS/bundle/mpi/usr
