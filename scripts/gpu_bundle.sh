@@ -16,6 +16,7 @@
 #   (one process, and two ranks through the bundle's mpiexec) and fails if a process loads a
 #   library from outside deps/bundle other than the C library's own.
 set -euo pipefail
+shopt -s nullglob
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 DEPS=$PWD/deps
 B=$DEPS/bundle
@@ -31,7 +32,8 @@ if [[ "${1:-}" == "--check" ]]; then
     env -i HOME="$HOME" PATH="$mpi/bin:/usr/bin:/bin" OPAL_PREFIX="$mpi" \
       PMIX_INSTALL_PREFIX="$mpi/lib/x86_64-linux-gnu/pmix2" \
       PMIX_MCA_mca_base_component_path="$mpi/lib/x86_64-linux-gnu/pmix2/lib/pmix" HWLOC_PLUGINS_PATH="$B/none" \
-      OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 \
+      OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_pml=ob1 OMPI_MCA_btl=self,vader \
+      OMPI_MCA_btl_vader_single_copy_mechanism=none \
       OMPI_MCA_mpi_yield_when_idle=1 LD_DEBUG=libs LD_DEBUG_OUTPUT="$log/ld" \
       LD_LIBRARY_PATH="$B/lib:$mpi/lib/x86_64-linux-gnu:$mpi/lib/x86_64-linux-gnu/pmix2/lib" "$@"
   }
@@ -86,7 +88,8 @@ MPI_LIBS=$M:$M/pmix2/lib
 # already in the bundle.
 mapfile -t loaders < <(printf '%s\n' "$B"/bin/* "$B"/mpi/usr/bin/orterun "$B"/mpi/usr/bin/orted \
   "$M"/openmpi/lib/openmpi3/*.so "$M"/pmix2/lib/pmix/*.so)
-LD_LIBRARY_PATH=$MPI_LIBS ldd "${loaders[@]}" 2> /dev/null | awk '$2 == "=>" && $3 ~ /^\// {print $1, $3}' | sort -u |
+((${#loaders[@]} > 5)) || { echo "gpu_bundle.sh: Open MPI's plugins are missing from deps/bundle/mpi" >&2; exit 1; }
+LD_LIBRARY_PATH=$MPI_LIBS ldd "${loaders[@]}" | awk '$2 == "=>" && $3 ~ /^\// {print $1, $3}' | sort -u |
   while read -r name path; do
     system_lib "$name" && continue
     [[ $path == "$B"/* ]] && continue

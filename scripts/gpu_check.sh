@@ -39,7 +39,8 @@ if [[ "${1:-}" == "--prepare" ]]; then
   for p in "$tmp"/*.deb; do dpkg -x "$p" "$DEPS"; done
   rm -rf "$tmp"
   bash scripts/gpu_bundle.sh
-  tar -C "$DEPS" -cJf "$DEPS/bundle.tar.xz" bundle && rm -rf "$DEPS/bundle"  # only the archive travels
+  tar -C "$DEPS" -cJf "$DEPS/bundle.tar.xz" bundle
+  rm -rf "$DEPS/bundle"  # only the archive travels
   echo "deps/ is ready ($(du -sh --exclude=bundle "$DEPS" | cut -f1) to carry): carry it with the run (device tool: carry [\"deps\"])"
   exit 0
 fi
@@ -64,6 +65,7 @@ if ! [[ $BUDGET =~ ^[0-9]+$ ]]; then
   echo "gpu_check.sh: FDEM_GPU_BUDGET='$BUDGET' is not a whole number of seconds. Fix: e.g. FDEM_GPU_BUDGET=540" >&2
   exit 2
 fi
+BUDGET=$((10#$BUDGET))  # 0600 is 600 s, not octal
 
 if [[ ! -d "$DEPS/usr/include" ]]; then
   echo "gpu_check.sh: deps/ is missing. Fix: run 'bash scripts/gpu_check.sh --prepare' on the Debian machine and carry deps/" >&2
@@ -71,7 +73,7 @@ if [[ ! -d "$DEPS/usr/include" ]]; then
 fi
 OUT=${OUT:-out/gpu_check}
 mkdir -p "$OUT"
-export LD_LIBRARY_PATH="$DEPS/usr/lib/x86_64-linux-gnu:${LD_LIBRARY_PATH:-}"
+export LD_LIBRARY_PATH="$DEPS/usr/lib/x86_64-linux-gnu${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_mpi_yield_when_idle=1
 # The programs: built here (phase build) in build-gpu/, or the bundle's, built on the Debian
 # machine, with its libraries and Open MPI (relocated by OPAL_PREFIX and PMIX_INSTALL_PREFIX).
@@ -84,15 +86,24 @@ if ! wanted build && [[ -f $DEPS/bundle.tar.xz ]]; then
       tee -a "$OUT/summary.txt"
     exit 1
   fi
-  rm -rf "$DEPS/bundle" && tar -C "$DEPS" -xJf "$DEPS/bundle.tar.xz" || exit 1
+  if ! { rm -rf "$DEPS/bundle" && tar -C "$DEPS" -xJf "$DEPS/bundle.tar.xz"; }; then
+    echo "gpu_check.sh: deps/bundle.tar.xz did not unpack. Fix: bash scripts/gpu_check.sh --prepare here again" |
+      tee -a "$OUT/summary.txt"
+    exit 1
+  fi
   TESTS=$DEPS/bundle/bin BENCH=$DEPS/bundle/bin
   mpi=$DEPS/bundle/mpi/usr
   export PATH="$mpi/bin:$PATH" OPAL_PREFIX="$mpi" PMIX_INSTALL_PREFIX="$mpi/lib/x86_64-linux-gnu/pmix2" \
     PMIX_MCA_mca_base_component_path="$mpi/lib/x86_64-linux-gnu/pmix2/lib/pmix" HWLOC_PLUGINS_PATH="$DEPS/bundle/none"
   export LD_LIBRARY_PATH="$DEPS/bundle/lib:$mpi/lib/x86_64-linux-gnu:$mpi/lib/x86_64-linux-gnu/pmix2/lib:$LD_LIBRARY_PATH"
+  # Shared memory between the ranks of one machine only: no UCX or libfabric plugins, whose
+  # own plugins Open MPI's relocation does not move, and no single-copy by ptrace (containers).
+  export OMPI_MCA_pml=ob1 OMPI_MCA_btl=self,vader OMPI_MCA_btl_vader_single_copy_mechanism=none
   # The tests find tests/data under the checkout they were built from.
   src=$(cat "$DEPS/bundle/SOURCE_DIR")
-  if [[ $src != "$PWD" && ! -e $src ]]; then mkdir -p "$(dirname "$src")" && ln -s "$PWD" "$src"; fi
+  if [[ $src != "$PWD" && ! -d $src/tests/data ]]; then mkdir -p "$(dirname "$src")" && ln -sfn "$PWD" "$src"; fi
+  [[ -d $src/tests/data ]] || echo "gpu_check.sh: $src/tests/data is missing: the tests will not find their data" |
+    tee -a "$OUT/summary.txt"
   echo "programs: deps/bundle ($(cat "$DEPS/bundle/SOURCE_DIR"))" >> "$OUT/machine.txt"
 fi
 {

@@ -50,8 +50,9 @@ class DeviceLoop {
   /// The evolving state, device to host (x, v, f, CE6 state, platen anchors, pressure forces,
   /// contact flags, springs and pair forces).
   virtual void download(Solver& s) = 0;
-  /// Debug backend: fill the host copies of the evolving state with NaN (flags with 0xAA), so a
-  /// read without download() is caught. Nothing elsewhere.
+  /// Debug backend: fill the host copies of the evolving state with NaN (flags with 0xAA), and
+  /// the last force evaluation's scalars while they wait on the device, so a read without
+  /// download() or settle() is caught. Nothing elsewhere.
   virtual void poison_host(Solver& s) = 0;
   /// Kinetic energy x 2 of the state on the device (the first step's initial energy).
   virtual real kinetic2() = 0;
@@ -68,6 +69,9 @@ class DeviceLoop {
   /// device: Solver::measure and Solver::sync_host call it, so that between steps the Solver's
   /// platen reactions, powers and slip energies are those of the forces on the device.
   virtual void settle(Solver& s) = 0;
+  /// Forget what settle() would bring: the host copy was written (a checkpoint loaded, a
+  /// prescription) and is the state now; the next step uploads it.
+  virtual void discard_pending() = 0;
   /// A monitor row's sums from the device state, without copying it to the host: lateral
   /// displacement ratio, lateral node count, kinetic energy, strain energy, lateral stress x
   /// volume and volume (middle third), CE6 stored energy (intact, broken), damaged, broken,

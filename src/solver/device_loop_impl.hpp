@@ -153,7 +153,7 @@ class DeviceLoopImpl final : public DeviceLoop {
       lat_face_.upload(face);
       constants_ = true;
     }
-    forces_pending_ = advance_pending_ = false;  // the host copy, its scalars included, is the state
+    discard_pending();  // the host copy, its scalars included, is the state
     x_.upload(s.x);
     v_.upload(s.v);
     f_.upload(s.f);
@@ -216,6 +216,12 @@ class DeviceLoopImpl final : public DeviceLoop {
       std::fill(c.spring.begin(), c.spring.end(), bad);
       std::fill(c.pair_force_.begin(), c.pair_force_.end(), bad);
       std::fill(c.eval_.begin(), c.eval_.end(), ContactEval{bad, bad, nan});
+    }
+    // The last evaluation's scalars not yet settled: read before settle() they are NaN.
+    if (forces_pending_) {
+      s.force_top_ = s.force_bottom_ = s.p_contact_ = s.contact_spring_ = nan;
+      s.p_viscous_ = s.p_cohesive_ = s.p_friction_ = nan;
+      if (s.scene_.confinement.enabled) s.pressure_ = s.p_pressure_ = nan;
     }
   }
 
@@ -391,7 +397,7 @@ class DeviceLoopImpl final : public DeviceLoop {
     } else {
       Exec::forall(nc, [=] FDEM_LAMBDA(int i) { broke[i] = 0; });
     }
-    const std::array<real, kAll> a = finish ? read_sums<kAll>(0) : pad<kAll>(read_sums<kTouching>(0));
+    const std::array<real, kAll> a = finish ? read_sums<kAll>() : pad<kAll>(read_sums<kTouching>());
     if (finish) {  // the step that led here: its bookkeeping, checks and clock (may throw)
       advance_pending_ = false;
       if (prev) apply_force_sums(s, a.data() + kPrev);
@@ -509,7 +515,7 @@ class DeviceLoopImpl final : public DeviceLoop {
     const int whole[] = {kTop, kBottom, kPlatenFric, kVisc, kCoh, kFric, kConDiss, kConStored, kTouching};
     std::array<real, kBad> reduced{};
     if (dist) {
-      reduced = read_sums<kBad>(0);
+      reduced = read_sums<kBad>();
       real vals[9];
       for (int k = 0; k < 9; ++k) vals[k] = reduced[whole[k]];
       s.sum(vals, 9);
@@ -546,7 +552,7 @@ class DeviceLoopImpl final : public DeviceLoop {
     // One rank: the scalars stay on the device until the next evaluation's first copy (or
     // settle()); several ranks read them here, summed over the ranks.
     if (dist) {
-      std::array<real, kBad> b = read_sums<kBad>(0);
+      std::array<real, kBad> b = read_sums<kBad>();
       for (int k : whole) b[k] = reduced[k];
       apply_force_sums(s, b.data());
     } else {
@@ -557,9 +563,11 @@ class DeviceLoopImpl final : public DeviceLoop {
 
   void settle(Solver& s) override {
     if (!forces_pending_) return;
-    const std::array<real, kBad> b = read_sums<kBad>(0);
+    const std::array<real, kBad> b = read_sums<kBad>();
     apply_force_sums(s, b.data());
   }
+
+  void discard_pending() override { forces_pending_ = advance_pending_ = false; }
 
  private:
   /// The Solver's bookkeeping of a force evaluation from its sums (b: slots [0, kBad)).
@@ -643,7 +651,7 @@ class DeviceLoopImpl final : public DeviceLoop {
       lap(t0, t_.energy);
       return false;
     }
-    const std::array<real, kSums> r = read_sums<kSums>(0);
+    const std::array<real, kSums> r = read_sums<kSums>();
     if (forces_pending_) apply_force_sums(s, r.data());  // slots [0, kBad) are the last evaluation's
     lap(t0, t_.energy);
     out = advance_sums(r.data());
@@ -796,12 +804,12 @@ class DeviceLoopImpl final : public DeviceLoop {
   }
 
  private:
-  /// sums_[from, from + N) on the host (one copy).
+  /// sums_[0, N) on the host (one copy).
   template <int N>
-  std::array<real, N> read_sums(int from) const {
+  std::array<real, N> read_sums() const {
     static_assert(N <= kAll, "beyond the sums");
     std::array<real, N> out;
-    device::to_host(b_, out.data(), sums_.data() + from, N * sizeof(real));
+    device::to_host(b_, out.data(), sums_.data(), N * sizeof(real));
     return out;
   }
 

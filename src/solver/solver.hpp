@@ -111,7 +111,10 @@ class Solver {
   const DeviceLoop* device_loop() const { return dev_.get(); }
   DeviceLoop* device_loop() { return dev_.get(); }
   void sync_host() const;
-  void host_changed() { device_current_ = false; }
+  void host_changed() {
+    device_current_ = false;
+    if (dev_) dev_->discard_pending();  // the host's scalars, not the device's last ones
+  }
 
   /// Prescribe velocity components (mask bit 0 = x, 1 = y, 2 = z) of a node. Prescribing a node
   /// again sets the new components (the others stay prescribed).

@@ -20,7 +20,7 @@ TEST(HostMemory, ResidentMemoryFollowsWhatIsWrittenAndThePeakRestarts) {
   EXPECT_GE(device::host_peak_resident(), during);
   std::vector<char>().swap(block);  // a block this large goes back to the system at once (glibc's mmap)
   EXPECT_LT(device::host_resident(), during - n / 2);
-  ASSERT_TRUE(device::reset_host_peak());
+  if (!device::reset_host_peak()) GTEST_SKIP() << "this kernel refuses /proc/self/clear_refs";
   EXPECT_LT(device::host_peak_resident(), during - n / 2);  // the peak starts again from now
   EXPECT_GT(device::memory_available(Backend::cpu), n);
   EXPECT_GT(device::memory_available(Backend::debug), 0u);
