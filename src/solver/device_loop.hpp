@@ -59,8 +59,8 @@ class DeviceLoop {
   /// Solver::compute_forces on the device.
   virtual void compute_forces(Solver& s) = 0;
   /// Central difference with time step dt, prescribed velocities, and the powers with the new
-  /// velocities. Several ranks: the sums come to the host now, with the last force evaluation's
-  /// scalars if settle() has not brought them, into `out`, and it returns true. One rank: they
+  /// velocities. Several ranks: the sums come to the host now, into `out`, and it returns true
+  /// (their force evaluations bring their own scalars, summed over the ranks). One rank: they
   /// stay on the device and it returns false; the next compute_forces reads them in the copy
   /// that brings the broad phase's decision and finishes the step there (Solver::finish_step),
   /// so a step copies to the host once.

@@ -397,7 +397,7 @@ class DeviceLoopImpl final : public DeviceLoop {
     } else {
       Exec::forall(nc, [=] FDEM_LAMBDA(int i) { broke[i] = 0; });
     }
-    const std::array<real, kAll> a = finish ? read_sums<kAll>() : pad<kAll>(read_sums<kTouching>());
+    const std::array<real, kAll> a = read_sums<kAll>();
     if (finish) {  // the step that led here: its bookkeeping, checks and clock (may throw)
       advance_pending_ = false;
       if (prev) apply_force_sums(s, a.data() + kPrev);
@@ -651,8 +651,7 @@ class DeviceLoopImpl final : public DeviceLoop {
       lap(t0, t_.energy);
       return false;
     }
-    const std::array<real, kSums> r = read_sums<kSums>();
-    if (forces_pending_) apply_force_sums(s, r.data());  // slots [0, kBad) are the last evaluation's
+    const std::array<real, kSums> r = read_sums<kSums>();  // (several ranks apply the forces' own)
     lap(t0, t_.energy);
     out = advance_sums(r.data());
     return true;
@@ -665,13 +664,6 @@ class DeviceLoopImpl final : public DeviceLoop {
     out.bad = r[kBad], out.kinetic2 = r[kKinetic2], out.contact_power = r[kConPowerNew];
     out.pressure_power = r[kPressurePowerNew], out.gravity_power = r[kGravityNew], out.far = r[kFar];
     out.lost = r[kLost];
-    return out;
-  }
-  /// a in the first N0 of N values, zeros after.
-  template <int N, std::size_t N0>
-  static std::array<real, N> pad(const std::array<real, N0>& a) {
-    std::array<real, N> out{};
-    for (std::size_t k = 0; k < N0; ++k) out[k] = a[k];
     return out;
   }
 
