@@ -20,7 +20,7 @@
 
 namespace fdem {
 
-constexpr std::uint32_t kCheckpointVersion = 1;
+constexpr std::uint32_t kCheckpointVersion = 2;  // 2: CE6 state stores its mode beside the damage
 
 /// Collects values for a checkpoint payload.
 class CheckpointOut {

@@ -20,6 +20,9 @@
 //   <= 0.1 II, else mixed): no cohesion. With tet-tet contact on (broken_inert) no force at
 //   all: the faces meet through contact. Otherwise: overlap penalty + Coulomb friction with an elastic
 //   predictor tau_trial = (P_tan/h)(s_vec - slip_t), |tau| <= mu_rock |sigma|; open: traction 0.
+//   slip_t: the anchor on the current plane: s_vec of the step before the break (stored while the
+//   CE6 is damaged; s_vec of the break step itself if it broke straight from undamaged), then
+//   moved by the return to |tau| = mu_rock |sigma| and by opening.
 //   traction t_k = sigma n + tau s_vec/s; force (A/3) t_k shared half/half by the two node pairs
 //   of point k: +(A/6) t_k on the A node, -(A/6) t_k on the B node (opening pulls B back).
 //   power  = sum_k (A/3) t_k . d_k_dot = -sum_i f_i . v_i
@@ -43,11 +46,28 @@ struct Ce6Params {
   real Z;            // integral of z(D) over D in [0,1] for the chosen curve
 };
 
-/// Per-CE6 persistent state; zero-initialised = intact.
-struct Ce6State {
-  real D[3];     // damage at the 3 integration points, monotone, in [0,1]
-  Vec3 slip[3];  // friction anchor (global coordinates), used once broken
-  int mode;      // 0 intact, 1 broke in mode I, 2 mode II, 3 mixed
+/// What every step reads of a CE6 (32 bytes); zero-initialised = intact. The law writes it
+/// only when it changes (damage rising, the break), so an undamaged CE6 costs a read of these
+/// bytes and no write.
+struct Ce6Damage {
+  real D[3];         // damage at the 3 integration points, monotone, in [0,1]
+  int mode;          // 0 intact, 1 broke in mode I, 2 mode II, 3 mixed
+  int reserved = 0;  // no padding bytes: checkpoints hold the state byte for byte
+};
+
+/// Per-CE6 persistent state: its damage and the friction anchors (global coordinates) that a
+/// broken CE6's friction starts from. While the CE6 is damaged the anchors follow its sliding,
+/// so at the break they hold the last step's; while it is undamaged they are neither read nor
+/// written (nor once broken when tet-tet contact takes over its faces), which spares the loop
+/// their bytes for most CE6s.
+struct Ce6State : Ce6Damage {
+  Vec3 slip[3];
+};
+static_assert(sizeof(Ce6Damage) == 32 && sizeof(Ce6State) == 32 + 3 * sizeof(Vec3), "no padding in the CE6 state");
+
+/// The friction anchors of one CE6, where a loop keeps them apart from the damage.
+struct Ce6Anchors {
+  Vec3 a[3];
 };
 
 /// power: rate of work the interface absorbs (W); stored: recoverable elastic energy (J).
@@ -98,11 +118,17 @@ inline Ce6Params make_ce6_params(const Material& m) {
   return p;
 }
 
-FDEM_HD bool ce6_broken(const Ce6State& s) {
+FDEM_HD bool ce6_broken(const Ce6Damage& s) {
   return s.mode != 0;
 }
 
-FDEM_HD real ce6_max_damage(const Ce6State& s) {
+/// False for a broken CE6 when tet-tet contact takes over its faces: the law gives it no force
+/// and changes nothing, so a loop may skip it without reading its nodes.
+FDEM_HD bool ce6_carries_force(const Ce6Params& p, const Ce6Damage& s) {
+  return !(s.mode != 0 && p.broken_inert);
+}
+
+FDEM_HD real ce6_max_damage(const Ce6Damage& s) {
   real d = s.D[0];
   if (s.D[1] > d) d = s.D[1];
   if (s.D[2] > d) d = s.D[2];
@@ -139,14 +165,14 @@ FDEM_HD real past_peak(real a, real p, real w) {
 
 }  // namespace ce6_detail
 
-/// Forces on the six nodes (overwritten), damage/slip/mode update of `s`, power and stored energy.
-/// h is the element's characteristic size.
-FDEM_HD Ce6Eval cohesive6_forces(const Ce6Params& p, const Vec3 (&x)[6], const Vec3 (&v)[6], real h, Ce6State& s,
-                                 Vec3 (&f)[6]) {
+/// Forces on the six nodes (overwritten), damage and mode update of `s` and of the friction
+/// anchors (broken CE6s only), power and stored energy. h is the element's characteristic size.
+FDEM_HD Ce6Eval cohesive6_forces(const Ce6Params& p, const Vec3 (&x)[6], const Vec3 (&v)[6], real h, Ce6Damage& s,
+                                 Vec3 (&anchors)[3], Vec3 (&f)[6]) {
   using namespace ce6_detail;
   for (int i = 0; i < 6; ++i) f[i] = Vec3{0, 0, 0};
   Ce6Eval out{0, 0};
-  if (s.mode != 0 && p.broken_inert) return out;
+  if (!ce6_carries_force(p, s)) return out;
 
   const Vec3 m0 = real(0.5) * (x[0] + x[3]);
   const Vec3 m1 = real(0.5) * (x[1] + x[4]);
@@ -172,6 +198,7 @@ FDEM_HD Ce6Eval cohesive6_forces(const Ce6Params& p, const Vec3 (&x)[6], const V
   real o[3], sl[3], fs[3], sp[3], Dn[3], Ds[3];
   Vec3 sv[3], dkdot[3];
   const bool was_broken = s.mode != 0;
+  const bool had_damage = ce6_max_damage(s) > 0;  // anchors stored on the last step
   for (int k = 0; k < 3; ++k) {
     const int a = k, b = (k + 1) % 3;
     const Vec3 dk = real(0.5) * (d[a] + d[b]);
@@ -208,6 +235,7 @@ FDEM_HD Ce6Eval cohesive6_forces(const Ce6Params& p, const Vec3 (&x)[6], const V
     }
   }
   const bool broken = s.mode != 0;
+  const bool damaged = ce6_max_damage(s) > 0;  // anchors are kept from the first damage on
 
   for (int k = 0; k < 3; ++k) {
     Vec3 t{0, 0, 0};
@@ -219,27 +247,30 @@ FDEM_HD Ce6Eval cohesive6_forces(const Ce6Params& p, const Vec3 (&x)[6], const V
     }
     if (broken) {
       if (o[k] < 0) {
-        // Coulomb friction: elastic predictor on the anchor projected to the current plane.
+        // Coulomb friction: elastic predictor on the anchor projected to the current plane (the
+        // last step's sliding on the step of the break; this step's, so no friction, where the
+        // CE6 went from undamaged to broken in one step and stored no anchor).
         const real tmax = p.mu_rock * (-k_ov * o[k]);
-        const Vec3 anchor = s.slip[k] - dot(n, s.slip[k]) * n;
+        const Vec3 anchor = was_broken || had_damage ? anchors[k] - dot(n, anchors[k]) * n : sv[k];
         const Vec3 rel = sv[k] - anchor;
         const Vec3 trial = k_t * rel;
         const real tn = norm(trial);
         if (tn > tmax && tn > 0) {
           const Vec3 dir = (real(1) / tn) * trial;
-          s.slip[k] = sv[k] - (k_t > 0 ? tmax / k_t : real(0)) * dir;
+          anchors[k] = sv[k] - (k_t > 0 ? tmax / k_t : real(0)) * dir;
           t += tmax * dir;
           e += k_t > 0 ? real(0.5) * tmax * tmax / k_t : real(0);
         } else {
-          s.slip[k] = anchor;
+          anchors[k] = anchor;
           t += trial;
           e += real(0.5) * k_t * dot(rel, rel);
         }
       } else {
-        s.slip[k] = sv[k];
+        anchors[k] = sv[k];
       }
     } else {
       const real z = softening_z(s.D[k], p.softening);
+      if (damaged) anchors[k] = sv[k];  // the anchor follows until the break
       if (o[k] >= 0) {
         t = (z * prepeak(o[k], o_p, p.ft)) * n;
         e = z * prepeak_energy(o[k], o_p, p.ft);
@@ -248,7 +279,6 @@ FDEM_HD Ce6Eval cohesive6_forces(const Ce6Params& p, const Vec3 (&x)[6], const V
         t += (z * prepeak(sl[k], sp[k], fs[k]) / sl[k]) * sv[k];
         e += z * prepeak_energy(sl[k], sp[k], fs[k]);
       }
-      s.slip[k] = sv[k];  // anchor follows until the break
     }
     out.power += w * dot(t, dkdot[k]);
     out.stored += w * e;
@@ -260,6 +290,12 @@ FDEM_HD Ce6Eval cohesive6_forces(const Ce6Params& p, const Vec3 (&x)[6], const V
     f[b + 3] -= fk;
   }
   return out;
+}
+
+/// The same for a whole Ce6State (damage and anchors together).
+FDEM_HD Ce6Eval cohesive6_forces(const Ce6Params& p, const Vec3 (&x)[6], const Vec3 (&v)[6], real h, Ce6State& s,
+                                 Vec3 (&f)[6]) {
+  return cohesive6_forces(p, x, v, h, s, s.slip, f);
 }
 
 }  // namespace fdem

@@ -70,12 +70,12 @@ class DeviceLoopImpl final : public DeviceLoop {
  public:
   DeviceLoopImpl(Backend b, bool direct_mpi) : b_(b), direct_mpi_(direct_mpi) {
     auto set = [&](auto&... a) { (a.set_backend(b), ...); };
-    set(tet_nodes_, tet_order_, ce6_nodes_, ce6_order_, platen_nodes_, fixed_node_, fixed_mask_, lat_faces_, lat_ptr_,
+    set(tet_nodes_, tet_order_, ce6_nodes_, ce6_slot_, platen_nodes_, fixed_node_, fixed_mask_, lat_faces_, lat_ptr_,
         lat_face_, lat_node_, node_vertex_, vt_ptr_, vt_tets_, watch_nodes_, gather_node_, gather_ptr_, gather_slot_,
         lateral_nodes_);
     set(Xinv_, V0_, eta_, ce6_h_, mass_, inv_mass_, platen_k_, sums_);
     set(X_, plan_x_, x_, v_, f_, anchor_, fixed_v_, lat_force_, watch_x_, spring_, pair_force_);
-    set(ce6_, broke_, active_, mid_third_, own_node_, own_tet_, own_ce6_, pairs_, eval_);
+    set(dmg_, slip_, ce6_model_, broke_, active_, mid_third_, own_node_, own_tet_, own_ce6_, pairs_, eval_);
     set(tet_global_, flags_, offsets_, counts_, entry_offsets_, head_, head_offsets_, cell_start_, cell_counts_,
         cell_offsets_);
     set(ids_, tet_ce6_, ce6_tets_, boxes_, entries_, node_slots_, next_pairs_, next_spring_);
@@ -95,12 +95,22 @@ class DeviceLoopImpl final : public DeviceLoop {
     if (!constants_) {
       tet_nodes_.upload(reinterpret_cast<const int*>(m.tet_nodes.data()), 4 * m.tet_nodes.size());
       tet_order_.upload(m.tet_colours.order);
-      ce6_nodes_.upload(reinterpret_cast<const int*>(m.ce6_nodes.data()), 6 * m.ce6_nodes.size());
-      ce6_order_.upload(m.ce6_colours.order);
+      // CE6 arrays in colour order (the CE6s no colour holds, on several ranks, after them), so
+      // that a colour's launch reads them contiguously.
+      const std::size_t nce = m.ce6_nodes.size();
+      ce6_perm_ = m.ce6_colours.order;
+      std::vector<int> slot(nce, -1);
+      for (std::size_t k = 0; k < ce6_perm_.size(); ++k) slot[ce6_perm_[k]] = int(k);
+      for (std::size_t i = 0; i < nce; ++i)
+        if (slot[i] < 0) slot[i] = int(ce6_perm_.size()), ce6_perm_.push_back(int(i));
+      ce6_slot_.upload(slot);
+      ce6_coloured_ = int(m.ce6_colours.order.size());
+      ce6p_ = s.ce6p_;
+      ce6_nodes_.upload(reinterpret_cast<const int*>(in_slots(m.ce6_nodes).data()), 6 * nce);
       Xinv_.upload(m.tet_Xinv);
       V0_.upload(m.tet_V0);
       eta_.upload(m.tet_eta);
-      ce6_h_.upload(m.ce6_h);
+      ce6_h_.upload(in_slots(m.ce6_h));
       mass_.upload(m.mass);
       inv_mass_.upload(s.inv_mass_);
       platen_nodes_.upload(m.platen_nodes);
@@ -114,7 +124,7 @@ class DeviceLoopImpl final : public DeviceLoop {
       lateral_nodes_.upload(m.lateral_nodes);
       own_node_.upload(s.own_node_);
       own_tet_.upload(s.own_tet_);
-      own_ce6_.upload(s.own_ce6_);
+      own_ce6_.upload(in_slots(s.own_ce6_));
       if (s.halo_) plan_halo(s);
       // Monitor rows: the tets whose reference centroid lies in the middle third of the height.
       std::vector<std::uint8_t> mid(m.tet_nodes.size());
@@ -157,8 +167,12 @@ class DeviceLoopImpl final : public DeviceLoop {
     x_.upload(s.x);
     v_.upload(s.v);
     f_.upload(s.f);
-    ce6_.upload(s.ce6);
-    broke_.upload(s.ce6_broke_);
+    // The CE6 state in the host's layout and order, split into slots on the device.
+    ce6_model_.upload(s.ce6);
+    dmg_.resize(s.ce6.size());
+    slip_.resize(s.ce6.size());
+    ce6_between_orders(true);
+    broke_.upload(in_slots(s.ce6_broke_));
     anchor_.upload(s.platen_anchor);
     fixed_node_.upload(s.fixed_node_);
     fixed_mask_.upload(s.fixed_mask_);
@@ -180,8 +194,15 @@ class DeviceLoopImpl final : public DeviceLoop {
     x_.download(s.x);
     v_.download(s.v);
     f_.download(s.f);
-    ce6_.download(s.ce6);
-    broke_.download(s.ce6_broke_);
+    // The CE6 state gathered into the host's layout and order on the device, then one copy.
+    ce6_model_.resize(dmg_.size());
+    ce6_between_orders(false);
+    ce6_model_.download(s.ce6);
+    {
+      std::vector<std::uint8_t> b;
+      broke_.download(b);
+      for (std::size_t k = 0; k < b.size(); ++k) s.ce6_broke_[ce6_perm_[k]] = b[k];
+    }
     anchor_.download(s.platen_anchor);
     lat_force_.download(s.lateral_force_);
     if (s.contacts.enabled()) {
@@ -335,11 +356,11 @@ class DeviceLoopImpl final : public DeviceLoop {
     }
     t0 = lap(t0, t_.tet4);
 
-    // CE6, colour by colour; a CE6 that breaks raises its flag.
+    // CE6, colour by colour (stored in colour order: slot b + k); a CE6 that breaks raises its flag.
     const int* cn = ce6_nodes_.data();
-    const int* corder = ce6_order_.data();
     const real* h = ce6_h_.data();
-    Ce6State* st = ce6_.data();
+    Ce6Damage* st = dmg_.data();
+    Ce6Anchors* sl = slip_.data();
     std::uint8_t* broke = broke_.data();
     const Ce6Params p = s.ce6p_;
     for (int c = 0; c < m.ce6_colours.colours(); ++c) {
@@ -347,12 +368,13 @@ class DeviceLoopImpl final : public DeviceLoop {
       Exec::template sum_to<3>(
           e - b,
           [=] FDEM_LAMBDA(int k, real* acc) {
-            const int i = corder[b + k];
+            const int i = b + k;
+            if (!ce6_carries_force(p, st[i])) return;  // broken, its faces left to contact
             const int* q = cn + 6 * i;
             Vec3 xe[6], ve[6], fe[6];
             for (int j = 0; j < 6; ++j) xe[j] = x[q[j]], ve[j] = v[q[j]];
             const bool was_broken = ce6_broken(st[i]);
-            const Ce6Eval ev = cohesive6_forces(p, xe, ve, h[i], st[i], fe);
+            const Ce6Eval ev = cohesive6_forces(p, xe, ve, h[i], st[i], sl[i].a, fe);
             for (int j = 0; j < 6; ++j) f[q[j]] += fe[j];
             if (own_c[i]) acc[was_broken ? 1 : 0] += ev.power;
             if (!was_broken && ce6_broken(st[i])) broke[i] = 1, acc[2] += 1;
@@ -364,7 +386,7 @@ class DeviceLoopImpl final : public DeviceLoop {
     // Adaptive activation: the vicinity of each CE6 that broke on this step (every tet sharing a
     // vertex of its face); a pass over the flags every step, so the host need not know first.
     // Flags only rise, so concurrent writes of 1 agree.
-    const int nc = int(ce6_.size());
+    const int nc = int(dmg_.size());
     ContactSet& cs = s.contacts;
     if (cs.enabled()) {
       const int* nv = node_vertex_.data();
@@ -426,6 +448,7 @@ class DeviceLoopImpl final : public DeviceLoop {
 
       const int np = int(pairs_.size());
       const ContactPair* pairs = pairs_.data();
+      const int* slot = ce6_slot_.data();
       ContactEval* ev = eval_.data();
       Vec3* pf = pair_force_.data();
       Vec3* spring = spring_.data();
@@ -435,7 +458,7 @@ class DeviceLoopImpl final : public DeviceLoop {
           [=] FDEM_LAMBDA(int k, real* acc) {
             const ContactPair cp = pairs[k];
             Vec3* fp = pf + 8 * k;
-            if (cp.joint >= 0 && !ce6_broken(st[cp.joint])) {
+            if (cp.joint >= 0 && !ce6_broken(st[slot[cp.joint]])) {
               for (int i = 0; i < 8; ++i) fp[i] = Vec3{0, 0, 0};
               ev[k] = ContactEval{{0, 0, 0}, {0, 0, 0}, 0};
               return;
@@ -714,14 +737,19 @@ class DeviceLoopImpl final : public DeviceLoop {
     out[3] = te[0], out[4] = te[1], out[5] = te[2];
     const int* cn = ce6_nodes_.data();
     const real* h = ce6_h_.data();
-    const Ce6State* st = ce6_.data();
+    const Ce6Damage* st = dmg_.data();
+    const Ce6Anchors* sl = slip_.data();
+    const int* slot = ce6_slot_.data();
     const Ce6Params p = s.ce6p_;
-    const auto ce = Exec::template sum<7>(int(ce6_.size()), [=] FDEM_LAMBDA(int i, real* acc) {
+    // In the model's CE6 order (the host's), so that the sums agree bit for bit.
+    const auto ce = Exec::template sum<7>(int(dmg_.size()), [=] FDEM_LAMBDA(int c, real* acc) {
+      const int i = slot[c];
       if (!own_c[i]) return;
       Vec3 xe[6], ve[6], fe[6];
       for (int j = 0; j < 6; ++j) xe[j] = x[cn[6 * i + j]], ve[j] = v[cn[6 * i + j]];
-      Ce6State copy = st[i];  // measuring must not advance the state
-      const real stored = cohesive6_forces(p, xe, ve, h[i], copy, fe).stored;
+      Ce6Damage copy = st[i];  // measuring must not advance the state
+      Ce6Anchors anchors = sl[i];
+      const real stored = cohesive6_forces(p, xe, ve, h[i], copy, anchors.a, fe).stored;
       const int mode = st[i].mode;
       if (mode != 0) {
         acc[1] += stored;
@@ -762,12 +790,23 @@ class DeviceLoopImpl final : public DeviceLoop {
   }
 
   double bytes_per_step() const override {
-    const double nn = double(x_.size()), nt = double(V0_.size()), nc = double(ce6_.size()), np = double(pairs_.size());
+    const double nn = double(x_.size()), nt = double(V0_.size()), np = double(pairs_.size());
     const double vec = sizeof(Vec3);
     // TET4: connectivity, X0^-1, V0, eta; x and v of its 4 nodes read, f read and written.
     const double tet = nt * (4 * sizeof(int) + sizeof(Mat3) + 2 * sizeof(real) + 4 * 4 * vec);
-    // CE6: connectivity, h, state read and written; x, v of 6 nodes, f read and written.
-    const double ce6 = nc * (6 * sizeof(int) + sizeof(real) + 2 * sizeof(Ce6State) + 6 * 4 * vec);
+    // CE6 (those this rank computes, in the state as it is now): connectivity, h, damage and the
+    // own flag read, the break flag read by activation; where it carries force, x and v of 6
+    // nodes read and f read and written; where damaged (or broken and carrying force), the
+    // damage written (an upper bound: only when it rises) and the anchors read and written.
+    const Ce6Damage* st = dmg_.data();
+    const Ce6Params p = ce6p_;
+    const auto k = Exec::template sum<2>(ce6_coloured_, [=] FDEM_LAMBDA(int i, real* acc) {
+      const bool carries = ce6_carries_force(p, st[i]);
+      acc[0] += carries;
+      acc[1] += carries && ce6_max_damage(st[i]) > 0;
+    });
+    const double ce6 = ce6_coloured_ * (6 * sizeof(int) + sizeof(real) + sizeof(Ce6Damage) + 2) + k[0] * 6 * 4 * vec +
+                       k[1] * (sizeof(Ce6Damage) + 2 * sizeof(Ce6Anchors));
     // Contact pairs: pair, evaluation, spring, 8 forces written then read, 8 nodes' x and v.
     const double con =
         np * (sizeof(ContactPair) + 2 * sizeof(ContactEval) + 2 * vec + 16 * vec + 16 * vec + 8 * 4 * sizeof(int));
@@ -795,7 +834,34 @@ class DeviceLoopImpl final : public DeviceLoop {
     Exec::forall(to - from, [=] FDEM_LAMBDA(int k) { p[from + k] = 0; });
   }
 
+  /// Between ce6_model_ (Ce6State in model order) and the slot-ordered damage and anchors:
+  /// into the slots when `to_slots`, out of them otherwise.
+  void ce6_between_orders(bool to_slots) {
+    Ce6State* model = ce6_model_.data();
+    Ce6Damage* d = dmg_.data();
+    Ce6Anchors* a = slip_.data();
+    const int* slot = ce6_slot_.data();
+    Exec::forall(int(ce6_model_.size()), [=] FDEM_LAMBDA(int i) {
+      const int k = slot[i];
+      if (to_slots) {
+        d[k] = model[i];
+        for (int j = 0; j < 3; ++j) a[k].a[j] = model[i].slip[j];
+      } else {
+        static_cast<Ce6Damage&>(model[i]) = d[k];
+        for (int j = 0; j < 3; ++j) model[i].slip[j] = a[k].a[j];
+      }
+    });
+  }
+
  private:
+  /// A per-CE6 host array in the device's slot order.
+  template <class T>
+  std::vector<T> in_slots(const std::vector<T>& by_model) const {
+    std::vector<T> out(ce6_perm_.size());
+    for (std::size_t k = 0; k < out.size(); ++k) out[k] = by_model[ce6_perm_[k]];
+    return out;
+  }
+
   /// sums_[0, N) on the host (one copy).
   template <int N>
   std::array<real, N> read_sums() const {
@@ -1281,13 +1347,22 @@ class DeviceLoopImpl final : public DeviceLoop {
   DeviceArray<ContactPair> next_pairs_;
   DeviceArray<Vec3> next_spring_;
   DeviceTimes t_;
-  DeviceArray<int> tet_nodes_, tet_order_, ce6_nodes_, ce6_order_, platen_nodes_, fixed_node_, fixed_mask_, lat_faces_,
+  DeviceArray<int> tet_nodes_, tet_order_, ce6_nodes_, ce6_slot_, platen_nodes_, fixed_node_, fixed_mask_, lat_faces_,
       lat_ptr_, lat_face_, lat_node_, node_vertex_, vt_ptr_, vt_tets_, watch_nodes_, gather_node_, gather_ptr_,
       gather_slot_, lateral_nodes_;
   DeviceArray<Mat3> Xinv_;
   DeviceArray<real> V0_, eta_, ce6_h_, mass_, inv_mass_, platen_k_, sums_;
   DeviceArray<Vec3> X_, plan_x_, x_, v_, f_, anchor_, fixed_v_, lat_force_, watch_x_, spring_, pair_force_;
-  DeviceArray<Ce6State> ce6_;
+  // CE6 arrays (nodes, h, damage, anchors, flags) are in slot order: slot k holds model CE6
+  // ce6_perm_[k]; ce6_slot_ maps back.
+  DeviceArray<Ce6Damage> dmg_;
+  DeviceArray<Ce6Anchors> slip_;
+  // Upload and download only: the host's layout and order (kept, so that a copy allocates
+  // nothing; the peak is the same).
+  DeviceArray<Ce6State> ce6_model_;
+  std::vector<int> ce6_perm_;
+  int ce6_coloured_ = 0;  // slots [0, ce6_coloured_) are in the colours (computed on this rank)
+  Ce6Params ce6p_{};
   DeviceArray<std::uint8_t> broke_, active_, mid_third_, own_node_, own_tet_, own_ce6_;
   DeviceArray<ContactPair> pairs_;
   DeviceArray<ContactEval> eval_;

@@ -342,6 +342,7 @@ void Solver::compute_forces() {
 #pragma omp parallel for schedule(static) reduction(+ : p_coh, p_fric, breaks)
     for (int k = b; k < e; ++k) {
       const int i = m.ce6_colours.order[k];
+      if (!ce6_carries_force(ce6p_, ce6[i])) continue;  // broken, its faces left to contact
       const auto& q = m.ce6_nodes[i];
       Vec3 xe[6], ve[6], fe[6];
       gather(x, q, xe);

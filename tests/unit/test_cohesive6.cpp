@@ -5,6 +5,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <limits>
 
 #include "physics/cohesive6.hpp"
 
@@ -93,6 +95,12 @@ real s_peak(const Ce6Params& p, real fs) {
 }
 real s_final(const Ce6Params& p, real fs) {
   return s_peak(p, fs) + (p.GII - 2.0 / 3 * fs * s_peak(p, fs)) / (fs * p.Z);
+}
+
+/// Closes the CE6 to a normal stress -sn in 100 increments; its Mohr-Coulomb shear strength there.
+real compress(Driver& dr, const Material& m, real sn) {
+  dr.move_to((-sn * kH / m.cohesive_penalty_overlap) * dr.tri.n, 100);
+  return m.cohesion + sn * std::tan(m.friction_angle * M_PI / 180);
 }
 
 real max_abs_force(const Vec3 (&f)[6]) {
@@ -433,6 +441,80 @@ TEST(Cohesive6, BrokenFrictionLimit) {
   EXPECT_LT(norm(dr.tau() - tau2), 1e-6 * mu * sn);
 }
 
+// An undamaged CE6 neither reads nor writes its friction anchors (the device loop keeps them
+// apart and moves them only for damaged or broken CE6s): along a path of compression, sliding
+// to a mode II break and sliding on, anchors holding NaN give the same forces, bit for bit, as
+// anchors holding zero, and stay NaN until the first damage.
+TEST(Cohesive6, AnchorsUnusedUntilDamaged) {
+  Material m;
+  Driver dr(m);
+  Driver nan_anchors(m);
+  const real nan = std::numeric_limits<real>::quiet_NaN();
+  for (Vec3& a : nan_anchors.s.slip) a = {nan, nan, nan};
+  const real sn = 5e6;
+  const real o = -sn * kH / m.cohesive_penalty_overlap;
+  const real fs = m.cohesion + sn * std::tan(m.friction_angle * M_PI / 180);
+  const real sr = s_final(dr.p, fs);
+  const int n = 4000;
+  bool same = true, nan_while_undamaged = true;
+  int undamaged_steps = 0;
+  for (int i = 1; i <= n; ++i) {  // compress, then slide along t1 to 2 s_r
+    const Vec3 u =
+        (std::min(i, 100) / 100.0) * o * dr.tri.n + (i > 100 ? (i - 100) * 2 * sr / (n - 100) : 0.0) * dr.tri.t1;
+    dr.move_to(u, 1);
+    nan_anchors.move_to(u, 1);
+    for (int j = 0; j < 6; ++j)
+      same =
+          same && dr.f[j].x == nan_anchors.f[j].x && dr.f[j].y == nan_anchors.f[j].y && dr.f[j].z == nan_anchors.f[j].z;
+    same = same && dr.ev.stored == nan_anchors.ev.stored && dr.ev.power == nan_anchors.ev.power;
+    if (ce6_max_damage(nan_anchors.s) == 0) {
+      ++undamaged_steps;
+      for (const Vec3& a : nan_anchors.s.slip) nan_while_undamaged = nan_while_undamaged && std::isnan(a.x + a.y + a.z);
+    }
+  }
+  ASSERT_TRUE(ce6_broken(dr.s));
+  EXPECT_EQ(dr.s.mode, 2);
+  EXPECT_GT(undamaged_steps, 100);
+  EXPECT_TRUE(same);
+  EXPECT_TRUE(nan_while_undamaged);
+  for (int k = 0; k < 3; ++k) EXPECT_EQ(norm(nan_anchors.s.slip[k] - dr.s.slip[k]), 0.0) << k;
+}
+
+// A CE6 that breaks straight from undamaged (one step far past its strength) stored no
+// anchor: its friction starts from zero on the step of the break.
+TEST(Cohesive6, BreakStraightFromUndamagedStartsFrictionFromZero) {
+  Material m;
+  Driver dr(m);
+  const real sn = 5e6;
+  const real o = -sn * kH / m.cohesive_penalty_overlap;
+  const real fs = compress(dr, m, sn);
+  ASSERT_EQ(ce6_max_damage(dr.s), 0.0);
+  const real nan = std::numeric_limits<real>::quiet_NaN();
+  for (Vec3& a : dr.s.slip) a = {nan, nan, nan};
+  dr.move_to(o * dr.tri.n + 1.5 * s_final(dr.p, fs) * dr.tri.t1, 1);
+  ASSERT_TRUE(ce6_broken(dr.s));
+  EXPECT_EQ(dr.s.mode, 2);
+  EXPECT_LT(norm(dr.tau()), 1e-9 * sn);  // round-off of the projection only
+  EXPECT_NEAR(dr.sigma(), -sn, 1e-6 * sn);
+}
+
+// A broken CE6 whose faces tet-tet contact takes over (broken_inert): no force, and its
+// damage, mode and anchors stay as they were, so loops may skip it (ce6_carries_force).
+TEST(Cohesive6, InertWhenBrokenUnderContact) {
+  Material m;
+  Driver dr(m);
+  dr.move_to(1.1 * o_final(dr.p) * dr.tri.n, 5000);
+  ASSERT_TRUE(ce6_broken(dr.s));
+  EXPECT_TRUE(ce6_carries_force(dr.p, dr.s));
+  dr.p.broken_inert = 1;
+  EXPECT_FALSE(ce6_carries_force(dr.p, dr.s));
+  const Ce6State before = dr.s;
+  dr.move_to(-1e-6 * dr.tri.n + 1e-6 * dr.tri.t1, 10);
+  EXPECT_EQ(max_abs_force(dr.f), 0.0);
+  EXPECT_EQ(dr.ev.stored, 0.0);
+  EXPECT_EQ(std::memcmp(&before, &dr.s, sizeof(Ce6State)), 0);
+}
+
 // Sliding to a mode II break under compression: the friction anchor is the slip at the
 // break, so friction builds up elastically from zero and then saturates at mu |sigma_n|.
 TEST(Cohesive6, BreakUnderCompressionFrictionStartsFromAnchor) {
@@ -440,8 +522,7 @@ TEST(Cohesive6, BreakUnderCompressionFrictionStartsFromAnchor) {
   Driver dr(m);
   const real sn = 5e6;
   const real o = -sn * kH / m.cohesive_penalty_overlap;
-  dr.move_to(o * dr.tri.n, 100);
-  const real fs = m.cohesion + sn * std::tan(m.friction_angle * M_PI / 180);
+  const real fs = compress(dr, m, sn);
   const real sr = s_final(dr.p, fs);
   const int n = 20000;
   const real ds = 1.2 * sr / n;
