@@ -536,9 +536,14 @@ RankModel get_rank_model(CheckpointIn& in, std::uint64_t key) {
   for (const auto* list : {&m.platen_nodes, &m.top_nodes, &m.bottom_nodes, &m.lateral_nodes})
     for (int n : *list)
       if (n < 0 || std::size_t(n) >= nn) bad("a node group entry out of range");
-  for (const auto* c : {&m.tet_colours, &m.ce6_colours})
-    for (int e : c->order)
-      if (e < 0 || std::size_t(e) >= (c == &m.tet_colours ? nt : m.ce6_nodes.size())) bad("a colouring out of range");
+  for (const auto* c : {&m.tet_colours, &m.ce6_colours}) {
+    const std::size_t n = c == &m.tet_colours ? nt : m.ce6_nodes.size();
+    std::vector<char> seen(n, 0);
+    for (int e : c->order) {
+      if (e < 0 || std::size_t(e) >= n) bad("a colouring out of range");
+      if (seen[e]++) bad("an element twice in a colouring");
+    }
+  }
   for (const Neighbour& nb : rm.dd.neighbours) {
     for (const auto* list : {&nb.send_nodes, &nb.recv_nodes})
       for (int n : *list)

@@ -166,7 +166,7 @@ FDEM_HD real past_peak(real a, real p, real w) {
 }  // namespace ce6_detail
 
 /// Forces on the six nodes (overwritten), damage and mode update of `s` and of the friction
-/// anchors (broken CE6s only), power and stored energy. h is the element's characteristic size.
+/// anchors (damaged or broken CE6s only), power and stored energy. h is the element's characteristic size.
 FDEM_HD Ce6Eval cohesive6_forces(const Ce6Params& p, const Vec3 (&x)[6], const Vec3 (&v)[6], real h, Ce6Damage& s,
                                  Vec3 (&anchors)[3], Vec3 (&f)[6]) {
   using namespace ce6_detail;
