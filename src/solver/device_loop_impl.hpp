@@ -75,7 +75,8 @@ class DeviceLoopImpl final : public DeviceLoop {
         lateral_nodes_);
     set(Xinv_, V0_, eta_, ce6_h_, mass_, inv_mass_, platen_k_, sums_);
     set(X_, plan_x_, x_, v_, f_, anchor_, fixed_v_, lat_force_, watch_x_, spring_, pair_force_);
-    set(dmg_, slip_, ce6_model_, broke_, active_, mid_third_, own_node_, own_tet_, own_ce6_, pairs_, eval_);
+    set(dmg_, slip_, ce6_model_, broke_, active_, mid_third_, own_node_, own_tet_, own_ce6_, tet_assigns_, unreached_,
+        pairs_, eval_);
     set(tet_global_, flags_, offsets_, counts_, entry_offsets_, head_, head_offsets_, cell_start_, cell_counts_,
         cell_offsets_);
     set(ids_, tet_ce6_, ce6_tets_, boxes_, entries_, node_slots_, next_pairs_, next_spring_);
@@ -127,6 +128,12 @@ class DeviceLoopImpl final : public DeviceLoop {
       own_node_.upload(s.own_node_);
       own_tet_.upload(s.own_tet_);
       own_ce6_.upload(in_slots(s.own_ce6_));
+      tet_assigns_.upload(s.tet_assigns_);
+      assigned_corners_ = 0;
+      for (std::uint8_t a : s.tet_assigns_) assigned_corners_ += (a & 1) + (a >> 1 & 1) + (a >> 2 & 1) + (a >> 3 & 1);
+      const Vec3 g = s.scene_.gravity;
+      gravity_ = g.x != 0 || g.y != 0 || g.z != 0;
+      unreached_.upload(s.unreached_nodes_);
       if (s.halo_) plan_halo(s);
       // Monitor rows: the tets whose reference centroid lies in the middle third of the height.
       std::vector<std::uint8_t> mid(m.tet_nodes.size());
@@ -322,10 +329,13 @@ class DeviceLoopImpl final : public DeviceLoop {
     auto t0 = now();
     clear_sums(0, kBad);
 
-    // Gravity (or zero) starts the sum.
+    // Gravity starts the sum; without it the TET4 pass assigns each node's first force (the
+    // nodes it does not reach are zeroed here), so f is not written twice.
     const Vec3 g = scene.gravity;
-    if (g.x == 0 && g.y == 0 && g.z == 0) {
-      Exec::forall(nn, [=] FDEM_LAMBDA(int n) { f[n] = Vec3{0, 0, 0}; });
+    const bool gravity = g.x != 0 || g.y != 0 || g.z != 0;
+    if (!gravity) {
+      const int* un = unreached_.data();
+      Exec::forall(int(unreached_.size()), [=] FDEM_LAMBDA(int k) { f[un[k]] = Vec3{0, 0, 0}; });
     } else {
       Exec::template sum_to<1>(
           nn,
@@ -342,6 +352,7 @@ class DeviceLoopImpl final : public DeviceLoop {
     const Mat3* Xinv = Xinv_.data();
     const real* V0 = V0_.data();
     const real* eta = eta_.data();
+    const std::uint8_t* assigns = gravity ? nullptr : tet_assigns_.data();
     const real lambda = s.lambda_, mu = s.mu_;
     for (int c = 0; c < m.tet_colours.colours(); ++c) {
       const int b = m.tet_colours.offsets[c], e = m.tet_colours.offsets[c + 1];
@@ -354,7 +365,8 @@ class DeviceLoopImpl final : public DeviceLoop {
             for (int i = 0; i < 4; ++i) xe[i] = x[q[i]], ve[i] = v[q[i]];
             const Tet4Eval ev = tet4_forces(xe, ve, Xinv[t], V0[t], lambda, mu, eta[t], fe);
             if (!(ev.J > 0)) acc[1] += 1;
-            for (int i = 0; i < 4; ++i) f[q[i]] += fe[i];
+            const int first = assigns ? assigns[t] : 0;
+            for (int i = 0; i < 4; ++i) f[q[i]] = (first >> i & 1 ? Vec3{0, 0, 0} : f[q[i]]) + fe[i];
             if (own_t[t]) acc[0] += ev.viscous_power;
           },
           sums + kVisc);
@@ -797,8 +809,10 @@ class DeviceLoopImpl final : public DeviceLoop {
   double bytes_per_step() const override {
     const double nn = double(x_.size()), nt = double(V0_.size()), np = double(pairs_.size());
     const double vec = sizeof(Vec3);
-    // TET4: connectivity, X0^-1, V0, eta; x and v of its 4 nodes read, f read and written.
-    const double tet = nt * (4 * sizeof(int) + sizeof(Mat3) + 2 * sizeof(real) + 4 * 4 * vec);
+    // TET4: connectivity, X0^-1, V0, eta, the assign mask; x and v of its 4 nodes read, f written,
+    // and read too where the corner does not assign (gravity: every corner).
+    const double read_f = gravity_ ? 4 * nt : 4 * nt - assigned_corners_;
+    const double tet = nt * (4 * sizeof(int) + sizeof(Mat3) + 2 * sizeof(real) + 1 + 3 * 4 * vec) + read_f * vec;
     // CE6 (those this rank computes, in the state as it is now): connectivity, h, damage and the
     // own flag read, the break flag read by activation; where it carries force, x and v of 6
     // nodes read and f read and written; where damaged (or broken and carrying force), the
@@ -815,8 +829,10 @@ class DeviceLoopImpl final : public DeviceLoop {
     // Contact pairs: pair, evaluation, spring, 8 forces written then read, 8 nodes' x and v.
     const double con =
         np * (sizeof(ContactPair) + 2 * sizeof(ContactEval) + 2 * vec + 16 * vec + 16 * vec + 8 * 4 * sizeof(int));
-    // Zeroing f, integration (x, v, f, 1/m, m) and the kinetic-energy sum.
-    const double node = nn * (vec + 5 * vec + 2 * sizeof(real));
+    // Gravity (f written from m and v) or the zeroing of the nodes no TET4 reaches; integration
+    // (x, v, f, 1/m, m) and the kinetic-energy sum.
+    const double start = gravity_ ? nn * (vec + vec + sizeof(real)) : double(unreached_.size()) * (vec + sizeof(int));
+    const double node = start + nn * (5 * vec + 2 * sizeof(real));
     return tet + ce6 + con + node;
   }
 
@@ -1369,7 +1385,10 @@ class DeviceLoopImpl final : public DeviceLoop {
   std::vector<int> ce6_perm_;
   int ce6_coloured_ = 0;  // slots [0, ce6_coloured_) are in the colours (computed on this rank)
   Ce6Params ce6p_{};
-  DeviceArray<std::uint8_t> broke_, active_, mid_third_, own_node_, own_tet_, own_ce6_;
+  DeviceArray<std::uint8_t> broke_, active_, mid_third_, own_node_, own_tet_, own_ce6_, tet_assigns_;
+  DeviceArray<int> unreached_;
+  double assigned_corners_ = 0;  // set bits of tet_assigns_
+  bool gravity_ = false;
   DeviceArray<ContactPair> pairs_;
   DeviceArray<ContactEval> eval_;
 };

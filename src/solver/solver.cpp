@@ -7,7 +7,6 @@
 #include <sstream>
 
 #include "core/error.hpp"
-#include "core/for_each.hpp"
 #include "core/format.hpp"
 #include "core/gather.hpp"
 #include "io/checkpoint.hpp"
@@ -81,6 +80,19 @@ void Solver::setup() {
     own_node_.assign(nn, 1);
     own_tet_.assign(model_.tet_nodes.size(), 1);
     own_ce6_.assign(model_.ce6_nodes.size(), 1);
+  }
+  // The forces start at zero without a pass of their own: the first TET4 (in colour order) to
+  // reach a node assigns to it, the rest add; nodes no TET4 reaches (ghosts of other ranks'
+  // elements) are zeroed apart.
+  tet_assigns_.assign(model_.tet_nodes.size(), 0);
+  {
+    std::vector<char> reached(nn, 0);
+    for (int t : model_.tet_colours.order)
+      for (int i = 0; i < 4; ++i)
+        if (!reached[model_.tet_nodes[t][i]]) reached[model_.tet_nodes[t][i]] = 1, tet_assigns_[t] |= 1 << i;
+    unreached_nodes_.clear();
+    for (std::size_t n = 0; n < nn; ++n)
+      if (!reached[n]) unreached_nodes_.push_back(int(n));
   }
   contacts = ContactSet(model_, scene_);
   if (dd_.distributed()) contacts.set_ownership(&own_node_, &own_tet_, &dd_.tet_global, dd_.reach, model_.X);
@@ -304,8 +316,9 @@ void Solver::compute_forces() {
   const std::size_t nn = x.size();
   const Vec3 g = scene_.gravity;
   real p_grav = 0;
-  if (g.x == 0 && g.y == 0 && g.z == 0) {
-    for_each(nn, [&](std::size_t n) { f[n] = {0, 0, 0}; });
+  const bool gravity = g.x != 0 || g.y != 0 || g.z != 0;
+  if (!gravity) {  // the TET4 pass assigns the rest (tet_assigns_)
+    for (int n : unreached_nodes_) f[n] = {0, 0, 0};
   } else {
     const int n_nodes = int(nn);
 #pragma omp parallel for schedule(static) reduction(+ : p_grav)
@@ -329,7 +342,8 @@ void Solver::compute_forces() {
       gather(v, q, ve);
       const Tet4Eval r = tet4_forces(xe, ve, m.tet_Xinv[t], m.tet_V0[t], lambda_, mu_, m.tet_eta[t], fe);
       inverted += !(r.J > 0);
-      for (int i = 0; i < 4; ++i) f[q[i]] += fe[i];
+      const int assigns = gravity ? 0 : tet_assigns_[t];
+      for (int i = 0; i < 4; ++i) f[q[i]] = (assigns >> i & 1 ? Vec3{0, 0, 0} : f[q[i]]) + fe[i];
       if (own_tet_[t]) p_visc += r.viscous_power;
     }
   }

@@ -196,6 +196,10 @@ class Solver {
   std::unique_ptr<Halo> halo_;
   double halo_seconds_ = 0;
   std::vector<std::uint8_t> own_node_, own_tet_, own_ce6_;
+  // Per tet, bit i: its node i takes its first force from this tet (assigned, not added); the
+  // nodes no TET4 of the colours reaches, zeroed apart. Without gravity only.
+  std::vector<std::uint8_t> tet_assigns_;
+  std::vector<int> unreached_nodes_;
   /// Sums values over the ranks in place (nothing on one rank).
   void sum(real* values, int n) const;
   StableStep stable_;
