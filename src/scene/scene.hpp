@@ -135,6 +135,7 @@ struct Scene {
   ContactSettings contact;
   Confinement confinement;
   Vec3 gravity{0, 0, 0};  // m/s^2, body force per unit mass
+  bool has_gravity() const { return gravity.x != 0 || gravity.y != 0 || gravity.z != 0; }
   SolverSettings solver;
   OutputSettings output;
 };

@@ -131,8 +131,7 @@ class DeviceLoopImpl final : public DeviceLoop {
       tet_assigns_.upload(s.tet_assigns_);
       assigned_corners_ = 0;
       for (std::uint8_t a : s.tet_assigns_) assigned_corners_ += (a & 1) + (a >> 1 & 1) + (a >> 2 & 1) + (a >> 3 & 1);
-      const Vec3 g = s.scene_.gravity;
-      gravity_ = g.x != 0 || g.y != 0 || g.z != 0;
+      gravity_ = s.scene_.has_gravity();
       unreached_.upload(s.unreached_nodes_);
       if (s.halo_) plan_halo(s);
       // Monitor rows: the tets whose reference centroid lies in the middle third of the height.
@@ -332,8 +331,7 @@ class DeviceLoopImpl final : public DeviceLoop {
     // Gravity starts the sum; without it the TET4 pass assigns each node's first force (the
     // nodes it does not reach are zeroed here), so f is not written twice.
     const Vec3 g = scene.gravity;
-    const bool gravity = g.x != 0 || g.y != 0 || g.z != 0;
-    if (!gravity) {
+    if (!gravity_) {
       const int* un = unreached_.data();
       Exec::forall(int(unreached_.size()), [=] FDEM_LAMBDA(int k) { f[un[k]] = Vec3{0, 0, 0}; });
     } else {
@@ -352,7 +350,7 @@ class DeviceLoopImpl final : public DeviceLoop {
     const Mat3* Xinv = Xinv_.data();
     const real* V0 = V0_.data();
     const real* eta = eta_.data();
-    const std::uint8_t* assigns = gravity ? nullptr : tet_assigns_.data();
+    const std::uint8_t* assigns = gravity_ ? nullptr : tet_assigns_.data();
     const real lambda = s.lambda_, mu = s.mu_;
     for (int c = 0; c < m.tet_colours.colours(); ++c) {
       const int b = m.tet_colours.offsets[c], e = m.tet_colours.offsets[c + 1];
@@ -678,7 +676,7 @@ class DeviceLoopImpl final : public DeviceLoop {
     if (s.contacts.enabled()) contact_power(v, sums + kConPowerNew);
     if (s.scene_.confinement.enabled) pressure_power(v, sums + kPressurePowerNew);
     const Vec3 g = s.scene_.gravity;
-    if (g.x != 0 || g.y != 0 || g.z != 0)
+    if (s.scene_.has_gravity())
       Exec::template sum_to<1>(
           int(x_.size()),
           [=] FDEM_LAMBDA(int n, real* acc) {

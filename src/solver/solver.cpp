@@ -316,7 +316,7 @@ void Solver::compute_forces() {
   const std::size_t nn = x.size();
   const Vec3 g = scene_.gravity;
   real p_grav = 0;
-  const bool gravity = g.x != 0 || g.y != 0 || g.z != 0;
+  const bool gravity = scene_.has_gravity();
   if (!gravity) {  // the TET4 pass assigns the rest (tet_assigns_)
     for (int n : unreached_nodes_) f[n] = {0, 0, 0};
   } else {
@@ -570,7 +570,7 @@ void Solver::advance_host(real dt, long& bad_out, real& ke_out, real& w_con, rea
   if (contacts.enabled()) w_con = 0.5 * dt * (p_contact_ + contacts.power(model_, v));
   if (scene_.confinement.enabled) w_pre = 0.5 * dt * (p_pressure_ + pressure_power(v));
   const Vec3 g = scene_.gravity;
-  if (g.x != 0 || g.y != 0 || g.z != 0) {
+  if (scene_.has_gravity()) {
     real p_new = 0;
 #pragma omp parallel for schedule(static) reduction(+ : p_new)
     for (int n = 0; n < nn; ++n)
@@ -627,8 +627,7 @@ Solver::StepSums Solver::step_sums(const AdvanceSums& a) const {
   st.bad = a.bad, st.ke = a.kinetic2, st.far = a.far, st.lost = a.lost;
   if (contacts.enabled()) st.w_con = 0.5 * dt * (p_contact_ + a.contact_power);
   if (scene_.confinement.enabled) st.w_pre = 0.5 * dt * (p_pressure_ + a.pressure_power);
-  const Vec3 g = scene_.gravity;
-  if (g.x != 0 || g.y != 0 || g.z != 0) st.w_grav = 0.5 * dt * (p_gravity_ + a.gravity_power);
+  if (scene_.has_gravity()) st.w_grav = 0.5 * dt * (p_gravity_ + a.gravity_power);
   return st;
 }
 
