@@ -543,6 +543,22 @@ TEST(Ranks, PrepartitionedFilesGiveTheSameRun) {
   Scene other = scene;
   other.solver.mass_scaling = 20;
   EXPECT_THROW(read_rank_file(file, model_key(other)), InputError) << "a rank file of another model";
+  {  // a colouring that lists a CE6 twice (the device keeps one slot per CE6) is refused by name
+    RankModel twice = read_rank_file(file, model_key(scene));
+    ASSERT_GE(twice.model.ce6_colours.order.size(), 2u);
+    twice.model.ce6_colours.order[1] = twice.model.ce6_colours.order[0];
+    const std::string bad = file + ".twice";
+    write_rank_file(bad, twice, model_key(scene));
+    try {
+      read_rank_file(bad, model_key(scene));
+      ADD_FAILURE() << "a CE6 twice in the colouring was read";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(bad + ": inconsistent rank file (an element twice in a colouring)"),
+                std::string::npos)
+          << e.what();
+    }
+    std::filesystem::remove(bad);
+  }
   MPI_Barrier(MPI_COMM_WORLD);
   if (world_rank() == 0) std::filesystem::remove_all(dir);
   Solver from_file(scene, std::move(rm.model), std::move(rm.dd), MPI_COMM_WORLD);
