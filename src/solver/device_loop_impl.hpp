@@ -189,6 +189,7 @@ class DeviceLoopImpl final : public DeviceLoop {
     if (s.contacts.enabled()) {
       const ContactSet& c = s.contacts;
       active_.upload(c.active_);
+      flags_merged_ = false;
       upload_pairs(c);
       pairs_on_host_ = true;
       eval_.upload(c.eval_);
@@ -448,8 +449,15 @@ class DeviceLoopImpl final : public DeviceLoop {
     }
     s.p_gravity_ = a[kGravity];
     // Several ranks: a flag raised on any rank holding a tet reaches the others before the broad
-    // phase looks at the flags.
-    if (s.halo_ && cs.enabled() && merge_flags(s)) cs.dirty_ = true;
+    // phase looks at the flags. The ranks merge them together, and only when one of them raised a
+    // flag since the last merge (or took flags from its host): one number summed over the ranks
+    // instead of the flags' exchange and its three copies, on the steps (most) that raise none.
+    if (s.halo_ && cs.enabled()) {
+      real raised = a[kAdded] + (flags_merged_ ? 0 : 1);
+      s.sum(&raised, 1);
+      if (raised > 0 && merge_flags(s)) cs.dirty_ = true;
+      flags_merged_ = true;
+    }
 
     // Tet-tet contact: the candidate list rebuilt on the device when flags changed or a node
     // moved half the buffer; narrow phase, friction and the deterministic per-node sum.
@@ -558,7 +566,8 @@ class DeviceLoopImpl final : public DeviceLoop {
       for (int k = 0; k < 9; ++k) vals[k] = reduced[whole[k]];
       s.sum(vals, 9);
       for (int k = 0; k < 9; ++k) reduced[whole[k]] = vals[k];
-      device::to_device(b_, sums_.data() + kTop, &vals[0], 2 * sizeof(real));
+      if (scene.confinement.enabled && s.hydrostatic_)  // the pressure below follows them
+        device::to_device(b_, sums_.data() + kTop, &vals[0], 2 * sizeof(real));
     }
 
     // Confining pressure, a follower load: -p a / 3 per node of each lateral face. On the
@@ -589,8 +598,8 @@ class DeviceLoopImpl final : public DeviceLoop {
     }
     // One rank: the scalars stay on the device until the next evaluation's first copy (or
     // settle()); several ranks read them here, summed over the ranks.
-    if (dist) {
-      std::array<real, kBad> b = read_sums<kBad>();
+    if (dist) {  // the pressure's power is the one sum added since the read above
+      std::array<real, kBad> b = cf.enabled ? read_sums<kBad>() : reduced;
       for (int k : whole) b[k] = reduced[k];
       apply_force_sums(s, b.data());
     } else {
@@ -1363,6 +1372,7 @@ class DeviceLoopImpl final : public DeviceLoop {
   bool direct_mpi_;              // device buffers straight to MPI (partition/halo.hpp), fixed at construction
   std::vector<int> recv_range_;  // neighbour i's entries of the receive index lists: [i], [i+1]
   long shared_active_ = -1;      // active flags among the shared tets at the last merge
+  bool flags_merged_ = false;    // false from an upload of the host's flags to the next merge
   DeviceArray<ContactPair> next_pairs_;
   DeviceArray<Vec3> next_spring_;
   DeviceTimes t_;

@@ -114,6 +114,14 @@ std::vector<int> block_per_rank(const Model& m) {
   return part;
 }
 
+/// FDEM_GPU_AWARE_MPI=1 while in scope when `on`: the halo hands its device buffers to MPI.
+struct GpuAwareMpiSetting {
+  explicit GpuAwareMpiSetting(bool on) {
+    if (on) setenv("FDEM_GPU_AWARE_MPI", "1", 1);
+  }
+  ~GpuAwareMpiSetting() { unsetenv("FDEM_GPU_AWARE_MPI"); }
+};
+
 }  // namespace
 
 class RanksElastic : public ::testing::TestWithParam<const char*> {};
@@ -233,12 +241,7 @@ TEST_P(RanksDevice, DeviceLoopGivesTheCpuBackendsRun) {
   if (backend == "cuda" && cuda_device_count() == 0)
     GTEST_SKIP() << "no CUDA device visible (" << cuda_device_count_error() << ")";
   if (backend == "cuda" && direct && !mpi_cuda_aware()) GTEST_SKIP() << "this MPI is not CUDA-aware";
-  struct EnvGuard {
-    explicit EnvGuard(bool on) {
-      if (on) setenv("FDEM_GPU_AWARE_MPI", "1", 1);
-    }
-    ~EnvGuard() { unsetenv("FDEM_GPU_AWARE_MPI"); }
-  } env_guard(direct);
+  GpuAwareMpiSetting env_guard(direct);
   const Scene scene = fracturing_scene();
   Scene dscene = scene;
   dscene.solver.backend = backend;
@@ -731,4 +734,40 @@ int main(int argc, char** argv) {
   MPI_Allreduce(MPI_IN_PLACE, &worst, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
   MPI_Finalize();
   return worst;
+}
+
+TEST(Ranks, DeviceLoopCopiesToTheHostAFewTimesAStep) {
+  // Each copy between host and device waits for the device. On several ranks a step of the
+  // device loop copies to the host: the broad phase's decision after the CE6 pass, the scalars
+  // summed over the ranks after the platens, the halo's send buffer and the integration's sums;
+  // with a confining pressure, its power too. To the device: the halo's receive buffer, and on
+  // the hydrostatic path the summed platen reactions the pressure follows. Activation flags are
+  // exchanged only on steps where a rank raised one (none here: elastic). Handing device buffers
+  // to MPI (FDEM_GPU_AWARE_MPI=1) leaves out the halo's two copies. One rank: one copy a step
+  // (DebugBackend.OnlyAFewScalarsCrossToTheHostBetweenMonitorRows).
+  const bool several = world_size() > 1;
+  for (const std::string path : {"none", "constant", "hydrostatic"})
+    for (const bool direct : {false, true}) {
+      GpuAwareMpiSetting env(direct);
+      Scene scene = box_scene();
+      scene.solver.backend = "debug";
+      if (path != "none") {
+        scene.confinement.enabled = true;
+        scene.confinement.pressure = 1e6;
+        scene.confinement.path = path;
+      }
+      const Model global = build_model(structured_box_mesh({0.01, 0.01, 0.02}, 3, 3, 6), scene);
+      auto d = decomposed(scene, global);
+      ASSERT_TRUE(d->contacts.enabled());
+      d->step();  // uploads, and merges the flags it took from the host
+      device::reset_traffic();
+      const int steps = 50;
+      for (int i = 0; i < steps; ++i) d->step();
+      const device::Traffic t = device::traffic();
+      EXPECT_EQ(d->measure().damaged, 0) << "elastic";
+      const long to_host = !several ? 1 : 3 + (path != "none") + (direct ? 0 : 1);
+      const long to_device = !several ? 0 : (path == "hydrostatic") + (direct ? 0 : 1);
+      EXPECT_EQ(t.to_host, to_host * steps) << path << (direct ? ", device buffers to MPI" : "");
+      EXPECT_EQ(t.to_device, to_device * steps) << path << (direct ? ", device buffers to MPI" : "");
+    }
 }
