@@ -56,21 +56,26 @@ double held(const std::vector<T>& a) {
   return double(a.size()) * double(sizeof(T));
 }
 
-/// Traffic model of one Solver::step() (see solver.cpp), in bytes. Two counts:
+/// Traffic model of one Solver::step() (see solver.cpp), in the state the solver is in now, in
+/// bytes. Two counts:
 ///  per_reference: every array element that the step's loops touch, counted each time a
 ///    loop touches it. Node data gathered through element node ids is counted once per
-///    element corner (a tet's 4 corners, a CE6's 6), read of x and v and read+write of f,
-///    since with split nodes and colour-ordered sweeps a node is rarely still in cache.
-///    This is the traffic if nothing is reused from cache.
+///    element corner (a tet's 4 corners, a CE6's 6), since with split nodes and
+///    colour-ordered sweeps a node is rarely still in cache. This is the traffic if nothing
+///    is reused from cache.
 ///  once: each array that the step touches counted once (read, plus write where written):
 ///    the compulsory traffic, a lower bound.
 /// What one step does and what is counted, with nn nodes, nt tets, nc CE6, np platen nodes:
 ///  integrate (per node): read x, v, f (3 x 24 B) and 1/m (8 B), write x, v (2 x 24 B);
-///  zero forces (per node): write f (24 B);
+///  forces start: with gravity f written from m (32 B per node); without, the first TET4 to
+///    reach a node assigns its force and only the nodes no TET4 reaches are zeroed (28 B);
 ///  TET4 sweep (per tet): colour order entry (4 B), tet node ids (16 B), Xinv (72 B),
-///    V0 (8 B), eta (8 B); per corner: read x, v (48 B), read+write f (48 B);
-///  CE6 sweep (per CE6): colour order entry (4 B), node ids (24 B), h (8 B),
-///    Ce6State read + write (2 x sizeof(Ce6State)); per node: read x, v, read+write f (96 B);
+///    V0 (8 B), eta (8 B), the assign mask (1 B); per corner: read x, v (48 B), write f
+///    (24 B), and read f (24 B) where the corner does not assign;
+///  CE6 sweep (per CE6): colour order entry (4 B), damage and mode read (32 B); where it
+///    carries force: node ids (24 B), h (8 B), per node read x, v and read+write f (96 B);
+///    where damaged: the damage written (an upper bound: only when it rises) and the friction
+///    anchors read and written (2 x 72 B);
 ///  platens (per platen node): node id (4 B), stiffness k (8 B), friction anchor read+write
 ///    (48 B), read x (24 B), read+write f (48 B).
 /// Not counted: the colour offsets, scalar reductions, the fixed-node list (empty here).
@@ -82,18 +87,33 @@ Traffic step_traffic(const Solver& s) {
   const Model& m = s.model();
   const double nn = double(m.X.size()), nt = double(m.tet_nodes.size()), nc = double(m.ce6_nodes.size());
   const double np = s.scene().platens.enabled ? double(m.platen_nodes.size()) : 0;
-  const double V = sizeof(Vec3), R = sizeof(real), I = sizeof(int), S = sizeof(Ce6State);
+  const double V = sizeof(Vec3), R = sizeof(real), I = sizeof(int);
+  const bool gravity = s.scene().has_gravity();
+  std::vector<char> reached(m.X.size(), 0);
+  for (const auto& q : m.tet_nodes)
+    for (int n : q) reached[n] = 1;
+  double reached_nodes = 0;
+  for (char r : reached) reached_nodes += r;
+  double carrying = 0, damaged = 0;
+  const fdem::Ce6Params p = s.ce6_params();
+  for (const Ce6State& c : s.ce6) {
+    const bool carries = fdem::ce6_carries_force(p, c);
+    carrying += carries;
+    damaged += carries && fdem::ce6_max_damage(c) > 0;
+  }
   const double integrate = nn * (3 * V + R + 2 * V);
-  const double zero_f = nn * V;
-  const double tet_own = nt * (I + 4 * I + sizeof(Mat3) + 2 * R);
-  const double ce6_own = nc * (I + 6 * I + R + 2 * S);
+  const double start = gravity ? nn * (V + R) : (nn - reached_nodes) * (V + I);
+  const double read_f = gravity ? 4 * nt : 4 * nt - reached_nodes;  // corners that add
+  const double tet_own = nt * (I + 4 * I + sizeof(Mat3) + 2 * R + 1);
+  const double ce6_own = nc * (I + sizeof(fdem::Ce6Damage)) + carrying * (6 * I + R) +
+                         damaged * (sizeof(fdem::Ce6Damage) + 2 * sizeof(fdem::Ce6Anchors));
   const double platen_own = np * (I + R + 2 * V);
   Traffic t;
-  t.per_reference = integrate + zero_f + tet_own + nt * 4 * (2 * V + 2 * V) + ce6_own + nc * 6 * (2 * V + 2 * V) +
-                    platen_own + np * (V + 2 * V);
-  // Once: x, v read + written, f written (zero) then read+written by the sweeps and read by
-  // the integration; count x, v, f each as read + write once, 1/m read, plus the element arrays.
-  t.once = nn * (2 * V + 2 * V + 2 * V + R) + tet_own + ce6_own + platen_own;
+  t.per_reference = integrate + start + tet_own + nt * 4 * (2 * V + V) + read_f * V + ce6_own +
+                    carrying * 6 * (2 * V + 2 * V) + platen_own + np * (V + 2 * V);
+  // Once: x, v read + written, f written by the sweeps and read by the integration (read by the
+  // sweeps too where a corner adds, from cache once written); 1/m read; the element arrays.
+  t.once = nn * (2 * V + 2 * V + 2 * V + R) + (gravity ? nn * R : 0) + tet_own + ce6_own + platen_own;
   return t;
 }
 

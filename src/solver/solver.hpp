@@ -84,6 +84,8 @@ class Solver {
 
   const Model& model() const { return model_; }
   const Scene& scene() const { return scene_; }
+  /// The CE6 law's parameters (from the scene's material).
+  const Ce6Params& ce6_params() const { return ce6p_; }
   const StableStep& stable_step() const { return stable_; }
   real dt() const { return dt_; }
   long step_count() const { return step_; }
