@@ -25,7 +25,9 @@
 // threaded: the set-up column; 6.4 us per tet on the dev VM, so 10 million tets take a minute).
 //
 // Usage: bench_device [--backend cuda|debug] [--tets 10000,100000,700000[,max]] [--steps N]
-//                     [--mass-scaling m] [--contact adaptive|full|none]
+//                     [--mass-scaling m] [--contact adaptive|full|none] [--schedule auto,colour]
+// --schedule: the element passes, each a row per size (FDEM_DEVICE_SCHEDULE): auto (TET4 and CE6
+// fused in one pass where the mesh allows, the default) and/or colour (colour by colour).
 // Default backend: cuda where a GPU is visible, else debug (the same loop on the host).
 // Prints Markdown on stdout. A benchmark, not a test: it checks nothing.
 #include <malloc.h>
@@ -64,12 +66,21 @@ std::vector<long> parse_list(const std::string& s) {
   return out;
 }
 
+std::vector<std::string> parse_names(const std::string& s) {
+  std::vector<std::string> out;
+  std::stringstream ss(s);
+  std::string item;
+  while (std::getline(ss, item, ',')) out.push_back(item);
+  return out;
+}
+
 struct Row {
   long tets = 0, ce6 = 0, nodes = 0, pairs = 0;
   double step_us = 0, floor_us = 0, bytes = 0, monitor_ms = 0, sync_ms = 0, mem_mb = 0, dt = 0;
   double copies_to_host = 0, bytes_to_host = 0;  // per step, between monitor rows (device::traffic)
   double host_bytes = 0;                         // peak resident memory over the size's start
   double setup_s = 0;                            // mesh, model and Solver built on the host
+  std::string schedule;                          // the element passes: fused or colour
   DeviceTimes pass;
 };
 
@@ -100,6 +111,7 @@ Fit largest_fit(Backend b, const std::vector<Row>& rows, double device_free, dou
 int main(int argc, char** argv) {
   std::string backend = cuda_device_count() > 0 ? "cuda" : "debug", contact = "adaptive";
   std::vector<long> sizes{10000, 100000, 700000};
+  std::vector<std::string> schedules{"auto"};
   int steps = 200;
   double mass_scaling = 1;
   for (int i = 1; i + 1 < argc; i += 2) {
@@ -114,6 +126,8 @@ int main(int argc, char** argv) {
       mass_scaling = std::atof(v.c_str());
     else if (a == "--contact")
       contact = v;
+    else if (a == "--schedule")
+      schedules = parse_names(v);
     else {
       std::fprintf(stderr, "unknown option %s\n", a.c_str());
       return 2;
@@ -170,74 +184,86 @@ int main(int argc, char** argv) {
     s.solver.backend = backend;
     s.solver.max_energy_error = 0;
     s.output.progress_interval = 0;
-    const auto t_setup = Clock::now();
-    Solver solver(s, build_model(structured_box_mesh({0.057, 0.057, 0.129}, n, n, nz), s));
-    const double setup_s = since(t_setup);
-    DeviceLoop* dev = solver.device_loop();
-    for (int i = 0; i < 20; ++i) solver.step();
-    solver.sync_host();
-    device::synchronize(b);
-    Row r;
-    r.tets = long(solver.model().tet_nodes.size());
-    r.ce6 = long(solver.model().ce6_nodes.size());
-    r.nodes = long(solver.model().X.size());
-    r.dt = solver.dt();
-    r.setup_s = setup_s;
-    device::reset_traffic();
-    auto t0 = Clock::now();
-    for (int i = 0; i < steps; ++i) solver.step();
-    device::synchronize(b);
-    r.step_us = 1e6 * since(t0) / steps;
-    r.copies_to_host = double(device::traffic().to_host) / steps;
-    r.bytes_to_host = double(device::traffic().host_bytes) / steps;
-    const DeviceTimes before = dev->times();
-    dev->set_timing(true);
-    for (int i = 0; i < steps; ++i) solver.step();
-    dev->set_timing(false);
-    const DeviceTimes after = dev->times();
-    auto per = [&](double DeviceTimes::*m) { return 1e6 * (after.*m - before.*m) / steps; };
-    r.pass.tet4 = per(&DeviceTimes::tet4), r.pass.ce6 = per(&DeviceTimes::ce6);
-    r.pass.activation = per(&DeviceTimes::activation), r.pass.broad = per(&DeviceTimes::broad);
-    r.pass.narrow = per(&DeviceTimes::narrow), r.pass.friction = per(&DeviceTimes::friction);
-    r.pass.contact_sum = per(&DeviceTimes::contact_sum), r.pass.platens = per(&DeviceTimes::platens);
-    r.pass.pressure = per(&DeviceTimes::pressure), r.pass.integrate = per(&DeviceTimes::integrate);
-    r.pass.energy = per(&DeviceTimes::energy), r.pass.copies = per(&DeviceTimes::copies);
-    r.bytes = dev->bytes_per_step();
-    r.floor_us = 1e6 * r.bytes / (bw * 1e9);
-    t0 = Clock::now();
-    const Monitors m = solver.measure();
-    r.monitor_ms = 1e3 * since(t0);
-    r.pairs = m.contact_pairs;
-    solver.step();
-    device::synchronize(b);
-    t0 = Clock::now();
-    solver.sync_host();  // the whole evolving state to the host (output, checkpoints, peak frames)
-    r.sync_ms = 1e3 * since(t0);
-    r.mem_mb = double(device::peak_bytes()) / 1e6;
-    r.host_bytes = double(device::host_peak_resident()) - (peak_reset ? resident0 : 0.0);
-    rows.push_back(r);
+    auto t_setup = Clock::now();
+    const Model model = build_model(structured_box_mesh({0.057, 0.057, 0.129}, n, n, nz), s);
+    const double model_s = since(t_setup);
+    for (const std::string& schedule : schedules) {
+      setenv("FDEM_DEVICE_SCHEDULE", schedule.c_str(), 1);  // read when the Solver makes its device loop
+      t_setup = Clock::now();
+      Solver solver(s, model);
+      const double setup_s = model_s + since(t_setup);
+      DeviceLoop* dev = solver.device_loop();
+      for (int i = 0; i < 20; ++i) solver.step();
+      solver.sync_host();
+      device::synchronize(b);
+      Row r;
+      r.schedule = dev->fused() ? "fused" : "colour";
+      r.tets = long(solver.model().tet_nodes.size());
+      r.ce6 = long(solver.model().ce6_nodes.size());
+      r.nodes = long(solver.model().X.size());
+      r.dt = solver.dt();
+      r.setup_s = setup_s;
+      device::reset_traffic();
+      auto t0 = Clock::now();
+      for (int i = 0; i < steps; ++i) solver.step();
+      device::synchronize(b);
+      r.step_us = 1e6 * since(t0) / steps;
+      r.copies_to_host = double(device::traffic().to_host) / steps;
+      r.bytes_to_host = double(device::traffic().host_bytes) / steps;
+      const DeviceTimes before = dev->times();
+      dev->set_timing(true);
+      for (int i = 0; i < steps; ++i) solver.step();
+      dev->set_timing(false);
+      const DeviceTimes after = dev->times();
+      auto per = [&](double DeviceTimes::*m) { return 1e6 * (after.*m - before.*m) / steps; };
+      r.pass.tet4 = per(&DeviceTimes::tet4), r.pass.ce6 = per(&DeviceTimes::ce6);
+      r.pass.activation = per(&DeviceTimes::activation), r.pass.broad = per(&DeviceTimes::broad);
+      r.pass.narrow = per(&DeviceTimes::narrow), r.pass.friction = per(&DeviceTimes::friction);
+      r.pass.contact_sum = per(&DeviceTimes::contact_sum), r.pass.platens = per(&DeviceTimes::platens);
+      r.pass.pressure = per(&DeviceTimes::pressure), r.pass.integrate = per(&DeviceTimes::integrate);
+      r.pass.energy = per(&DeviceTimes::energy), r.pass.copies = per(&DeviceTimes::copies);
+      r.bytes = dev->bytes_per_step();
+      r.floor_us = 1e6 * r.bytes / (bw * 1e9);
+      t0 = Clock::now();
+      const Monitors m = solver.measure();
+      r.monitor_ms = 1e3 * since(t0);
+      r.pairs = m.contact_pairs;
+      solver.step();
+      device::synchronize(b);
+      t0 = Clock::now();
+      solver.sync_host();  // the whole evolving state to the host (output, checkpoints, peak frames)
+      r.sync_ms = 1e3 * since(t0);
+      r.mem_mb = double(device::peak_bytes()) / 1e6;
+      r.host_bytes = double(device::host_peak_resident()) - (peak_reset ? resident0 : 0.0);
+      rows.push_back(r);
+    }
+    unsetenv("FDEM_DEVICE_SCHEDULE");
   }
 
   std::printf(
-      "| tets | CE6 | nodes | pairs | step, us | floor, us | step / floor | GB/s | of measured | monitor row, ms | "
-      "state to host, ms | device memory peak, MB | copies to host per step | bytes to host per step "
-      "| host peak, bytes per tet | set-up, s |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+      "| tets | CE6 | nodes | pairs | schedule | step, us | floor, us | step / floor | GB/s | of measured | monitor "
+      "row, ms | state to host, ms | device memory peak, MB | copies to host per step | bytes to host per step "
+      "| host peak, bytes per tet | set-up, s "
+      "|\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const Row& r : rows)
     std::printf(
-        "| %ld | %ld | %ld | %ld | %.1f | %.1f | %.2f | %.0f | %.0f %% | %.2f | %.2f | %.0f | %.1f | %.0f | %.0f | "
+        "| %ld | %ld | %ld | %ld | %s | %.1f | %.1f | %.2f | %.0f | %.0f %% | %.2f | %.2f | %.0f | %.1f | %.0f | %.0f "
+        "| "
         "%.1f |\n",
-        r.tets, r.ce6, r.nodes, r.pairs, r.step_us, r.floor_us, r.step_us / r.floor_us, r.bytes / (r.step_us * 1e3),
-        100 * r.bytes / (r.step_us * 1e3) / bw, r.monitor_ms, r.sync_ms, r.mem_mb, r.copies_to_host, r.bytes_to_host,
-        r.host_bytes / double(r.tets), r.setup_s);
+        r.tets, r.ce6, r.nodes, r.pairs, r.schedule.c_str(), r.step_us, r.floor_us, r.step_us / r.floor_us,
+        r.bytes / (r.step_us * 1e3), 100 * r.bytes / (r.step_us * 1e3) / bw, r.monitor_ms, r.sync_ms, r.mem_mb,
+        r.copies_to_host, r.bytes_to_host, r.host_bytes / double(r.tets), r.setup_s);
   std::printf(
-      "\nPer pass, us per step (device waited for after each pass):\n\n| tets | TET4 | CE6 | activation | broad "
+      "\nPer pass, us per step (device waited for after each pass; fused: TET4 and CE6 in one pass, its time "
+      "under CE6):\n\n| tets | schedule | TET4 | CE6 | activation | broad "
       "| narrow | friction | contact sum | platens | pressure | integrate | energy sums | copies | "
-      "sum |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+      "sum |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const Row& r : rows)
-    std::printf("| %ld | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f |\n",
-                r.tets, r.pass.tet4, r.pass.ce6, r.pass.activation, r.pass.broad, r.pass.narrow, r.pass.friction,
-                r.pass.contact_sum, r.pass.platens, r.pass.pressure, r.pass.integrate, r.pass.energy, r.pass.copies,
-                r.pass.total());
+    std::printf(
+        "| %ld | %s | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f |\n",
+        r.tets, r.schedule.c_str(), r.pass.tet4, r.pass.ce6, r.pass.activation, r.pass.broad, r.pass.narrow,
+        r.pass.friction, r.pass.contact_sum, r.pass.platens, r.pass.pressure, r.pass.integrate, r.pass.energy,
+        r.pass.copies, r.pass.total());
   const Fit fit = largest_fit(b, rows, device_free, host_free);
   std::printf(
       "\nLargest model that fits: about %.3g tets (%s: %.1f GB free at the start, %.0f bytes per tet on the "
@@ -245,15 +271,17 @@ int main(int argc, char** argv) {
       "largest size above)\n",
       double(fit.tets), b == Backend::cuda ? "GPU" : "host memory", fit.device_free / 1e9, fit.device_per_tet,
       fit.host_free / 1e9, fit.host_per_tet);
-  const Row& big = rows.back();
   const double paper_tets = 670005, paper_steps = 0.0192 / 5.79e-9 * std::sqrt(5.0 / mass_scaling);
-  const double us_per_step = big.step_us * paper_tets / double(big.tets);
-  std::printf(
-      "\nPaper UCS (670,005 tets, 0.02 m/s, m = %g): %.3g steps to the post-peak stage; at %.1f us per step "
-      "(the largest size scaled by tets) %.0f s = %.1f min of steps (pre-peak contact; the floor alone "
-      "gives %.1f min)\n",
-      mass_scaling, paper_steps, us_per_step, us_per_step * 1e-6 * paper_steps, us_per_step * 1e-6 * paper_steps / 60,
-      big.floor_us * paper_tets / double(big.tets) * 1e-6 * paper_steps / 60);
+  for (const Row& big : rows) {  // the largest size, each schedule
+    if (big.tets != rows.back().tets) continue;
+    const double us_per_step = big.step_us * paper_tets / double(big.tets);
+    std::printf(
+        "\nPaper UCS (670,005 tets, 0.02 m/s, m = %g), %s: %.3g steps to the post-peak stage; at %.1f us per step "
+        "(the largest size scaled by tets) %.0f s = %.1f min of steps (pre-peak contact; the floor alone "
+        "gives %.1f min)\n",
+        mass_scaling, big.schedule.c_str(), paper_steps, us_per_step, us_per_step * 1e-6 * paper_steps,
+        us_per_step * 1e-6 * paper_steps / 60, big.floor_us * paper_tets / double(big.tets) * 1e-6 * paper_steps / 60);
+  }
   MPI_Finalize();
   return 0;
 }

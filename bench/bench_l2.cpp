@@ -1,6 +1,6 @@
 // bench_l2: the memory traffic of one step of the device loop, simulated through a GPU's
-// last-level cache, for the loop's schedule today and for a fused element pass that is not
-// built (a design question for the GPU sessions).
+// last-level cache, for the loop's two schedules of its element passes (colour by colour, and
+// fused) and for a fused pass that also integrates (not built): design questions for the GPU.
 //
 // Why: DeviceLoop::bytes_per_step (bench_device's floor) counts node data once per element
 // corner, as if the cache kept nothing between two reads of a node; the compulsory traffic
@@ -21,13 +21,17 @@
 //    read where the corner adds); CE6 colour by colour over slots in colour order (damage,
 //    node ids, h, own flag; x and v of its 6 nodes read, f read and written); activation (the
 //    break flags); integration (x, v, f, 1/m, own flag, m read; x, v written).
-//  fused (not built): one pass over the tets in index order: the TET4's arrays and its 4
-//    nodes' x and v, then each CE6 on its faces in colour order (the tet's CE6 list, damage,
-//    node ids, h, the other side's 3 nodes' x and v; CE6 arrays in model order), every CE6
-//    evaluated by both of its tets, each adding only to its own nodes; f written once, never
-//    read; then activation and integration as above. (The damage, written by one side only when
-//    it rises, would need a second copy so the other side reads the old one: not replayed,
-//    as nothing is damaged here.)
+//  fused (the device loop's default where every node is one tet's): one pass over the tets in
+//    index order: the TET4's arrays and its 4 nodes' x and v, then each CE6 on its faces in
+//    colour order (the tet's CE6 list; damage, node ids, h and own flag at the CE6's slot, the
+//    arrays being in colour order as above; the 6 nodes' x and v), every CE6 evaluated by both
+//    of its tets, each adding only to its own nodes; f written once, never read; then
+//    activation and integration as above. (The second copy of the damage and anchors is
+//    written only for damaged CE6s: none here.)
+//  fused with the integration (not built): the fused pass, each tet then moving its own 4 nodes
+//    (1/m, own flag, m read; x and v written to a second copy, as the other tets still read the
+//    old ones): no force array, no integration pass. Contact and platen forces, which a node's
+//    update would need first, are left out of this row altogether.
 // Not replayed (small before fracture): contact pairs, platens, the broad phase's watch list,
 // the reductions' sums. Cache size 0 counts every access as a miss: the per-reference count
 // at sector granularity, comparable with DeviceLoop::bytes_per_step.
@@ -155,7 +159,7 @@ struct Array {
 
 /// The device loop's arrays, laid out one after the other (256-byte aligned).
 struct Layout {
-  Array x, v, f, inv_mass, mass, own_n;             // nodes
+  Array x, v, f, inv_mass, mass, own_n, x2, v2;     // nodes (x2, v2: the integrated row's copy)
   Array torder, tet_nodes, Xinv, V0, eta, assigns;  // tets
   Array ce6_nodes, h, dmg, own_c, broke, tet_ce6;   // CE6 (and the fused pass's list)
   std::uint64_t end = 0;
@@ -166,11 +170,11 @@ struct Layout {
   }
 };
 
-enum class Schedule { colour, fused };
+enum class Schedule { colour, fused, integrated };
 
 /// One step's accesses in launch order.
 void replay(const Model& m, const Layout& L, Schedule sched, const std::vector<std::array<int, 4>>& tet_ce6,
-            SectorCache& c) {
+            const std::vector<int>& slot, SectorCache& c) {
   const long nt = long(m.tet_nodes.size()), nc = long(m.ce6_nodes.size()), nn = long(m.X.size());
   const std::uint32_t vec = 24;
   auto ce6_arrays = [&](long i) {  // i: the CE6's index in the arrays' order
@@ -207,7 +211,8 @@ void replay(const Model& m, const Layout& L, Schedule sched, const std::vector<s
       }
       c.access(L.own_c.at(i), 1, false);
     }
-  } else {
+  } else {  // fused, or fused with the integration
+    const bool integrated = sched == Schedule::integrated;
     for (long t = 0; t < nt; ++t) {
       c.access(L.tet_nodes.at(t), 16, false);
       c.access(L.Xinv.at(t), 72, false);
@@ -220,16 +225,28 @@ void replay(const Model& m, const Layout& L, Schedule sched, const std::vector<s
       c.access(L.tet_ce6.at(t), 16, false);
       for (int e : tet_ce6[t]) {
         if (e < 0) continue;
-        ce6_arrays(e);
-        c.access(L.own_c.at(e), 1, false);
-        const int side = m.ce6_tets[e][0] == t ? 1 : 0;  // the other side's nodes
-        for (int j = 0; j < 3; ++j) {
-          const int n = m.ce6_nodes[e][3 * side + j];
+        ce6_arrays(slot[e]);
+        c.access(L.own_c.at(slot[e]), 1, false);
+        for (int n : m.ce6_nodes[e]) {  // the own side's 3 again (from L1 on a GPU)
           c.access(L.x.at(n), vec, false);
           c.access(L.v.at(n), vec, false);
         }
       }
-      for (int n : m.tet_nodes[t]) c.access(L.f.at(n), vec, true);
+      for (int n : m.tet_nodes[t]) {
+        if (!integrated) {
+          c.access(L.f.at(n), vec, true);
+          continue;
+        }
+        c.access(L.inv_mass.at(n), 8, false);  // the node's new x and v into the other copy
+        c.access(L.own_n.at(n), 1, false);
+        c.access(L.mass.at(n), 8, false);
+        c.access(L.x2.at(n), vec, true);
+        c.access(L.v2.at(n), vec, true);
+      }
+    }
+    if (integrated) {
+      for (long i = 0; i < nc; ++i) c.access(L.broke.at(i), 1, false);  // activation
+      return;
     }
   }
   for (long i = 0; i < nc; ++i) c.access(L.broke.at(i), 1, false);  // activation
@@ -283,9 +300,12 @@ int main(int argc, char** argv) {
     const Model m = build_model(structured_box_mesh({0.057, 0.057, 0.129}, n, n, nz), s);
     const long nt = long(m.tet_nodes.size()), nc = long(m.ce6_nodes.size()), nn = long(m.X.size());
     // Each tet's CE6s, ordered by colour (the order the CPU loop adds them to a node).
-    std::vector<int> colour(nc);
+    std::vector<int> colour(nc), slot(nc);
     for (int c = 0; c < m.ce6_colours.colours(); ++c)
-      for (int k = m.ce6_colours.offsets[c]; k < m.ce6_colours.offsets[c + 1]; ++k) colour[m.ce6_colours.order[k]] = c;
+      for (int k = m.ce6_colours.offsets[c]; k < m.ce6_colours.offsets[c + 1]; ++k) {
+        colour[m.ce6_colours.order[k]] = c;
+        slot[m.ce6_colours.order[k]] = k;
+      }
     std::vector<std::array<int, 4>> tet_ce6(nt, {-1, -1, -1, -1});
     std::vector<int> fill(nt, 0);
     for (long e = 0; e < nc; ++e)
@@ -294,7 +314,7 @@ int main(int argc, char** argv) {
       std::sort(l.begin(), l.begin() + std::count_if(l.begin(), l.end(), [](int e) { return e >= 0; }),
                 [&](int a, int b) { return colour[a] < colour[b]; });
     Layout L;
-    for (Array* a : {&L.x, &L.v, &L.f}) L.place(*a, nn, 24);
+    for (Array* a : {&L.x, &L.v, &L.f, &L.x2, &L.v2}) L.place(*a, nn, 24);
     L.place(L.inv_mass, nn, 8);
     L.place(L.mass, nn, 8);
     L.place(L.own_n, nn, 1);
@@ -310,17 +330,19 @@ int main(int argc, char** argv) {
     L.place(L.own_c, nc, 1);
     L.place(L.broke, nc, 1);
     L.place(L.tet_ce6, nt, 16);
-    for (const Schedule sched : {Schedule::colour, Schedule::fused})
+    for (const Schedule sched : {Schedule::colour, Schedule::fused, Schedule::integrated})
       for (const double mb : cache_mb) {
         SectorCache c(std::uint64_t(mb * 1e6), L.end);
         for (int step = 0; step < 3; ++step) {
           if (step == 2) c.reset_counts();
-          replay(m, L, sched, tet_ce6, c);
+          replay(m, L, sched, tet_ce6, slot, c);
         }
         const double r = c.read_bytes(), w = c.written_bytes(), all = r + w, once = c.compulsory_bytes();
         std::printf("| %ld | %ld | %ld | %s | %g | %.1f | %.1f | %.1f | %.1f | %.2f | %.0f |\n", nt, nc, nn,
-                    sched == Schedule::colour ? "colour (built)" : "fused (not built)", mb, r / 1e6, w / 1e6, all / 1e6,
-                    once / 1e6, all / once, all / (bandwidth * 1e12) * 1e6);
+                    sched == Schedule::colour  ? "colour (built)"
+                    : sched == Schedule::fused ? "fused (built)"
+                                               : "fused with the integration (not built)",
+                    mb, r / 1e6, w / 1e6, all / 1e6, once / 1e6, all / once, all / (bandwidth * 1e12) * 1e6);
         std::fflush(stdout);
       }
   }

@@ -4,7 +4,9 @@
 // against the CPU backend, where a GPU exists).
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <memory>
+#include <string>
 
 #include "model/structured.hpp"
 #include "support.hpp"
@@ -36,6 +38,15 @@ inline Scene backend_fracture_scene(const std::string& backend) {
   s.solver.max_energy_error = 0;  // violent on purpose (see test_determinism)
   return s;
 }
+
+/// FDEM_DEVICE_SCHEDULE=value while in scope (the device loop's element passes, read when a
+/// solver makes its device loop): "colour", or "auto" (fused where the mesh allows, the default).
+struct DeviceScheduleSetting {
+  explicit DeviceScheduleSetting(const std::string& value) { setenv("FDEM_DEVICE_SCHEDULE", value.c_str(), 1); }
+  ~DeviceScheduleSetting() { unsetenv("FDEM_DEVICE_SCHEDULE"); }
+  DeviceScheduleSetting(const DeviceScheduleSetting&) = delete;
+  DeviceScheduleSetting& operator=(const DeviceScheduleSetting&) = delete;
+};
 
 inline std::unique_ptr<Solver> backend_solver(const Scene& s) {
   return std::make_unique<Solver>(s, build_model(structured_box_mesh({0.006, 0.006, 0.012}, 3, 3, 6), s));

@@ -1,6 +1,11 @@
 // The debug backend's device loop (HostExec) and the choice of backend.
 #include "solver/device_loop.hpp"
 
+#include <algorithm>
+#include <cstdlib>
+#include <string>
+#include <utility>
+
 #include "core/error.hpp"
 #include "partition/halo.hpp"
 #include "solver/device_loop_impl.hpp"
@@ -8,23 +13,70 @@
 namespace fdem {
 
 // cuda/device_loop.cu where nvcc is found.
-std::unique_ptr<DeviceLoop> make_cuda_device_loop(bool direct_mpi);
+std::unique_ptr<DeviceLoop> make_cuda_device_loop(bool direct_mpi, FusedPlan plan);
 
 #ifndef FDEM_HAVE_CUDA
-std::unique_ptr<DeviceLoop> make_cuda_device_loop(bool) {
+std::unique_ptr<DeviceLoop> make_cuda_device_loop(bool, FusedPlan) {
   throw InputError(
       "solver.backend cuda: this fdem was built without CUDA (nvcc was not found at build time). Fix: build where "
       "nvcc is installed (cmake -DFDEM_ENABLE_CUDA=ON), or run with --backend cpu");
 }
 #endif
 
+bool device_schedule_allows_fusing() {
+  const char* e = std::getenv("FDEM_DEVICE_SCHEDULE");
+  const std::string v = e ? e : "";
+  if (v.empty() || v == "auto") return true;
+  if (v == "colour") return false;
+  throw InputError("FDEM_DEVICE_SCHEDULE=" + v +
+                   ": unknown schedule of the device loop's element passes. Fix: FDEM_DEVICE_SCHEDULE=auto (the "
+                   "default: fused where every node is one tet's) or colour, or unset it");
+}
+
+bool plan_fused_pass(const Model& m, FusedPlan& plan) {
+  const auto& tets = m.tet_colours.order;
+  const auto& ce6s = m.ce6_colours.order;
+  const int nk = int(tets.size());
+  std::vector<int> launch_of(m.tet_nodes.size(), -1);  // a computed tet's place in the pass
+  std::vector<char> seen(m.X.size(), 0);
+  for (int k = 0; k < nk; ++k) {
+    launch_of[tets[k]] = k;
+    for (int n : m.tet_nodes[tets[k]]) {
+      if (seen[n]) return false;  // a node shared by two tets
+      seen[n] = 1;
+    }
+  }
+  plan.list.assign(4 * std::size_t(nk), -1);
+  plan.sides.assign(ce6s.size(), 0);
+  std::vector<int> fill(nk, 0);
+  for (int k = 0; k < int(ce6s.size()); ++k) {
+    const int e = ce6s[k];
+    int writer = -1;
+    for (int side = 0; side < 2; ++side) {
+      const int t = m.ce6_tets[e][side], l = launch_of[t];
+      if (l < 0) continue;
+      const auto& q = m.tet_nodes[t];
+      for (int j = 0; j < 3; ++j)
+        if (std::find(q.begin(), q.end(), m.ce6_nodes[e][3 * side + j]) == q.end()) return false;
+      if (fill[l] == 4) return false;
+      if (writer < 0) writer = side;
+      plan.list[4 * std::size_t(l) + fill[l]++] = k << 2 | side << 1 | (writer == side);
+      ++plan.sides[k];
+    }
+    if (writer < 0) return false;  // no computed tet evaluates it
+  }
+  return true;
+}
+
 std::unique_ptr<DeviceLoop> make_device_loop(Backend b, const Solver& s) {
   // Read (and checked) here, at the start, on every rank alike.
   const bool direct_mpi = s.decomposition().distributed() && device_buffers_to_mpi(b == Backend::cuda);
+  FusedPlan plan;  // empty: the colour passes
+  if (!device_schedule_allows_fusing() || !plan_fused_pass(s.model(), plan)) plan = FusedPlan{};
   switch (b) {
     case Backend::debug:
       host_order();  // FDEM_DEBUG_ORDER, checked before the run starts
-      return std::make_unique<DeviceLoopImpl<HostExec>>(Backend::debug, direct_mpi);
+      return std::make_unique<DeviceLoopImpl<HostExec>>(Backend::debug, direct_mpi, std::move(plan));
     case Backend::cuda:
       if (cuda_built()) {
         // All ranks decide together, so that none is left waiting in the split below.
@@ -42,7 +94,7 @@ std::unique_ptr<DeviceLoop> make_device_loop(Backend b, const Solver& s) {
         select_cuda_device(rank_in(node));
         MPI_Comm_free(&node);
       }
-      return make_cuda_device_loop(direct_mpi);
+      return make_cuda_device_loop(direct_mpi, std::move(plan));
     case Backend::cpu:
       break;
   }

@@ -5,6 +5,7 @@
 // backend as kernels. The Solver keeps the scalar bookkeeping (energies, checks, loading) and its host vectors as the
 // host copy, brought up to date at monitor rows and output.
 #include <array>
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <vector>
@@ -15,6 +16,7 @@
 namespace fdem {
 
 class Solver;
+struct Model;
 
 /// Wall time per pass, s (with `timing` on, each pass waits for the device before the clock).
 struct DeviceTimes {
@@ -45,6 +47,9 @@ class DeviceLoop {
   /// Several ranks: true when the halo hands device buffers to MPI (GPU-aware MPI, or
   /// FDEM_GPU_AWARE_MPI=1), false when it stages them through host memory.
   virtual bool halo_passes_device_buffers() const = 0;
+  /// True when the TET4 and CE6 forces are one pass over the tets (plan_fused_pass), false when
+  /// they are colour-by-colour passes.
+  virtual bool fused() const = 0;
   /// The whole state and the model's constants, host to device.
   virtual void upload(const Solver& s) = 0;
   /// The evolving state, device to host (x, v, f, CE6 state, platen anchors, pressure forces,
@@ -84,6 +89,24 @@ class DeviceLoop {
   /// this model's array sizes and the contact pairs now.
   virtual double bytes_per_step() const = 0;
 };
+
+/// The fused element pass's plan: for each tet of m.tet_colours.order, four entries
+/// (k << 2 | side << 1 | writer) for the CE6s on its faces, k being the CE6's place in
+/// m.ce6_colours.order, in ascending k (colour order), -1 after the last; side: the tet's side
+/// of the CE6; writer: the first side whose tet is computed. sides[k]: how many of CE6 k's tets
+/// are computed.
+struct FusedPlan {
+  std::vector<int> list;
+  std::vector<std::uint8_t> sides;
+};
+/// Fills `plan` and returns true when the model allows the fused pass: every node in at most
+/// one computed tet (split nodes: a CE6 on every internal face of the rank's elements), each
+/// side's nodes of a computed CE6 its tet's own, and every computed CE6 with a computed tet.
+bool plan_fused_pass(const Model& m, FusedPlan& plan);
+/// The device loop fuses its TET4 and CE6 passes where plan_fused_pass allows, unless
+/// FDEM_DEVICE_SCHEDULE=colour (the colour-by-colour passes, for comparison); `auto`, or unset,
+/// is the default. Another value throws InputError naming it.
+bool device_schedule_allows_fusing();
 
 /// The device loop of backend b (debug or cuda) for solver s. Throws InputError when the
 /// CUDA backend was not built or no GPU is visible.

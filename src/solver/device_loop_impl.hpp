@@ -68,7 +68,9 @@ FDEM_HD real max3(real a, real b, real c) {
 template <class Exec>
 class DeviceLoopImpl final : public DeviceLoop {
  public:
-  DeviceLoopImpl(Backend b, bool direct_mpi) : b_(b), direct_mpi_(direct_mpi) {
+  /// `plan`: the fused pass's (plan_fused_pass), or empty for the colour passes.
+  DeviceLoopImpl(Backend b, bool direct_mpi, FusedPlan plan)
+      : b_(b), direct_mpi_(direct_mpi), fused_(!plan.list.empty()), plan_(std::move(plan)) {
     auto set = [&](auto&... a) { (a.set_backend(b), ...); };
     set(tet_nodes_, tet_order_, ce6_nodes_, ce6_slot_, platen_nodes_, fixed_node_, fixed_mask_, lat_faces_, lat_ptr_,
         lat_face_, lat_node_, node_vertex_, vt_ptr_, vt_tets_, watch_nodes_, gather_node_, gather_ptr_, gather_slot_,
@@ -80,12 +82,14 @@ class DeviceLoopImpl final : public DeviceLoop {
     set(tet_global_, flags_, offsets_, counts_, entry_offsets_, head_, head_offsets_, cell_start_, cell_counts_,
         cell_offsets_);
     set(ids_, tet_ce6_, ce6_tets_, boxes_, entries_, node_slots_, next_pairs_, next_spring_);
+    set(fused_ce6_, ce6_sides_, dmg_next_, slip_next_);
     set(halo_send_node_, halo_send_x_, halo_send_v_, halo_recv_node_, halo_recv_x_, halo_recv_v_, halo_flag_tet_,
         halo_send_, halo_recv_, flag_send_, flag_recv_);
     sums_.resize(kAll);
   }
 
   Backend backend() const override { return b_; }
+  bool fused() const override { return fused_; }
   bool halo_passes_device_buffers() const override { return direct_mpi_; }
   void set_timing(bool on) override { timing_ = on; }
   const DeviceTimes& times() const override { return t_; }
@@ -133,6 +137,7 @@ class DeviceLoopImpl final : public DeviceLoop {
       for (std::uint8_t a : s.tet_assigns_) assigned_corners_ += (a & 1) + (a >> 1 & 1) + (a >> 2 & 1) + (a >> 3 & 1);
       gravity_ = s.scene_.has_gravity();
       unreached_.upload(s.unreached_nodes_);
+      plan_fused();
       if (s.halo_) plan_halo(s);
       // Monitor rows: the tets whose reference centroid lies in the middle third of the height.
       std::vector<std::uint8_t> mid(m.tet_nodes.size());
@@ -180,6 +185,15 @@ class DeviceLoopImpl final : public DeviceLoop {
     dmg_.resize(s.ce6.size());
     slip_.resize(s.ce6.size());
     ce6_between_orders(true);
+    if (fused_) {  // the fused pass reads one copy and writes the other: both start current
+      dmg_next_.resize(dmg_.size());
+      slip_next_.resize(slip_.size());
+      const Ce6Damage* d = dmg_.data();
+      const Ce6Anchors* a = slip_.data();
+      Ce6Damage* dn = dmg_next_.data();
+      Ce6Anchors* an = slip_next_.data();
+      Exec::forall(int(dmg_.size()), [=] FDEM_LAMBDA(int k) { dn[k] = d[k], an[k] = a[k]; });
+    }
     broke_.upload(in_slots(s.ce6_broke_));
     anchor_.upload(s.platen_anchor);
     fixed_node_.upload(s.fixed_node_);
@@ -353,7 +367,15 @@ class DeviceLoopImpl final : public DeviceLoop {
     const real* eta = eta_.data();
     const std::uint8_t* assigns = gravity_ ? nullptr : tet_assigns_.data();
     const real lambda = s.lambda_, mu = s.mu_;
-    for (int c = 0; c < m.tet_colours.colours(); ++c) {
+    const int* cn = ce6_nodes_.data();
+    const real* h = ce6_h_.data();
+    std::uint8_t* broke = broke_.data();
+    const Ce6Params p = s.ce6p_;
+    if (fused_) {
+      fused_forces(m, s.lambda_, s.mu_, sums);
+      t0 = lap(t0, t_.ce6);
+    }
+    for (int c = 0; c < (fused_ ? 0 : m.tet_colours.colours()); ++c) {
       const int b = m.tet_colours.offsets[c], e = m.tet_colours.offsets[c + 1];
       Exec::template sum_to<2>(
           e - b,
@@ -373,13 +395,9 @@ class DeviceLoopImpl final : public DeviceLoop {
     t0 = lap(t0, t_.tet4);
 
     // CE6, colour by colour (stored in colour order: slot b + k); a CE6 that breaks raises its flag.
-    const int* cn = ce6_nodes_.data();
-    const real* h = ce6_h_.data();
-    Ce6Damage* st = dmg_.data();
+    Ce6Damage* st = dmg_.data();  // after the fused pass: the copy it wrote
     Ce6Anchors* sl = slip_.data();
-    std::uint8_t* broke = broke_.data();
-    const Ce6Params p = s.ce6p_;
-    for (int c = 0; c < m.ce6_colours.colours(); ++c) {
+    for (int c = 0; c < (fused_ ? 0 : m.ce6_colours.colours()); ++c) {
       const int b = m.ce6_colours.offsets[c], e = m.ce6_colours.offsets[c + 1];
       Exec::template sum_to<3>(
           e - b,
@@ -392,12 +410,13 @@ class DeviceLoopImpl final : public DeviceLoop {
             const bool was_broken = ce6_broken(st[i]);
             const Ce6Eval ev = cohesive6_forces(p, xe, ve, h[i], st[i], sl[i].a, fe);
             for (int j = 0; j < 6; ++j) f[q[j]] += fe[j];
-            if (own_c[i]) acc[was_broken ? 1 : 0] += ev.power;
+            if (own_c[i] && was_broken) acc[1] += ev.power;  // constant indices: acc stays in registers
+            if (own_c[i] && !was_broken) acc[0] += ev.power;
             if (!was_broken && ce6_broken(st[i])) broke[i] = 1, acc[2] += 1;
           },
           sums + kCoh);
     }
-    t0 = lap(t0, t_.ce6);
+    if (!fused_) t0 = lap(t0, t_.ce6);
 
     // Adaptive activation: the vicinity of each CE6 that broke on this step (every tet sharing a
     // vertex of its face); a pass over the flags every step, so the host need not know first.
@@ -831,8 +850,22 @@ class DeviceLoopImpl final : public DeviceLoop {
       acc[0] += carries;
       acc[1] += carries && ce6_max_damage(st[i]) > 0;
     });
-    const double ce6 = ce6_coloured_ * (6 * sizeof(int) + sizeof(real) + sizeof(Ce6Damage) + 2) + k[0] * 6 * 4 * vec +
-                       k[1] * (sizeof(Ce6Damage) + 2 * sizeof(Ce6Anchors));
+    double ce6 = ce6_coloured_ * (6 * sizeof(int) + sizeof(real) + sizeof(Ce6Damage) + 2) + k[0] * 6 * 4 * vec +
+                 k[1] * (sizeof(Ce6Damage) + 2 * sizeof(Ce6Anchors));
+    if (fused_) {
+      // Fused: the TET4 reads no colour-order entry but its CE6 list; each computed side of a CE6
+      // that carries force reads its connectivity, h, damage, own flag and 6 nodes' x and v and
+      // adds to its own nodes' forces in registers (f is the TET4's write above); damaged, it
+      // reads the anchors and the writer side writes damage and anchors; the break flags.
+      const std::uint8_t* sides = ce6_sides_.data();
+      const auto e = Exec::template sum<2>(ce6_coloured_, [=] FDEM_LAMBDA(int i, real* acc) {
+        const bool kept = ce6_max_damage(st[i]) > 0;
+        acc[0] += ce6_carries_force(p, st[i]) ? sides[i] : 0;
+        acc[1] += kept ? sides[i] : 0;
+      });
+      ce6 = ce6_coloured_ * 1.0 + e[0] * (6 * sizeof(int) + sizeof(real) + sizeof(Ce6Damage) + 1 + 6 * 2 * vec) +
+            e[1] * sizeof(Ce6Anchors) + k[1] * (sizeof(Ce6Damage) + sizeof(Ce6Anchors));
+    }
     // Contact pairs: pair, evaluation, spring, 8 forces written then read, 8 nodes' x and v.
     const double con =
         np * (sizeof(ContactPair) + 2 * sizeof(ContactEval) + 2 * vec + 16 * vec + 16 * vec + 8 * 4 * sizeof(int));
@@ -840,7 +873,7 @@ class DeviceLoopImpl final : public DeviceLoop {
     // (x, v, f, 1/m, m) and the kinetic-energy sum.
     const double start = gravity_ ? nn * (vec + vec + sizeof(real)) : double(unreached_.size()) * (vec + sizeof(int));
     const double node = start + nn * (5 * vec + 2 * sizeof(real));
-    return tet + ce6 + con + node;
+    return tet + (fused_ ? nt * 4 * sizeof(int) : 0) + ce6 + con + node;
   }
 
  private:
@@ -860,6 +893,99 @@ class DeviceLoopImpl final : public DeviceLoop {
   void clear_sums(int from, int to) {
     real* p = sums_.data();
     Exec::forall(to - from, [=] FDEM_LAMBDA(int k) { p[from + k] = 0; });
+  }
+
+  /// The fused pass's lists to the device (the plan made with the loop; the model's
+  /// colourings, and so the plan, stay as they are for the loop's life).
+  void plan_fused() {
+    if (!fused_) return;
+    if (plan_.sides.size() > ce6_perm_.size())
+      throw RunError("device loop: the fused element pass's plan does not match the model");
+    plan_.sides.resize(ce6_perm_.size(), 0);  // the CE6s no colour holds: not computed here
+    fused_ce6_.upload(plan_.list);
+    ce6_sides_.upload(plan_.sides);
+    plan_ = FusedPlan{};
+  }
+
+  /// TET4 and CE6 forces in one pass over the computed tets: each tet's TET4, then each CE6 on
+  /// its faces in colour order, every CE6 evaluated by both of its tets from the damage and
+  /// anchors at the start of the pass (dmg_, slip_), each adding only to its own nodes, so that
+  /// f is written once per node and never read (without gravity), in the same order of sums as
+  /// the colour passes (the same bits). One side, the writer, keeps the new damage and anchors
+  /// (dmg_next_, slip_next_: written for every damaged CE6, so the pair stays current where it
+  /// matters; undamaged, both copies hold the intact state), its powers and its break; then the
+  /// copies swap.
+  void fused_forces(const Model& m, real lambda, real mu, real* sums) {
+    const int nk = int(m.tet_colours.order.size());
+    const Vec3* x = x_.data();
+    const Vec3* v = v_.data();
+    Vec3* f = f_.data();
+    const int* tn = tet_nodes_.data();
+    const int* torder = tet_order_.data();
+    const Mat3* Xinv = Xinv_.data();
+    const real* V0 = V0_.data();
+    const real* eta = eta_.data();
+    const std::uint8_t* assigns = gravity_ ? nullptr : tet_assigns_.data();
+    const std::uint8_t* own_t = own_tet_.data();
+    const std::uint8_t* own_c = own_ce6_.data();
+    const int* list = fused_ce6_.data();
+    const int* cn = ce6_nodes_.data();
+    const real* h = ce6_h_.data();
+    const Ce6Damage* dr = dmg_.data();
+    const Ce6Anchors* sr = slip_.data();
+    Ce6Damage* dw = dmg_next_.data();
+    Ce6Anchors* sw = slip_next_.data();
+    std::uint8_t* broke = broke_.data();
+    const Ce6Params p = ce6p_;
+    static_assert(kInverted == kVisc + 1 && kCoh == kVisc + 2 && kFric == kVisc + 3 && kBreaks == kVisc + 4,
+                  "the fused pass sums into five consecutive slots");
+    Exec::template sum_to<5>(
+        nk,
+        [=] FDEM_LAMBDA(int k, real* acc) {
+          const int t = torder[k];
+          const int* q = tn + 4 * t;
+          Vec3 xe[4], ve[4], fe[4];
+          for (int i = 0; i < 4; ++i) xe[i] = x[q[i]], ve[i] = v[q[i]];
+          const Tet4Eval ev = tet4_forces(xe, ve, Xinv[t], V0[t], lambda, mu, eta[t], fe);
+          if (!(ev.J > 0)) acc[1] += 1;
+          if (own_t[t]) acc[0] += ev.viscous_power;
+          const int first = assigns ? assigns[t] : 0;
+          for (int i = 0; i < 4; ++i) fe[i] = (first >> i & 1 ? Vec3{0, 0, 0} : f[q[i]]) + fe[i];
+          for (int j = 0; j < 4; ++j) {
+            const int code = list[4 * k + j];
+            if (code < 0) break;
+            const int c = code >> 2, side = code >> 1 & 1;
+            const bool writer = code & 1;
+            Ce6Damage d = dr[c];
+            const bool kept = ce6_max_damage(d) > 0;  // damaged or broken: anchors kept
+            Ce6Anchors an{};
+            if (kept) an = sr[c];
+            if (!ce6_carries_force(p, d)) {  // broken, its faces left to contact
+              if (writer) dw[c] = d, sw[c] = an;
+              continue;
+            }
+            const int* cq = cn + 6 * c;
+            Vec3 xc[6], vc[6], fc[6];
+            for (int i = 0; i < 6; ++i) xc[i] = x[cq[i]], vc[i] = v[cq[i]];
+            const bool was_broken = ce6_broken(d);
+            const Ce6Eval e6 = cohesive6_forces(p, xc, vc, h[c], d, an.a, fc);
+            for (int i = 0; i < 3; ++i) {  // constant indices only: the arrays stay in registers
+              const int n = side ? cq[3 + i] : cq[i];
+              const Vec3 add = side ? fc[3 + i] : fc[i];
+              for (int a = 0; a < 4; ++a)
+                if (q[a] == n) fe[a] += add;
+            }
+            if (!writer) continue;
+            if (ce6_max_damage(d) > 0) dw[c] = d, sw[c] = an;
+            if (own_c[c] && was_broken) acc[3] += e6.power;  // constant indices: acc stays in registers
+            if (own_c[c] && !was_broken) acc[2] += e6.power;
+            if (!was_broken && ce6_broken(d)) broke[c] = 1, acc[4] += 1;
+          }
+          for (int i = 0; i < 4; ++i) f[q[i]] = fe[i];
+        },
+        sums + kVisc);
+    std::swap(dmg_, dmg_next_);
+    std::swap(slip_, slip_next_);
   }
 
   /// Between ce6_model_ (Ce6State in model order) and the slot-ordered damage and anchors:
@@ -1386,6 +1512,15 @@ class DeviceLoopImpl final : public DeviceLoop {
   // ce6_perm_[k]; ce6_slot_ maps back.
   DeviceArray<Ce6Damage> dmg_;
   DeviceArray<Ce6Anchors> slip_;
+  // The fused element pass (plan_fused): per computed tet (launch order) its CE6 entries, the
+  // computed sides of each CE6 (the traffic model), and the copies of the damage and anchors it
+  // writes while reading dmg_ and slip_ (swapped after it).
+  bool fused_ = false;
+  FusedPlan plan_;  // until the first upload
+  DeviceArray<int> fused_ce6_;
+  DeviceArray<std::uint8_t> ce6_sides_;
+  DeviceArray<Ce6Damage> dmg_next_;
+  DeviceArray<Ce6Anchors> slip_next_;
   // Upload and download only: the host's layout and order. Kept between copies, so that a
   // copy allocates nothing (104 B per CE6 more device memory held; the peak is the same as
   // allocating it for each copy).

@@ -1,6 +1,7 @@
 // The CUDA backend against the CPU backend (issue 5): the same scenes as test_backends.cpp.
-// Built where nvcc is found; every test skips where no GPU is visible. The device sums forces
-// colour by colour as the CPU does; nvcc contracts nothing into fused multiply-adds
+// Built where nvcc is found; every test skips where no GPU is visible. The device sums each
+// node's forces in the CPU's order (colour by colour, or fused: each tet's TET4 then its CE6s in
+// colour order); nvcc contracts nothing into fused multiply-adds
 // (--fmad=false) and the loop's log, exp and cbrt are core/portable_math.hpp's, built from
 // exactly rounded operations, so the states should agree bit for bit. Only the monitors' sums
 // differ in order (a tree of blocks on the device), and state that follows a sum (a
@@ -23,7 +24,11 @@ void need_gpu() {
 
 }  // namespace
 
-TEST(CudaBackend, ElasticBoxMatchesCpuTo1e10) {
+// Both schedules of the element passes: "auto" (TET4 and CE6 fused in one pass here) and "colour".
+class CudaSchedule : public ::testing::TestWithParam<const char*> {};
+INSTANTIATE_TEST_SUITE_P(Schedule, CudaSchedule, ::testing::Values("auto", "colour"));
+
+TEST_P(CudaSchedule, ElasticBoxMatchesCpuTo1e10) {
   // The CE6 penalty amplifies a last-bit difference in a position some 10^7-fold in the forces
   // (measured on the host: a fused multiply-add build against one without, or the C library's
   // log against portable_log, give forces 1e-4 apart after these 3000 steps), so 1e-10 in the
@@ -33,9 +38,11 @@ TEST(CudaBackend, ElasticBoxMatchesCpuTo1e10) {
 #ifdef FDEM_CUDA_FMAD
   GTEST_SKIP() << "built with FDEM_CUDA_FMAD=ON: nvcc fuses multiply-adds, so the bits differ";
 #endif
+  DeviceScheduleSetting schedule(GetParam());
   auto cpu = backend_solver(backend_elastic_scene("cpu"));
   auto gpu = backend_solver(backend_elastic_scene("cuda"));
   ASSERT_EQ(gpu->backend(), Backend::cuda);
+  EXPECT_EQ(gpu->device_loop()->fused(), std::string(GetParam()) == "auto");
   for (int i = 0; i < 3000; ++i) cpu->step(), gpu->step();
   gpu->sync_host();
   const real dx = max_rel_diff(cpu->x, gpu->x, 1e-6);
@@ -54,9 +61,10 @@ TEST(CudaBackend, ElasticBoxMatchesCpuTo1e10) {
   EXPECT_NEAR(a.external_work, b.external_work, 1e-9 * a.external_work);
 }
 
-TEST(CudaBackend, FracturingBoxPeakWithin1PercentBrokenWithin5Percent) {
+TEST_P(CudaSchedule, FracturingBoxPeakWithin1PercentBrokenWithin5Percent) {
   need_gpu();
   if (IsSkipped()) return;
+  DeviceScheduleSetting schedule(GetParam());
   auto cpu = backend_solver(backend_fracture_scene("cpu"));
   auto gpu = backend_solver(backend_fracture_scene("cuda"));
   const FractureResult a = run_fracture(*cpu, 4000), b = run_fracture(*gpu, 4000);

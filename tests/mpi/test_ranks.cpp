@@ -235,9 +235,14 @@ TEST_P(RanksDevice, DeviceLoopGivesTheCpuBackendsRun) {
   // within 2 %.
   // "+mpi": the halo hands its device buffers to MPI itself (FDEM_GPU_AWARE_MPI=1), as with a
   // GPU-aware MPI; the debug backend's device memory is host memory, so any MPI takes them.
+  // "+colour": the colour passes instead of the fused element pass (FDEM_DEVICE_SCHEDULE).
   const std::string param = GetParam();
-  const bool direct = param.size() > 4 && param.compare(param.size() - 4, 4, "+mpi") == 0;
-  const std::string backend = direct ? param.substr(0, param.size() - 4) : param;
+  auto ends = [&](const std::string& tail) {
+    return param.size() > tail.size() && param.compare(param.size() - tail.size(), tail.size(), tail) == 0;
+  };
+  const bool direct = ends("+mpi"), colour = ends("+colour");
+  const std::string backend = param.substr(0, param.find('+'));
+  test::DeviceScheduleSetting schedule(colour ? "colour" : "auto");
   if (backend == "cuda" && cuda_device_count() == 0)
     GTEST_SKIP() << "no CUDA device visible (" << cuda_device_count_error() << ")";
   if (backend == "cuda" && direct && !mpi_cuda_aware()) GTEST_SKIP() << "this MPI is not CUDA-aware";
@@ -248,6 +253,7 @@ TEST_P(RanksDevice, DeviceLoopGivesTheCpuBackendsRun) {
   const Model global = build_model(structured_box_mesh({0.01, 0.01, 0.02}, 3, 3, 6), scene);
   auto c = decomposed(scene, global);
   auto g = decomposed(dscene, global);
+  EXPECT_EQ(g->device_loop()->fused(), !colour) << "a CE6 on every face: each node is one tet's";
   // One after the other: every rank runs the same sequence of exchanges.
   const double peak_c = test::run_fracture(*c, 3000).peak, peak_g = test::run_fracture(*g, 3000).peak;
   const Monitors mc = c->measure(), mg = g->measure();
@@ -275,7 +281,8 @@ TEST_P(RanksDevice, DeviceLoopGivesTheCpuBackendsRun) {
                 world_size(), peak_g / 1e6, mg.broken, mg.contact_pairs, peak_c / 1e6, mc.broken, mc.contact_pairs);
 }
 
-INSTANTIATE_TEST_SUITE_P(Backend, RanksDevice, ::testing::Values("debug", "debug+mpi", "cuda", "cuda+mpi"),
+INSTANTIATE_TEST_SUITE_P(Backend, RanksDevice,
+                         ::testing::Values("debug", "debug+mpi", "debug+colour", "cuda", "cuda+mpi", "cuda+colour"),
                          [](const ::testing::TestParamInfo<const char*>& i) {
                            std::string n = i.param;
                            for (char& c : n)

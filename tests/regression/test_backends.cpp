@@ -23,10 +23,17 @@ bool same_bits(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
 
 }  // namespace
 
-TEST(DebugBackend, ElasticBoxIsBitIdenticalToCpu) {
+// Both schedules of the device loop's element passes: "auto" fuses TET4 and CE6 in one pass (a
+// CE6 on every internal face: every node is one tet's), "colour" keeps the colour passes.
+class DebugSchedule : public ::testing::TestWithParam<const char*> {};
+INSTANTIATE_TEST_SUITE_P(Schedule, DebugSchedule, ::testing::Values("auto", "colour"));
+
+TEST_P(DebugSchedule, ElasticBoxIsBitIdenticalToCpu) {
+  DeviceScheduleSetting schedule(GetParam());
   auto cpu = backend_solver(backend_elastic_scene("cpu"));
   auto dbg = backend_solver(backend_elastic_scene("debug"));
   ASSERT_EQ(dbg->backend(), Backend::debug);
+  EXPECT_EQ(dbg->device_loop()->fused(), std::string(GetParam()) == "auto");
   for (int i = 0; i < 3000; ++i) cpu->step(), dbg->step();
   dbg->sync_host();
   EXPECT_TRUE(same_bits(cpu->x, dbg->x));
@@ -40,9 +47,11 @@ TEST(DebugBackend, ElasticBoxIsBitIdenticalToCpu) {
   EXPECT_NEAR(a.viscous, b.viscous, 1e-10 * a.viscous);
 }
 
-TEST(DebugBackend, FracturingBoxWithContactAndPressureMatchesCpu) {
+TEST_P(DebugSchedule, FracturingBoxWithContactAndPressureMatchesCpu) {
+  DeviceScheduleSetting schedule(GetParam());
   auto cpu = backend_solver(backend_fracture_scene("cpu"));
   auto dbg = backend_solver(backend_fracture_scene("debug"));
+  EXPECT_EQ(dbg->device_loop()->fused(), std::string(GetParam()) == "auto");
   const FractureResult ra = run_fracture(*cpu, 4000), rb = run_fracture(*dbg, 4000);
   EXPECT_GT(ra.broken, 20) << "the run should fracture";
   RecordProperty("broken_ce6", std::to_string(ra.broken));
@@ -52,10 +61,16 @@ TEST(DebugBackend, FracturingBoxWithContactAndPressureMatchesCpu) {
   dbg->sync_host();
   EXPECT_TRUE(same_bits(cpu->x, dbg->x)) << "max relative difference " << max_rel_diff(cpu->x, dbg->x, 1e-9);
   EXPECT_TRUE(same_bits(cpu->v, dbg->v));
+  long anchored = 0;  // CE6s whose friction anchors are kept (damaged or broken)
   for (std::size_t i = 0; i < cpu->ce6.size(); ++i) {
     ASSERT_EQ(cpu->ce6[i].mode, dbg->ce6[i].mode) << "CE6 " << i;
     for (int k = 0; k < 3; ++k) ASSERT_EQ(cpu->ce6[i].D[k], dbg->ce6[i].D[k]) << "CE6 " << i;
+    if (ce6_max_damage(cpu->ce6[i]) > 0) {
+      ++anchored;
+      ASSERT_EQ(std::memcmp(cpu->ce6[i].slip, dbg->ce6[i].slip, sizeof(cpu->ce6[i].slip)), 0) << "CE6 " << i;
+    }
   }
+  EXPECT_GT(anchored, ra.broken) << "damaged CE6s that did not break keep anchors too";
   EXPECT_EQ(cpu->contacts.active(), dbg->contacts.active());
   // The candidate lists built on the device (broad phase, filters, order) are the host's.
   ASSERT_EQ(cpu->contacts.pair_count(), dbg->contacts.pair_count());
@@ -72,6 +87,29 @@ TEST(DebugBackend, FracturingBoxWithContactAndPressureMatchesCpu) {
   EXPECT_NEAR(a.contact_friction, b.contact_friction, 1e-9 * std::fabs(a.contact_friction) + 1e-15);
   EXPECT_NEAR(a.cohesive_dissipated, b.cohesive_dissipated, 1e-10 * a.cohesive_dissipated);
   EXPECT_NEAR(a.confining_pressure, b.confining_pressure, 0);
+}
+
+TEST(DebugBackend, NodesSharedByTetsKeepTheColourPasses) {
+  // CE6s in the lower half of the box only: above, tets share nodes, so one tet's pass cannot
+  // own its nodes' forces and the loop keeps the colour passes, still the CPU's bits.
+  Scene elastic = backend_elastic_scene("debug");
+  elastic.fracture.everywhere = false;
+  elastic.fracture.boxes.push_back({{-1, -1, -1}, {1, 1, 0.006}});
+  Scene cpu_scene = elastic;
+  cpu_scene.solver.backend = "cpu";
+  auto cpu = backend_solver(cpu_scene);
+  auto dbg = backend_solver(elastic);
+  ASSERT_GT(dbg->model().ce6_nodes.size(), 0u);
+  EXPECT_FALSE(dbg->device_loop()->fused());
+  for (int i = 0; i < 1000; ++i) cpu->step(), dbg->step();
+  dbg->sync_host();
+  EXPECT_TRUE(same_bits(cpu->x, dbg->x));
+  EXPECT_TRUE(same_bits(cpu->f, dbg->f));
+  EXPECT_GT(cpu->measure().axial_stress, 1e5) << "loaded";
+  // The plan refuses such a model.
+  FusedPlan plan;
+  EXPECT_FALSE(plan_fused_pass(dbg->model(), plan));
+  EXPECT_TRUE(plan_fused_pass(backend_solver(backend_elastic_scene("debug"))->model(), plan));
 }
 
 TEST(DebugBackend, GravityHydrostaticPressureAndPrescribedNodesMatchCpu) {
@@ -239,5 +277,27 @@ TEST(DebugBackend, AnUnknownIterationOrderIsAClearInputError) {
   EXPECT_EQ(o.code, 2) << o.text;
   EXPECT_TRUE(has(o.text, "FDEM_DEBUG_ORDER=backwards")) << o.text;
   EXPECT_TRUE(has(o.text, "scrambled (the default) or forward")) << o.text;
+  EXPECT_FALSE(fs::exists(dir.path / "out" / "monitors.csv"));
+}
+
+TEST(DebugBackend, AnUnknownDeviceScheduleIsAClearInputError) {
+  {
+    DeviceScheduleSetting schedule("fastest");
+    try {
+      backend_solver(backend_elastic_scene("debug"));
+      ADD_FAILURE() << "FDEM_DEVICE_SCHEDULE=fastest was accepted";
+    } catch (const InputError& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("FDEM_DEVICE_SCHEDULE=fastest"), std::string::npos) << what;
+      EXPECT_NE(what.find("auto"), std::string::npos) << what;
+    }
+  }
+  using namespace cli_test;
+  TempDir dir("device_schedule");
+  const Outcome o =
+      run_cmd("FDEM_DEVICE_SCHEDULE=fastest " + kEnv + quote(kExe) + " run " + quote(kNoGmshScene.string()) +
+              " -q --backend debug -o " + quote((dir.path / "out").string()));
+  EXPECT_EQ(o.code, 2) << o.text;
+  EXPECT_TRUE(has(o.text, "FDEM_DEVICE_SCHEDULE=fastest")) << o.text;
   EXPECT_FALSE(fs::exists(dir.path / "out" / "monitors.csv"));
 }
