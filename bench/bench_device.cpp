@@ -93,11 +93,11 @@ struct Fit {
 Fit largest_fit(Backend b, const std::vector<Row>& rows, double device_free, double host_free) {
   Fit f;
   f.device_free = device_free, f.host_free = host_free;
-  const Row* big = nullptr;
+  const Row* big = nullptr;  // the largest size; of its schedules, the one that took the most
   for (const Row& r : rows)
-    if (!big || r.tets > big->tets) big = &r;
+    if (!big || r.tets > big->tets || (r.tets == big->tets && r.mem_mb > big->mem_mb)) big = &r;
   if (!big) return f;
-  f.device_per_tet = double(device::peak_bytes()) / double(big->tets);
+  f.device_per_tet = big->mem_mb * 1e6 / double(big->tets);
   f.host_per_tet = big->host_bytes / double(big->tets);
   // The debug backend's device arrays are host memory, already in the resident peak.
   double n = f.host_per_tet > 0 ? 0.9 * host_free / f.host_per_tet : 1e300;
@@ -168,13 +168,6 @@ int main(int argc, char** argv) {
     // Cells n x n x round(2.26 n), 6 tets each.
     const int n = std::max(2, int(std::lround(std::cbrt(double(target) / (6 * 2.263)))));
     const int nz = std::max(2, int(std::lround(2.263 * n)));
-    // The host's peak resident memory over what is resident before this size's model (the last
-    // size's freed heap given back first, so that reusing it does not hide this one's growth).
-    malloc_trim(0);
-    const bool peak_reset = device::reset_host_peak();
-    if (!peak_reset)
-      std::fprintf(stderr, "bench_device: /proc/self/clear_refs refused: host bytes per tet include earlier sizes\n");
-    const double resident0 = double(device::host_resident());
     Scene s;
     s.name = "bench_device";
     s.file = "(bench_device)";
@@ -184,14 +177,20 @@ int main(int argc, char** argv) {
     s.solver.backend = backend;
     s.solver.max_energy_error = 0;
     s.output.progress_interval = 0;
-    auto t_setup = Clock::now();
-    const Model model = build_model(structured_box_mesh({0.057, 0.057, 0.129}, n, n, nz), s);
-    const double model_s = since(t_setup);
     for (const std::string& schedule : schedules) {
+      // The host's peak resident memory over what is resident before this row's model (the last
+      // row's freed heap given back first, so that reusing it does not hide this one's growth);
+      // the device's peak from what is in use now. Each row builds its own model.
+      malloc_trim(0);
+      const bool peak_reset = device::reset_host_peak();
+      if (!peak_reset)
+        std::fprintf(stderr, "bench_device: /proc/self/clear_refs refused: host bytes per tet include earlier sizes\n");
+      const double resident0 = double(device::host_resident());
+      device::reset_peak_bytes();
       setenv("FDEM_DEVICE_SCHEDULE", schedule.c_str(), 1);  // read when the Solver makes its device loop
-      t_setup = Clock::now();
-      Solver solver(s, model);
-      const double setup_s = model_s + since(t_setup);
+      const auto t_setup = Clock::now();
+      Solver solver(s, build_model(structured_box_mesh({0.057, 0.057, 0.129}, n, n, nz), s));
+      const double setup_s = since(t_setup);
       DeviceLoop* dev = solver.device_loop();
       for (int i = 0; i < 20; ++i) solver.step();
       solver.sync_host();

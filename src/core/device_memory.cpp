@@ -226,6 +226,10 @@ bool reset_host_peak() {
 std::size_t bytes_in_use() {
   return in_use.load();
 }
+void reset_peak_bytes() {
+  peak.store(in_use.load());
+}
+
 std::size_t peak_bytes() {
   return peak.load();
 }

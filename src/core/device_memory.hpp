@@ -58,6 +58,8 @@ bool reset_host_peak();
 /// Bytes allocated now and at most so far, over all arrays of all backends but cpu.
 std::size_t bytes_in_use();
 std::size_t peak_bytes();
+/// Starts peak_bytes() afresh from the bytes in use now.
+void reset_peak_bytes();
 
 /// Copies between host and device memory (debug and cuda backends), counted since the last
 /// reset_traffic(): the copies of to_host/to_device and the values a reduction or scan returns

@@ -71,12 +71,17 @@ bool plan_fused_pass(const Model& m, FusedPlan& plan) {
 std::unique_ptr<DeviceLoop> make_device_loop(Backend b, const Solver& s) {
   // Read (and checked) here, at the start, on every rank alike.
   const bool direct_mpi = s.decomposition().distributed() && device_buffers_to_mpi(b == Backend::cuda);
-  FusedPlan plan;  // empty: the colour passes
-  if (!device_schedule_allows_fusing() || !plan_fused_pass(s.model(), plan)) plan = FusedPlan{};
+  auto fused_plan = [&s] {
+    FusedPlan plan;  // empty: the colour passes
+    if (!device_schedule_allows_fusing() || !plan_fused_pass(s.model(), plan)) plan = FusedPlan{};
+    return plan;
+  };
   switch (b) {
-    case Backend::debug:
+    case Backend::debug: {
       host_order();  // FDEM_DEBUG_ORDER, checked before the run starts
+      FusedPlan plan = fused_plan();
       return std::make_unique<DeviceLoopImpl<HostExec>>(Backend::debug, direct_mpi, std::move(plan));
+    }
     case Backend::cuda:
       if (cuda_built()) {
         // All ranks decide together, so that none is left waiting in the split below.
@@ -94,7 +99,7 @@ std::unique_ptr<DeviceLoop> make_device_loop(Backend b, const Solver& s) {
         select_cuda_device(rank_in(node));
         MPI_Comm_free(&node);
       }
-      return make_cuda_device_loop(direct_mpi, std::move(plan));
+      return make_cuda_device_loop(direct_mpi, fused_plan());  // after the collective above
     case Backend::cpu:
       break;
   }

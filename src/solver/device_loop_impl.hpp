@@ -286,9 +286,9 @@ class DeviceLoopImpl final : public DeviceLoop {
   // watch: the broad phase's decision), with the integration's sums (slots kBad to kSums) and
   // the last force evaluation's scalars (platen reactions, powers, slip: slots below kBad, moved
   // to kPrev before the new evaluation clears them) in the same copy. Several ranks read them
-  // four times: after the CE6 pass, twice at the end of the forces (the sums over the ranks,
-  // before and after the pressure) and after the integration (the contact reach decides whether
-  // to gather ghosts before the next forces).
+  // three times: after the CE6 pass, at the end of the forces (the sums over the ranks; once
+  // more after a confining pressure, for its power) and after the integration (the contact
+  // reach decides whether to gather ghosts before the next forces).
   enum Slot {
     kVisc,
     kInverted,
@@ -833,12 +833,14 @@ class DeviceLoopImpl final : public DeviceLoop {
   }
 
   double bytes_per_step() const override {
-    const double nn = double(x_.size()), nt = double(V0_.size()), np = double(pairs_.size());
+    const double nn = double(x_.size()), nt = double(tet_order_.size()), np = double(pairs_.size());
     const double vec = sizeof(Vec3);
-    // TET4: connectivity, X0^-1, V0, eta, the assign mask; x and v of its 4 nodes read, f written,
-    // and read too where the corner does not assign (gravity: every corner).
+    // TET4 (those this rank computes): colour-order entry, connectivity, X0^-1, V0, eta, the
+    // assign mask; x and v of its 4 nodes read, f written, and read too where the corner does not
+    // assign (gravity: every corner); fused, its list of CE6s.
     const double read_f = gravity_ ? 4 * nt : 4 * nt - assigned_corners_;
-    const double tet = nt * (4 * sizeof(int) + sizeof(Mat3) + 2 * sizeof(real) + 1 + 3 * 4 * vec) + read_f * vec;
+    const double tet = nt * (5 * sizeof(int) + sizeof(Mat3) + 2 * sizeof(real) + 1 + 3 * 4 * vec) + read_f * vec +
+                       (fused_ ? nt * 4 * sizeof(int) : 0);
     // CE6 (those this rank computes, in the state as it is now): connectivity, h, damage and the
     // own flag read, the break flag read by activation; where it carries force, x and v of 6
     // nodes read and f read and written; where damaged (or broken and carrying force), the
@@ -853,18 +855,21 @@ class DeviceLoopImpl final : public DeviceLoop {
     double ce6 = ce6_coloured_ * (6 * sizeof(int) + sizeof(real) + sizeof(Ce6Damage) + 2) + k[0] * 6 * 4 * vec +
                  k[1] * (sizeof(Ce6Damage) + 2 * sizeof(Ce6Anchors));
     if (fused_) {
-      // Fused: the TET4 reads no colour-order entry but its CE6 list; each computed side of a CE6
-      // that carries force reads its connectivity, h, damage, own flag and 6 nodes' x and v and
-      // adds to its own nodes' forces in registers (f is the TET4's write above); damaged, it
-      // reads the anchors and the writer side writes damage and anchors; the break flags.
+      // Fused, each side that computes the CE6: its damage read; where it carries force, the
+      // connectivity, h, own flag and 6 nodes' x and v read (its forces go to the tet's own
+      // nodes in registers: f is the TET4's write above), and where damaged the anchors read and,
+      // by the writer side, damage and anchors written; where not (broken, inert), the writer
+      // reads the other copy's damage. The break flags, read by activation.
       const std::uint8_t* sides = ce6_sides_.data();
-      const auto e = Exec::template sum<2>(ce6_coloured_, [=] FDEM_LAMBDA(int i, real* acc) {
-        const bool kept = ce6_max_damage(st[i]) > 0;
-        acc[0] += ce6_carries_force(p, st[i]) ? sides[i] : 0;
-        acc[1] += kept ? sides[i] : 0;
+      const auto e = Exec::template sum<3>(ce6_coloured_, [=] FDEM_LAMBDA(int i, real* acc) {
+        const bool carries = ce6_carries_force(p, st[i]);
+        acc[0] += sides[i];
+        acc[1] += carries ? sides[i] : 0;
+        acc[2] += carries && ce6_max_damage(st[i]) > 0 ? sides[i] : 0;
       });
-      ce6 = ce6_coloured_ * 1.0 + e[0] * (6 * sizeof(int) + sizeof(real) + sizeof(Ce6Damage) + 1 + 6 * 2 * vec) +
-            e[1] * sizeof(Ce6Anchors) + k[1] * (sizeof(Ce6Damage) + sizeof(Ce6Anchors));
+      ce6 = ce6_coloured_ * 1.0 + e[0] * sizeof(Ce6Damage) + e[1] * (6 * sizeof(int) + sizeof(real) + 1 + 6 * 2 * vec) +
+            e[2] * sizeof(Ce6Anchors) + k[1] * (sizeof(Ce6Damage) + sizeof(Ce6Anchors)) +
+            (ce6_coloured_ - k[0]) * sizeof(Ce6Damage);
     }
     // Contact pairs: pair, evaluation, spring, 8 forces written then read, 8 nodes' x and v.
     const double con =
@@ -873,7 +878,7 @@ class DeviceLoopImpl final : public DeviceLoop {
     // (x, v, f, 1/m, m) and the kinetic-energy sum.
     const double start = gravity_ ? nn * (vec + vec + sizeof(real)) : double(unreached_.size()) * (vec + sizeof(int));
     const double node = start + nn * (5 * vec + 2 * sizeof(real));
-    return tet + (fused_ ? nt * 4 * sizeof(int) : 0) + ce6 + con + node;
+    return tet + ce6 + con + node;
   }
 
  private:
@@ -957,13 +962,13 @@ class DeviceLoopImpl final : public DeviceLoop {
             const int c = code >> 2, side = code >> 1 & 1;
             const bool writer = code & 1;
             Ce6Damage d = dr[c];
-            const bool kept = ce6_max_damage(d) > 0;  // damaged or broken: anchors kept
-            Ce6Anchors an{};
-            if (kept) an = sr[c];
-            if (!ce6_carries_force(p, d)) {  // broken, its faces left to contact
-              if (writer) dw[c] = d, sw[c] = an;
+            if (!ce6_carries_force(p, d)) {  // broken, its faces left to contact: its state is
+              // frozen, so once the other copy holds the break too the two are the same
+              if (writer && dw[c].mode != d.mode) dw[c] = d, sw[c] = sr[c];
               continue;
             }
+            Ce6Anchors an{};
+            if (ce6_max_damage(d) > 0) an = sr[c];  // damaged or broken: anchors kept
             const int* cq = cn + 6 * c;
             Vec3 xc[6], vc[6], fc[6];
             for (int i = 0; i < 6; ++i) xc[i] = x[cq[i]], vc[i] = v[cq[i]];
