@@ -65,6 +65,37 @@ FDEM_HD real max3(real a, real b, real c) {
 }
 }  // namespace device_build
 
+namespace device_pass {
+/// A TET4's forces on its nodes q (fe), the inverted count into acc[1] and, for an owned tet,
+/// its viscous power into acc[0]: the element of both schedules' TET4 passes.
+FDEM_HD void tet4_element(const Vec3* x, const Vec3* v, const int* q, const Mat3& Xinv, real V0, real lambda, real mu,
+                          real eta, bool own, real* acc, Vec3 (&fe)[4]) {
+  Vec3 xe[4], ve[4];
+  for (int i = 0; i < 4; ++i) xe[i] = x[q[i]], ve[i] = v[q[i]];
+  const Tet4Eval ev = tet4_forces(xe, ve, Xinv, V0, lambda, mu, eta, fe);
+  if (!(ev.J > 0)) acc[1] += 1;
+  if (own) acc[0] += ev.viscous_power;
+}
+/// A TET4's first force at its corners: assigned where `first` has the corner's bit, else added.
+FDEM_HD void tet4_start(const Vec3* f, const int* q, int first, Vec3 (&fe)[4]) {
+  for (int i = 0; i < 4; ++i) fe[i] = (first >> i & 1 ? Vec3{0, 0, 0} : f[q[i]]) + fe[i];
+}
+/// A CE6 that carries force, on its nodes q (fe), with its damage d and anchors a updated. Where
+/// `counts` (the one evaluation of it that keeps its results): its power into acc[0] (intact) or
+/// acc[1] (broken) when owned, and a break into acc[2] and its flag.
+FDEM_HD void ce6_element(const Ce6Params& p, const Vec3* x, const Vec3* v, const int* q, real h, Ce6Damage& d,
+                         Vec3 (&a)[3], bool counts, bool own, real* acc, std::uint8_t* broke, Vec3 (&fe)[6]) {
+  Vec3 xe[6], ve[6];
+  for (int j = 0; j < 6; ++j) xe[j] = x[q[j]], ve[j] = v[q[j]];
+  const bool was_broken = ce6_broken(d);
+  const Ce6Eval ev = cohesive6_forces(p, xe, ve, h, d, a, fe);
+  if (!counts) return;
+  if (own && was_broken) acc[1] += ev.power;  // constant indices: acc stays in registers
+  if (own && !was_broken) acc[0] += ev.power;
+  if (!was_broken && ce6_broken(d)) *broke = 1, acc[2] += 1;
+}
+}  // namespace device_pass
+
 template <class Exec>
 class DeviceLoopImpl final : public DeviceLoop {
  public:
@@ -339,7 +370,6 @@ class DeviceLoopImpl final : public DeviceLoop {
     real* sums = sums_.data();
     const std::uint8_t* own_n = own_node_.data();
     const std::uint8_t* own_t = own_tet_.data();
-    const std::uint8_t* own_c = own_ce6_.data();
     auto t0 = now();
     clear_sums(0, kBad);
 
@@ -359,64 +389,17 @@ class DeviceLoopImpl final : public DeviceLoop {
           sums + kGravity);
     }
 
-    // TET4, colour by colour (no two elements of a colour share a node).
-    const int* tn = tet_nodes_.data();
-    const int* torder = tet_order_.data();
-    const Mat3* Xinv = Xinv_.data();
-    const real* V0 = V0_.data();
-    const real* eta = eta_.data();
-    const std::uint8_t* assigns = gravity_ ? nullptr : tet_assigns_.data();
-    const real lambda = s.lambda_, mu = s.mu_;
-    const int* cn = ce6_nodes_.data();
-    const real* h = ce6_h_.data();
-    std::uint8_t* broke = broke_.data();
-    const Ce6Params p = s.ce6p_;
+    // TET4 and CE6: fused in one pass, or colour by colour (plan_fused_pass).
     if (fused_) {
       fused_forces(m, s.lambda_, s.mu_, sums);
-      t0 = lap(t0, t_.ce6);
+      t0 = lap(t0, t_.ce6);  // (the TET4 column stays empty)
+    } else {
+      colour_forces(m, s.lambda_, s.mu_, sums, t0);
     }
-    for (int c = 0; c < (fused_ ? 0 : m.tet_colours.colours()); ++c) {
-      const int b = m.tet_colours.offsets[c], e = m.tet_colours.offsets[c + 1];
-      Exec::template sum_to<2>(
-          e - b,
-          [=] FDEM_LAMBDA(int k, real* acc) {
-            const int t = torder[b + k];
-            const int* q = tn + 4 * t;
-            Vec3 xe[4], ve[4], fe[4];
-            for (int i = 0; i < 4; ++i) xe[i] = x[q[i]], ve[i] = v[q[i]];
-            const Tet4Eval ev = tet4_forces(xe, ve, Xinv[t], V0[t], lambda, mu, eta[t], fe);
-            if (!(ev.J > 0)) acc[1] += 1;
-            const int first = assigns ? assigns[t] : 0;
-            for (int i = 0; i < 4; ++i) f[q[i]] = (first >> i & 1 ? Vec3{0, 0, 0} : f[q[i]]) + fe[i];
-            if (own_t[t]) acc[0] += ev.viscous_power;
-          },
-          sums + kVisc);
-    }
-    t0 = lap(t0, t_.tet4);
-
-    // CE6, colour by colour (stored in colour order: slot b + k); a CE6 that breaks raises its flag.
-    Ce6Damage* st = dmg_.data();  // after the fused pass: the copy it wrote
-    Ce6Anchors* sl = slip_.data();
-    for (int c = 0; c < (fused_ ? 0 : m.ce6_colours.colours()); ++c) {
-      const int b = m.ce6_colours.offsets[c], e = m.ce6_colours.offsets[c + 1];
-      Exec::template sum_to<3>(
-          e - b,
-          [=] FDEM_LAMBDA(int k, real* acc) {
-            const int i = b + k;
-            if (!ce6_carries_force(p, st[i])) return;  // broken, its faces left to contact
-            const int* q = cn + 6 * i;
-            Vec3 xe[6], ve[6], fe[6];
-            for (int j = 0; j < 6; ++j) xe[j] = x[q[j]], ve[j] = v[q[j]];
-            const bool was_broken = ce6_broken(st[i]);
-            const Ce6Eval ev = cohesive6_forces(p, xe, ve, h[i], st[i], sl[i].a, fe);
-            for (int j = 0; j < 6; ++j) f[q[j]] += fe[j];
-            if (own_c[i] && was_broken) acc[1] += ev.power;  // constant indices: acc stays in registers
-            if (own_c[i] && !was_broken) acc[0] += ev.power;
-            if (!was_broken && ce6_broken(st[i])) broke[i] = 1, acc[2] += 1;
-          },
-          sums + kCoh);
-    }
-    if (!fused_) t0 = lap(t0, t_.ce6);
+    const int* tn = tet_nodes_.data();
+    const int* cn = ce6_nodes_.data();
+    std::uint8_t* broke = broke_.data();
+    const Ce6Damage* st = dmg_.data();  // after the fused pass: the copy it wrote
 
     // Adaptive activation: the vicinity of each CE6 that broke on this step (every tet sharing a
     // vertex of its face); a pass over the flags every step, so the host need not know first.
@@ -912,6 +895,58 @@ class DeviceLoopImpl final : public DeviceLoop {
     plan_ = FusedPlan{};
   }
 
+  /// TET4 colour by colour, then CE6 colour by colour (stored in colour order: slot b + k; no two
+  /// elements of a colour share a node), each colour one launch; t0: the passes' clock.
+  void colour_forces(const Model& m, real lambda, real mu, real* sums, Clock::time_point& t0) {
+    const Vec3* x = x_.data();
+    const Vec3* v = v_.data();
+    Vec3* f = f_.data();
+    const int* tn = tet_nodes_.data();
+    const int* torder = tet_order_.data();
+    const Mat3* Xinv = Xinv_.data();
+    const real* V0 = V0_.data();
+    const real* eta = eta_.data();
+    const std::uint8_t* assigns = gravity_ ? nullptr : tet_assigns_.data();
+    const std::uint8_t* own_t = own_tet_.data();
+    for (int c = 0; c < m.tet_colours.colours(); ++c) {
+      const int b = m.tet_colours.offsets[c], e = m.tet_colours.offsets[c + 1];
+      Exec::template sum_to<2>(
+          e - b,
+          [=] FDEM_LAMBDA(int k, real* acc) {
+            const int t = torder[b + k];
+            const int* q = tn + 4 * t;
+            Vec3 fe[4];
+            device_pass::tet4_element(x, v, q, Xinv[t], V0[t], lambda, mu, eta[t], own_t[t], acc, fe);
+            device_pass::tet4_start(f, q, assigns ? assigns[t] : 0, fe);
+            for (int i = 0; i < 4; ++i) f[q[i]] = fe[i];
+          },
+          sums + kVisc);
+    }
+    t0 = lap(t0, t_.tet4);
+    const int* cn = ce6_nodes_.data();
+    const real* h = ce6_h_.data();
+    Ce6Damage* st = dmg_.data();
+    Ce6Anchors* sl = slip_.data();
+    std::uint8_t* broke = broke_.data();
+    const std::uint8_t* own_c = own_ce6_.data();
+    const Ce6Params p = ce6p_;
+    for (int c = 0; c < m.ce6_colours.colours(); ++c) {
+      const int b = m.ce6_colours.offsets[c], e = m.ce6_colours.offsets[c + 1];
+      Exec::template sum_to<3>(
+          e - b,
+          [=] FDEM_LAMBDA(int k, real* acc) {
+            const int i = b + k;
+            if (!ce6_carries_force(p, st[i])) return;  // broken, its faces left to contact
+            const int* q = cn + 6 * i;
+            Vec3 fe[6];
+            device_pass::ce6_element(p, x, v, q, h[i], st[i], sl[i].a, true, own_c[i], acc, broke + i, fe);
+            for (int j = 0; j < 6; ++j) f[q[j]] += fe[j];
+          },
+          sums + kCoh);
+    }
+    t0 = lap(t0, t_.ce6);
+  }
+
   /// TET4 and CE6 forces in one pass over the computed tets: each tet's TET4, then each CE6 on
   /// its faces in colour order, every CE6 evaluated by both of its tets from the damage and
   /// anchors at the start of the pass (dmg_, slip_), each adding only to its own nodes, so that
@@ -949,13 +984,9 @@ class DeviceLoopImpl final : public DeviceLoop {
         [=] FDEM_LAMBDA(int k, real* acc) {
           const int t = torder[k];
           const int* q = tn + 4 * t;
-          Vec3 xe[4], ve[4], fe[4];
-          for (int i = 0; i < 4; ++i) xe[i] = x[q[i]], ve[i] = v[q[i]];
-          const Tet4Eval ev = tet4_forces(xe, ve, Xinv[t], V0[t], lambda, mu, eta[t], fe);
-          if (!(ev.J > 0)) acc[1] += 1;
-          if (own_t[t]) acc[0] += ev.viscous_power;
-          const int first = assigns ? assigns[t] : 0;
-          for (int i = 0; i < 4; ++i) fe[i] = (first >> i & 1 ? Vec3{0, 0, 0} : f[q[i]]) + fe[i];
+          Vec3 fe[4];
+          device_pass::tet4_element(x, v, q, Xinv[t], V0[t], lambda, mu, eta[t], own_t[t], acc, fe);
+          device_pass::tet4_start(f, q, assigns ? assigns[t] : 0, fe);
           for (int j = 0; j < 4; ++j) {
             const int code = list[4 * k + j];
             if (code < 0) break;
@@ -970,21 +1001,15 @@ class DeviceLoopImpl final : public DeviceLoop {
             Ce6Anchors an{};
             if (ce6_max_damage(d) > 0) an = sr[c];  // damaged or broken: anchors kept
             const int* cq = cn + 6 * c;
-            Vec3 xc[6], vc[6], fc[6];
-            for (int i = 0; i < 6; ++i) xc[i] = x[cq[i]], vc[i] = v[cq[i]];
-            const bool was_broken = ce6_broken(d);
-            const Ce6Eval e6 = cohesive6_forces(p, xc, vc, h[c], d, an.a, fc);
+            Vec3 fc[6];
+            device_pass::ce6_element(p, x, v, cq, h[c], d, an.a, writer, own_c[c], acc + 2, broke + c, fc);
             for (int i = 0; i < 3; ++i) {  // constant indices only: the arrays stay in registers
               const int n = side ? cq[3 + i] : cq[i];
               const Vec3 add = side ? fc[3 + i] : fc[i];
               for (int a = 0; a < 4; ++a)
                 if (q[a] == n) fe[a] += add;
             }
-            if (!writer) continue;
-            if (ce6_max_damage(d) > 0) dw[c] = d, sw[c] = an;
-            if (own_c[c] && was_broken) acc[3] += e6.power;  // constant indices: acc stays in registers
-            if (own_c[c] && !was_broken) acc[2] += e6.power;
-            if (!was_broken && ce6_broken(d)) broke[c] = 1, acc[4] += 1;
+            if (writer && ce6_max_damage(d) > 0) dw[c] = d, sw[c] = an;
           }
           for (int i = 0; i < 4; ++i) f[q[i]] = fe[i];
         },
