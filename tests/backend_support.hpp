@@ -39,13 +39,19 @@ inline Scene backend_fracture_scene(const std::string& backend) {
   return s;
 }
 
-/// FDEM_DEVICE_SCHEDULE=value while in scope (the device loop's element passes, read when a
-/// solver makes its device loop): "colour", or "auto" (fused where the mesh allows, the default).
-struct DeviceScheduleSetting {
-  explicit DeviceScheduleSetting(const std::string& value) { setenv("FDEM_DEVICE_SCHEDULE", value.c_str(), 1); }
-  ~DeviceScheduleSetting() { unsetenv("FDEM_DEVICE_SCHEDULE"); }
-  DeviceScheduleSetting(const DeviceScheduleSetting&) = delete;
-  DeviceScheduleSetting& operator=(const DeviceScheduleSetting&) = delete;
+/// Environment variable `name` set to `value` while in scope (left unset where value is null),
+/// unset after: the settings a solver reads when it makes its device loop, such as
+/// FDEM_DEVICE_SCHEDULE (colour, or auto: fused where the mesh allows) and FDEM_GPU_AWARE_MPI.
+struct EnvSetting {
+  EnvSetting(const char* name, const char* value) : name_(name) {
+    if (value) setenv(name, value, 1);
+  }
+  ~EnvSetting() { unsetenv(name_); }
+  EnvSetting(const EnvSetting&) = delete;
+  EnvSetting& operator=(const EnvSetting&) = delete;
+
+ private:
+  const char* name_;
 };
 
 inline std::unique_ptr<Solver> backend_solver(const Scene& s) {

@@ -38,7 +38,7 @@ TEST_P(CudaSchedule, ElasticBoxMatchesCpuTo1e10) {
 #ifdef FDEM_CUDA_FMAD
   GTEST_SKIP() << "built with FDEM_CUDA_FMAD=ON: nvcc fuses multiply-adds, so the bits differ";
 #endif
-  DeviceScheduleSetting schedule(GetParam());
+  EnvSetting schedule("FDEM_DEVICE_SCHEDULE", GetParam());
   auto cpu = backend_solver(backend_elastic_scene("cpu"));
   auto gpu = backend_solver(backend_elastic_scene("cuda"));
   ASSERT_EQ(gpu->backend(), Backend::cuda);
@@ -64,7 +64,7 @@ TEST_P(CudaSchedule, ElasticBoxMatchesCpuTo1e10) {
 TEST_P(CudaSchedule, FracturingBoxPeakWithin1PercentBrokenWithin5Percent) {
   need_gpu();
   if (IsSkipped()) return;
-  DeviceScheduleSetting schedule(GetParam());
+  EnvSetting schedule("FDEM_DEVICE_SCHEDULE", GetParam());
   auto cpu = backend_solver(backend_fracture_scene("cpu"));
   auto gpu = backend_solver(backend_fracture_scene("cuda"));
   const FractureResult a = run_fracture(*cpu, 4000), b = run_fracture(*gpu, 4000);

@@ -114,14 +114,6 @@ std::vector<int> block_per_rank(const Model& m) {
   return part;
 }
 
-/// FDEM_GPU_AWARE_MPI=1 while in scope when `on`: the halo hands its device buffers to MPI.
-struct GpuAwareMpiSetting {
-  explicit GpuAwareMpiSetting(bool on) {
-    if (on) setenv("FDEM_GPU_AWARE_MPI", "1", 1);
-  }
-  ~GpuAwareMpiSetting() { unsetenv("FDEM_GPU_AWARE_MPI"); }
-};
-
 }  // namespace
 
 class RanksElastic : public ::testing::TestWithParam<const char*> {};
@@ -242,11 +234,11 @@ TEST_P(RanksDevice, DeviceLoopGivesTheCpuBackendsRun) {
   };
   const bool direct = ends("+mpi"), colour = ends("+colour");
   const std::string backend = param.substr(0, param.find('+'));
-  test::DeviceScheduleSetting schedule(colour ? "colour" : "auto");
+  test::EnvSetting schedule("FDEM_DEVICE_SCHEDULE", colour ? "colour" : "auto");
   if (backend == "cuda" && cuda_device_count() == 0)
     GTEST_SKIP() << "no CUDA device visible (" << cuda_device_count_error() << ")";
   if (backend == "cuda" && direct && !mpi_cuda_aware()) GTEST_SKIP() << "this MPI is not CUDA-aware";
-  GpuAwareMpiSetting env_guard(direct);
+  test::EnvSetting env_guard("FDEM_GPU_AWARE_MPI", direct ? "1" : nullptr);
   const Scene scene = fracturing_scene();
   Scene dscene = scene;
   dscene.solver.backend = backend;
@@ -755,7 +747,7 @@ TEST(Ranks, DeviceLoopCopiesToTheHostAFewTimesAStep) {
   const bool several = world_size() > 1;
   for (const std::string path : {"none", "constant", "hydrostatic"})
     for (const bool direct : {false, true}) {
-      GpuAwareMpiSetting env(direct);
+      test::EnvSetting env("FDEM_GPU_AWARE_MPI", direct ? "1" : nullptr);
       Scene scene = box_scene();
       scene.solver.backend = "debug";
       if (path != "none") {

@@ -29,7 +29,7 @@ class DebugSchedule : public ::testing::TestWithParam<const char*> {};
 INSTANTIATE_TEST_SUITE_P(Schedule, DebugSchedule, ::testing::Values("auto", "colour"));
 
 TEST_P(DebugSchedule, ElasticBoxIsBitIdenticalToCpu) {
-  DeviceScheduleSetting schedule(GetParam());
+  EnvSetting schedule("FDEM_DEVICE_SCHEDULE", GetParam());
   auto cpu = backend_solver(backend_elastic_scene("cpu"));
   auto dbg = backend_solver(backend_elastic_scene("debug"));
   ASSERT_EQ(dbg->backend(), Backend::debug);
@@ -48,7 +48,7 @@ TEST_P(DebugSchedule, ElasticBoxIsBitIdenticalToCpu) {
 }
 
 TEST_P(DebugSchedule, FracturingBoxWithContactAndPressureMatchesCpu) {
-  DeviceScheduleSetting schedule(GetParam());
+  EnvSetting schedule("FDEM_DEVICE_SCHEDULE", GetParam());
   auto cpu = backend_solver(backend_fracture_scene("cpu"));
   auto dbg = backend_solver(backend_fracture_scene("debug"));
   EXPECT_EQ(dbg->device_loop()->fused(), std::string(GetParam()) == "auto");
@@ -282,7 +282,7 @@ TEST(DebugBackend, AnUnknownIterationOrderIsAClearInputError) {
 
 TEST(DebugBackend, AnUnknownDeviceScheduleIsAClearInputError) {
   {
-    DeviceScheduleSetting schedule("fastest");
+    EnvSetting schedule("FDEM_DEVICE_SCHEDULE", "fastest");
     try {
       backend_solver(backend_elastic_scene("debug"));
       ADD_FAILURE() << "FDEM_DEVICE_SCHEDULE=fastest was accepted";
