@@ -25,9 +25,10 @@
 // threaded: the set-up column; 6.4 us per tet on the dev VM, so 10 million tets take a minute).
 //
 // Usage: bench_device [--backend cuda|debug] [--tets 10000,100000,700000[,max]] [--steps N]
-//                     [--mass-scaling m] [--contact adaptive|full|none] [--schedule auto,colour]
+//                     [--mass-scaling m] [--contact adaptive|full|none] [--schedule auto,fused,colour]
 // --schedule: the element passes, each a row per size (FDEM_DEVICE_SCHEDULE): auto (TET4 and CE6
-// fused in one pass where the mesh allows, the default) and/or colour (colour by colour).
+// fused in one pass where the mesh allows, the integration in it where the run allows: the
+// default), fused (that pass without the integration) and/or colour (colour by colour).
 // Default backend: cuda where a GPU is visible, else debug (the same loop on the host).
 // Prints Markdown on stdout. A benchmark, not a test: it checks nothing.
 #include <malloc.h>
@@ -80,7 +81,7 @@ struct Row {
   double copies_to_host = 0, bytes_to_host = 0;  // per step, between monitor rows (device::traffic)
   double host_bytes = 0;                         // peak resident memory over the size's start
   double setup_s = 0;                            // mesh, model and Solver built on the host
-  std::string schedule;                          // the element passes: fused or colour
+  std::string schedule;                          // the element passes: fused+integration, fused or colour
   DeviceTimes pass;
 };
 
@@ -196,7 +197,7 @@ int main(int argc, char** argv) {
       solver.sync_host();
       device::synchronize(b);
       Row r;
-      r.schedule = dev->fused() ? "fused" : "colour";
+      r.schedule = dev->integrates() ? "fused+integration" : dev->fused() ? "fused" : "colour";
       r.tets = long(solver.model().tet_nodes.size());
       r.ce6 = long(solver.model().ce6_nodes.size());
       r.nodes = long(solver.model().X.size());
@@ -235,6 +236,9 @@ int main(int argc, char** argv) {
       r.mem_mb = double(device::peak_bytes()) / 1e6;
       r.host_bytes = double(device::host_peak_resident()) - (peak_reset ? resident0 : 0.0);
       rows.push_back(r);
+      // Progress on stderr, so that a run stopped at a time limit still shows its finished rows.
+      std::fprintf(stderr, "bench_device: %ld tets, %s: %.1f us per step, floor %.1f us, %.0f MB device memory\n",
+                   r.tets, r.schedule.c_str(), r.step_us, r.floor_us, r.mem_mb);
     }
     unsetenv("FDEM_DEVICE_SCHEDULE");
   }

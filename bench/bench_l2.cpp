@@ -1,6 +1,7 @@
 // bench_l2: the memory traffic of one step of the device loop, simulated through a GPU's
 // last-level cache, for the loop's two schedules of its element passes (colour by colour, and
-// fused) and for a fused pass that also integrates (not built): design questions for the GPU.
+// fused, and fused with the integration of the last step first) and for a fused pass that
+// integrates its own step (not built): design questions for the GPU.
 //
 // Why: DeviceLoop::bytes_per_step (bench_device's floor) counts node data once per element
 // corner, as if the cache kept nothing between two reads of a node; the compulsory traffic
@@ -32,6 +33,12 @@
 //    (1/m, own flag, m read; x and v written to a second copy, as the other tets still read the
 //    old ones): no force array, no integration pass. Contact and platen forces, which a node's
 //    update would need first, are left out of this row altogether.
+//  fused, integrating the last step first (built: the device loop's default on one rank without
+//    gravity, DeviceLoop::integrates): each tet first moves its own 4 nodes by the last step
+//    (x, v, f, 1/m, m, own flag read; x and v written to the second copies), then its TET4 and
+//    CE6s, each CE6 moving its 6 nodes again from the first copies (x, v, f, 1/m);
+//    f written to its second copy. No integration pass; contact and platen forces are added to f
+//    after the pass as before. The rows with two copies read one and write the other by turns.
 // Not replayed (small before fracture): contact pairs, platens, the broad phase's watch list,
 // the reductions' sums. Cache size 0 counts every access as a miss: the per-reference count
 // at sector granularity, comparable with DeviceLoop::bytes_per_step.
@@ -159,9 +166,9 @@ struct Array {
 
 /// The device loop's arrays, laid out one after the other (256-byte aligned).
 struct Layout {
-  Array x, v, f, inv_mass, mass, own_n, x2, v2;     // nodes (x2, v2: the integrated row's copy)
-  Array torder, tet_nodes, Xinv, V0, eta, assigns;  // tets
-  Array ce6_nodes, h, dmg, own_c, broke, tet_ce6;   // CE6 (and the fused pass's list)
+  Array x, v, f, inv_mass, mass, own_n, x2, v2, f2;  // nodes (x2, v2, f2: the second copies)
+  Array torder, tet_nodes, Xinv, V0, eta, assigns;   // tets
+  Array ce6_nodes, h, dmg, own_c, broke, tet_ce6;    // CE6 (and the fused pass's list)
   std::uint64_t end = 0;
   void place(Array& a, long n, std::uint64_t size) {
     a.base = end;
@@ -170,18 +177,56 @@ struct Layout {
   }
 };
 
-enum class Schedule { colour, fused, integrated };
+enum class Schedule { colour, fused, integrated, leading };
 
 /// One step's accesses in launch order.
 void replay(const Model& m, const Layout& L, Schedule sched, const std::vector<std::array<int, 4>>& tet_ce6,
-            const std::vector<int>& slot, SectorCache& c) {
+            const std::vector<int>& slot, int step, SectorCache& c) {
   const long nt = long(m.tet_nodes.size()), nc = long(m.ce6_nodes.size()), nn = long(m.X.size());
   const std::uint32_t vec = 24;
+  // The rows with two copies of the node state read one and write the other, by turns.
+  const bool odd = step % 2;
+  const Array &xr = odd ? L.x2 : L.x, &vr = odd ? L.v2 : L.v, &fr = odd ? L.f2 : L.f;
+  const Array &xw = odd ? L.x : L.x2, &vw = odd ? L.v : L.v2, &fw = odd ? L.f : L.f2;
   auto ce6_arrays = [&](long i) {  // i: the CE6's index in the arrays' order
     c.access(L.dmg.at(i), 32, false);
     c.access(L.ce6_nodes.at(i), 24, false);
     c.access(L.h.at(i), 8, false);
   };
+  if (sched == Schedule::leading) {
+    for (long t = 0; t < nt; ++t) {
+      const auto& q = m.tet_nodes[t];
+      c.access(L.tet_nodes.at(t), 16, false);
+      for (int n : q) {  // the last step's integration of the tet's own nodes, into the other copy
+        c.access(xr.at(n), vec, false);
+        c.access(vr.at(n), vec, false);
+        c.access(fr.at(n), vec, false);
+        c.access(L.inv_mass.at(n), 8, false);
+        c.access(L.own_n.at(n), 1, false);
+        c.access(L.mass.at(n), 8, false);
+        c.access(xw.at(n), vec, true);
+        c.access(vw.at(n), vec, true);
+      }
+      c.access(L.Xinv.at(t), 72, false);
+      c.access(L.V0.at(t), 8, false);
+      c.access(L.eta.at(t), 8, false);
+      c.access(L.tet_ce6.at(t), 16, false);
+      for (int e : tet_ce6[t]) {
+        if (e < 0) continue;
+        ce6_arrays(slot[e]);
+        c.access(L.own_c.at(slot[e]), 1, false);
+        for (int n : m.ce6_nodes[e]) {  // all 6 moved again from the old copy (own side: cached)
+          c.access(xr.at(n), vec, false);
+          c.access(vr.at(n), vec, false);
+          c.access(fr.at(n), vec, false);
+          c.access(L.inv_mass.at(n), 8, false);
+        }
+      }
+      for (int n : q) c.access(fw.at(n), vec, true);
+    }
+    for (long i = 0; i < nc; ++i) c.access(L.broke.at(i), 1, false);  // activation
+    return;
+  }
   if (sched == Schedule::colour) {
     std::vector<char> reached(nn, 0);
     for (long k = 0; k < nt; ++k) {
@@ -213,14 +258,15 @@ void replay(const Model& m, const Layout& L, Schedule sched, const std::vector<s
     }
   } else {  // fused, or fused with the integration
     const bool integrated = sched == Schedule::integrated;
+    const Array &xs = integrated ? xr : L.x, &vs = integrated ? vr : L.v;
     for (long t = 0; t < nt; ++t) {
       c.access(L.tet_nodes.at(t), 16, false);
       c.access(L.Xinv.at(t), 72, false);
       c.access(L.V0.at(t), 8, false);
       c.access(L.eta.at(t), 8, false);
       for (int n : m.tet_nodes[t]) {
-        c.access(L.x.at(n), vec, false);
-        c.access(L.v.at(n), vec, false);
+        c.access(xs.at(n), vec, false);
+        c.access(vs.at(n), vec, false);
       }
       c.access(L.tet_ce6.at(t), 16, false);
       for (int e : tet_ce6[t]) {
@@ -228,8 +274,8 @@ void replay(const Model& m, const Layout& L, Schedule sched, const std::vector<s
         ce6_arrays(slot[e]);
         c.access(L.own_c.at(slot[e]), 1, false);
         for (int n : m.ce6_nodes[e]) {  // the own side's 3 again (from L1 on a GPU)
-          c.access(L.x.at(n), vec, false);
-          c.access(L.v.at(n), vec, false);
+          c.access(xs.at(n), vec, false);
+          c.access(vs.at(n), vec, false);
         }
       }
       for (int n : m.tet_nodes[t]) {
@@ -240,8 +286,8 @@ void replay(const Model& m, const Layout& L, Schedule sched, const std::vector<s
         c.access(L.inv_mass.at(n), 8, false);  // the node's new x and v into the other copy
         c.access(L.own_n.at(n), 1, false);
         c.access(L.mass.at(n), 8, false);
-        c.access(L.x2.at(n), vec, true);
-        c.access(L.v2.at(n), vec, true);
+        c.access(xw.at(n), vec, true);
+        c.access(vw.at(n), vec, true);
       }
     }
     if (integrated) {
@@ -314,7 +360,7 @@ int main(int argc, char** argv) {
       std::sort(l.begin(), l.begin() + std::count_if(l.begin(), l.end(), [](int e) { return e >= 0; }),
                 [&](int a, int b) { return colour[a] < colour[b]; });
     Layout L;
-    for (Array* a : {&L.x, &L.v, &L.f, &L.x2, &L.v2}) L.place(*a, nn, 24);
+    for (Array* a : {&L.x, &L.v, &L.f, &L.x2, &L.v2, &L.f2}) L.place(*a, nn, 24);
     L.place(L.inv_mass, nn, 8);
     L.place(L.mass, nn, 8);
     L.place(L.own_n, nn, 1);
@@ -330,18 +376,19 @@ int main(int argc, char** argv) {
     L.place(L.own_c, nc, 1);
     L.place(L.broke, nc, 1);
     L.place(L.tet_ce6, nt, 16);
-    for (const Schedule sched : {Schedule::colour, Schedule::fused, Schedule::integrated})
+    for (const Schedule sched : {Schedule::colour, Schedule::fused, Schedule::integrated, Schedule::leading})
       for (const double mb : cache_mb) {
         SectorCache c(std::uint64_t(mb * 1e6), L.end);
         for (int step = 0; step < 3; ++step) {
           if (step == 2) c.reset_counts();
-          replay(m, L, sched, tet_ce6, slot, c);
+          replay(m, L, sched, tet_ce6, slot, step, c);
         }
         const double r = c.read_bytes(), w = c.written_bytes(), all = r + w, once = c.compulsory_bytes();
         std::printf("| %ld | %ld | %ld | %s | %g | %.1f | %.1f | %.1f | %.1f | %.2f | %.0f |\n", nt, nc, nn,
-                    sched == Schedule::colour  ? "colour (built)"
-                    : sched == Schedule::fused ? "fused (built)"
-                                               : "fused with the integration (not built)",
+                    sched == Schedule::colour       ? "colour (built)"
+                    : sched == Schedule::fused      ? "fused (built)"
+                    : sched == Schedule::integrated ? "fused with the integration (not built)"
+                                                    : "fused+integration: the last step first (built)",
                     mb, r / 1e6, w / 1e6, all / 1e6, once / 1e6, all / once, all / (bandwidth * 1e12) * 1e6);
         std::fflush(stdout);
       }

@@ -23,14 +23,16 @@ std::unique_ptr<DeviceLoop> make_cuda_device_loop(bool, FusedPlan) {
 }
 #endif
 
-bool device_schedule_allows_fusing() {
+DeviceSchedule device_schedule() {
   const char* e = std::getenv("FDEM_DEVICE_SCHEDULE");
   const std::string v = e ? e : "";
-  if (v.empty() || v == "auto") return true;
-  if (v == "colour") return false;
+  if (v.empty() || v == "auto") return DeviceSchedule::automatic;
+  if (v == "fused") return DeviceSchedule::fused;
+  if (v == "colour") return DeviceSchedule::colour;
   throw InputError("FDEM_DEVICE_SCHEDULE=" + v +
                    ": unknown schedule of the device loop's element passes. Fix: FDEM_DEVICE_SCHEDULE=auto (the "
-                   "default: fused where every node is one tet's) or colour, or unset it");
+                   "default: TET4 and CE6 in one pass where every node is one tet's, the integration in it where the "
+                   "run allows), fused (that pass without the integration) or colour, or unset it");
 }
 
 bool plan_fused_pass(const Model& m, FusedPlan& plan) {
@@ -73,7 +75,9 @@ std::unique_ptr<DeviceLoop> make_device_loop(Backend b, const Solver& s) {
   const bool direct_mpi = s.decomposition().distributed() && device_buffers_to_mpi(b == Backend::cuda);
   auto fused_plan = [&s] {
     FusedPlan plan;  // empty: the colour passes
-    if (!device_schedule_allows_fusing() || !plan_fused_pass(s.model(), plan)) plan = FusedPlan{};
+    const DeviceSchedule schedule = device_schedule();
+    if (schedule == DeviceSchedule::colour || !plan_fused_pass(s.model(), plan)) return FusedPlan{};
+    plan.integrate = schedule == DeviceSchedule::automatic;
     return plan;
   };
   switch (b) {

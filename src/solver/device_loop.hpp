@@ -50,6 +50,10 @@ class DeviceLoop {
   /// True when the TET4 and CE6 forces are one pass over the tets (plan_fused_pass), false when
   /// they are colour-by-colour passes.
   virtual bool fused() const = 0;
+  /// True when the fused pass also integrates: each tet first moves its own nodes by the step
+  /// that advance() left pending (one rank, no gravity; FDEM_DEVICE_SCHEDULE=auto), so the
+  /// integration is no pass of its own. Known after the first upload.
+  virtual bool integrates() const = 0;
   /// The whole state and the model's constants, host to device.
   virtual void upload(const Solver& s) = 0;
   /// The evolving state, device to host (x, v, f, CE6 state, platen anchors, pressure forces,
@@ -64,11 +68,11 @@ class DeviceLoop {
   /// Solver::compute_forces on the device.
   virtual void compute_forces(Solver& s) = 0;
   /// Central difference with time step dt, prescribed velocities, and the powers with the new
-  /// velocities. Several ranks: the sums come to the host now, into `out`, and it returns true
-  /// (their force evaluations bring their own scalars, summed over the ranks). One rank: they
-  /// stay on the device and it returns false; the next compute_forces reads them in the copy
-  /// that brings the broad phase's decision and finishes the step there (Solver::finish_step),
-  /// so a step copies to the host once.
+  /// velocities; where the fused pass integrates (integrates()), left pending for the next
+  /// compute_forces (or for the first read of the state before it). Several ranks: the sums come to the host now, into
+  /// `out`, and it returns true (their force evaluations bring their own scalars, summed over the ranks). One rank:
+  /// they stay on the device and it returns false; the next compute_forces reads them in the copy that brings the broad
+  /// phase's decision and finishes the step there (Solver::finish_step), so a step copies to the host once.
   virtual bool advance(Solver& s, real dt, AdvanceSums& out) = 0;
   /// The last force evaluation's scalars to the Solver now (one copy), if they are still on the
   /// device: Solver::measure and Solver::sync_host call it, so that between steps the Solver's
@@ -98,15 +102,19 @@ class DeviceLoop {
 struct FusedPlan {
   std::vector<int> list;
   std::vector<std::uint8_t> sides;
+  bool integrate = false;  // the pass may also integrate (DeviceLoop::integrates)
 };
 /// Fills `plan` and returns true when the model allows the fused pass: every node in at most
 /// one computed tet (split nodes: a CE6 on every internal face of the rank's elements), each
 /// side's nodes of a computed CE6 its tet's own, and every computed CE6 with a computed tet.
 bool plan_fused_pass(const Model& m, FusedPlan& plan);
-/// The device loop fuses its TET4 and CE6 passes where plan_fused_pass allows, unless
-/// FDEM_DEVICE_SCHEDULE=colour (the colour-by-colour passes, for comparison); `auto`, or unset,
-/// is the default. Another value throws InputError naming it.
-bool device_schedule_allows_fusing();
+/// The device loop's element passes by FDEM_DEVICE_SCHEDULE: `auto` (or unset, the default):
+/// fused where plan_fused_pass allows, and integrating in that pass where the run allows
+/// (DeviceLoop::integrates); `fused`: fused, the integration a pass of its own; `colour`: the
+/// colour-by-colour passes. The last two are for comparison. Another value throws InputError
+/// naming it.
+enum class DeviceSchedule { automatic, fused, colour };
+DeviceSchedule device_schedule();
 
 /// The device loop of backend b (debug or cuda) for solver s. Throws InputError when the
 /// CUDA backend was not built or no GPU is visible.

@@ -66,12 +66,10 @@ FDEM_HD real max3(real a, real b, real c) {
 }  // namespace device_build
 
 namespace device_pass {
-/// A TET4's forces on its nodes q (fe), the inverted count into acc[1] and, for an owned tet,
-/// its viscous power into acc[0]: the element of both schedules' TET4 passes.
-FDEM_HD void tet4_element(const Vec3* x, const Vec3* v, const int* q, const Mat3& Xinv, real V0, real lambda, real mu,
+/// A TET4's forces on its nodes at xe, ve (fe), the inverted count into acc[1] and, for an owned
+/// tet, its viscous power into acc[0]: the element of both schedules' TET4 passes.
+FDEM_HD void tet4_element(const Vec3 (&xe)[4], const Vec3 (&ve)[4], const Mat3& Xinv, real V0, real lambda, real mu,
                           real eta, bool own, real* acc, Vec3 (&fe)[4]) {
-  Vec3 xe[4], ve[4];
-  for (int i = 0; i < 4; ++i) xe[i] = x[q[i]], ve[i] = v[q[i]];
   const Tet4Eval ev = tet4_forces(xe, ve, Xinv, V0, lambda, mu, eta, fe);
   if (!(ev.J > 0)) acc[1] += 1;
   if (own) acc[0] += ev.viscous_power;
@@ -80,13 +78,11 @@ FDEM_HD void tet4_element(const Vec3* x, const Vec3* v, const int* q, const Mat3
 FDEM_HD void tet4_start(const Vec3* f, const int* q, int first, Vec3 (&fe)[4]) {
   for (int i = 0; i < 4; ++i) fe[i] = (first >> i & 1 ? Vec3{0, 0, 0} : f[q[i]]) + fe[i];
 }
-/// A CE6 that carries force, on its nodes q (fe), with its damage d and anchors a updated. Where
-/// `counts` (the one evaluation of it that keeps its results): its power into acc[0] (intact) or
-/// acc[1] (broken) when owned, and a break into acc[2] and its flag.
-FDEM_HD void ce6_element(const Ce6Params& p, const Vec3* x, const Vec3* v, const int* q, real h, Ce6Damage& d,
+/// A CE6 that carries force, on its nodes at xe, ve (fe), with its damage d and anchors a
+/// updated. Where `counts` (the one evaluation of it that keeps its results): its power into
+/// acc[0] (intact) or acc[1] (broken) when owned, and a break into acc[2] and its flag.
+FDEM_HD void ce6_element(const Ce6Params& p, const Vec3 (&xe)[6], const Vec3 (&ve)[6], real h, Ce6Damage& d,
                          Vec3 (&a)[3], bool counts, bool own, real* acc, std::uint8_t* broke, Vec3 (&fe)[6]) {
-  Vec3 xe[6], ve[6];
-  for (int j = 0; j < 6; ++j) xe[j] = x[q[j]], ve[j] = v[q[j]];
   const bool was_broken = ce6_broken(d);
   const Ce6Eval ev = cohesive6_forces(p, xe, ve, h, d, a, fe);
   if (!counts) return;
@@ -94,6 +90,27 @@ FDEM_HD void ce6_element(const Ce6Params& p, const Vec3* x, const Vec3* v, const
   if (own && !was_broken) acc[0] += ev.power;
   if (!was_broken && ce6_broken(d)) *broke = 1, acc[2] += 1;
 }
+/// Where the fused pass integrates (DeviceLoop::integrates): a node's move by the step left
+/// pending, from the stored x, v and f, the arithmetic of advance() (central difference, then a
+/// prescribed velocity), so that every tet that reads a node moves it to the same bits.
+struct NodeStep {
+  const Vec3* f;
+  const real* inv_mass;
+  const int* fixed_of;  // per node: its place in the prescribed lists, or -1 (null: none)
+  const int* fixed_mask;
+  const Vec3* fixed_v;
+  real dt;
+  FDEM_HD void move(int n, Vec3& x, Vec3& v) const { central_difference(x, v, f[n], inv_mass[n], dt); }
+  FDEM_HD void prescribe(int n, Vec3& x, Vec3& v) const {
+    const int i = fixed_of ? fixed_of[n] : -1;
+    if (i < 0) return;
+    for (int d = 0; d < 3; ++d)
+      if (fixed_mask[i] >> d & 1) {
+        x[d] += dt * (fixed_v[i][d] - v[d]);
+        v[d] = fixed_v[i][d];
+      }
+  }
+};
 }  // namespace device_pass
 
 template <class Exec>
@@ -101,7 +118,11 @@ class DeviceLoopImpl final : public DeviceLoop {
  public:
   /// `plan`: the fused pass's (plan_fused_pass), or empty for the colour passes.
   DeviceLoopImpl(Backend b, bool direct_mpi, FusedPlan plan)
-      : b_(b), direct_mpi_(direct_mpi), fused_(!plan.list.empty()), plan_(std::move(plan)) {
+      : b_(b),
+        direct_mpi_(direct_mpi),
+        fused_(!plan.list.empty()),
+        may_integrate_(fused_ && plan.integrate),
+        plan_(std::move(plan)) {
     auto set = [&](auto&... a) { (a.set_backend(b), ...); };
     set(tet_nodes_, tet_order_, ce6_nodes_, ce6_slot_, platen_nodes_, fixed_node_, fixed_mask_, lat_faces_, lat_ptr_,
         lat_face_, lat_node_, node_vertex_, vt_ptr_, vt_tets_, watch_nodes_, gather_node_, gather_ptr_, gather_slot_,
@@ -113,7 +134,7 @@ class DeviceLoopImpl final : public DeviceLoop {
     set(tet_global_, flags_, offsets_, counts_, entry_offsets_, head_, head_offsets_, cell_start_, cell_counts_,
         cell_offsets_);
     set(ids_, tet_ce6_, ce6_tets_, boxes_, entries_, node_slots_, next_pairs_, next_spring_);
-    set(fused_ce6_, ce6_sides_, dmg_next_, slip_next_);
+    set(fused_ce6_, ce6_sides_, dmg_next_, slip_next_, x2_, v2_, f2_, fixed_of_);
     set(halo_send_node_, halo_send_x_, halo_send_v_, halo_recv_node_, halo_recv_x_, halo_recv_v_, halo_flag_tet_,
         halo_send_, halo_recv_, flag_send_, flag_recv_);
     sums_.resize(kAll);
@@ -121,6 +142,7 @@ class DeviceLoopImpl final : public DeviceLoop {
 
   Backend backend() const override { return b_; }
   bool fused() const override { return fused_; }
+  bool integrates() const override { return integrates_; }
   bool halo_passes_device_buffers() const override { return direct_mpi_; }
   void set_timing(bool on) override { timing_ = on; }
   const DeviceTimes& times() const override { return t_; }
@@ -169,6 +191,12 @@ class DeviceLoopImpl final : public DeviceLoop {
       gravity_ = s.scene_.has_gravity();
       unreached_.upload(s.unreached_nodes_);
       plan_fused();
+      // The fused pass integrates on one rank without gravity where it reaches every node (it
+      // moves only its tets' nodes; gravity's first force needs the new velocities).
+      integrates_ = may_integrate_ && !s.halo_ && !s.dd_.distributed() && !gravity_ && s.unreached_nodes_.empty();
+      lead_contact_ = s.contacts.enabled();
+      lead_pressure_ = s.scene_.confinement.enabled;
+      if (integrates_) x2_.resize(m.X.size()), v2_.resize(m.X.size()), f2_.resize(m.X.size());
       if (s.halo_) plan_halo(s);
       // Monitor rows: the tets whose reference centroid lies in the middle third of the height.
       std::vector<std::uint8_t> mid(m.tet_nodes.size());
@@ -230,6 +258,14 @@ class DeviceLoopImpl final : public DeviceLoop {
     fixed_node_.upload(s.fixed_node_);
     fixed_mask_.upload(s.fixed_mask_);
     fixed_v_.upload(s.fixed_velocity_);
+    lead_pending_ = false;                        // the host's state is the state
+    if (integrates_ && !s.fixed_node_.empty()) {  // each node's place in the prescribed lists
+      std::vector<int> of(s.x.size(), -1);
+      for (std::size_t i = 0; i < s.fixed_node_.size(); ++i) of[s.fixed_node_[i]] = int(i);
+      fixed_of_.upload(of);
+    } else {
+      fixed_of_.resize(0);
+    }
     lat_force_.upload(s.lateral_force_);
     if (s.contacts.enabled()) {
       const ContactSet& c = s.contacts;
@@ -244,6 +280,7 @@ class DeviceLoopImpl final : public DeviceLoop {
   }
 
   void download(Solver& s) override {
+    materialize();
     const auto t0 = now();
     x_.download(s.x);
     v_.download(s.v);
@@ -304,6 +341,7 @@ class DeviceLoopImpl final : public DeviceLoop {
   }
 
   real kinetic2() override {
+    materialize();
     const Vec3* v = v_.data();
     const real* mass = mass_.data();
     const std::uint8_t* own_n = own_node_.data();
@@ -320,30 +358,33 @@ class DeviceLoopImpl final : public DeviceLoop {
   // three times: after the CE6 pass, at the end of the forces (the sums over the ranks; once
   // more after a confining pressure, for its power) and after the integration (the contact
   // reach decides whether to gather ghosts before the next forces).
+  // [0, kBad): a force evaluation's sums, [kBad, kSums): an integration's. The element passes'
+  // come last of the first, so that a fused pass that integrates sums into them and the
+  // integration's first two (kBad, kKinetic2) in one run of slots.
   enum Slot {
-    kVisc,
+    kAdded,  // activation
+    kMoved,  // the broad phase's watch
+    kGravity,
+    kTouching,  // contact
+    kConDiss,
+    kConStored,
+    kConPower,
+    kTop,  // platens
+    kBottom,
+    kPlatenFric,
+    kPressurePower,
+    kVisc,  // the element passes
     kInverted,
     kCoh,
     kFric,
     kBreaks,
-    kAdded,
-    kMoved,
-    kGravity,  // forces, first read
-    kTouching,
-    kConDiss,
-    kConStored,
-    kConPower,
-    kTop,
-    kBottom,
-    kPlatenFric,
-    kPressurePower,  // second
-    kBad,
+    kBad,  // integration
     kKinetic2,
     kFar,
     kLost,
     kConPowerNew,
     kPressurePowerNew,
-    kGravityNew,  // integration
+    kGravityNew,
     kSums = 24,
     kPrev = kSums,  // [kPrev, kPrev + kBad): the last evaluation's [0, kBad), kept for its step
     kAll = kPrev + kBad
@@ -371,7 +412,8 @@ class DeviceLoopImpl final : public DeviceLoop {
     const std::uint8_t* own_n = own_node_.data();
     const std::uint8_t* own_t = own_tet_.data();
     auto t0 = now();
-    clear_sums(0, kBad);
+    const bool lead = lead_pending_;  // the fused pass integrates the pending step first
+    clear_sums(0, lead ? kSums : kBad);
 
     // Gravity starts the sum; without it the TET4 pass assigns each node's first force (the
     // nodes it does not reach are zeroed here), so f is not written twice.
@@ -392,9 +434,14 @@ class DeviceLoopImpl final : public DeviceLoop {
     // TET4 and CE6: fused in one pass, or colour by colour (plan_fused_pass).
     if (fused_) {
       fused_forces(m, s.lambda_, s.mu_, sums);
-      t0 = lap(t0, t_.ce6);  // (the TET4 column stays empty)
+      t0 = lap(t0, t_.ce6);  // (the TET4 and, where it integrates, integration columns stay empty)
     } else {
       colour_forces(m, s.lambda_, s.mu_, sums, t0);
+    }
+    if (lead) {  // x, v and f swapped: the moved state; the powers of the last forces with it
+      x = x_.data(), v = v_.data(), f = f_.data();
+      new_powers(s.contacts.enabled(), scene.confinement.enabled);
+      t0 = lap(t0, t_.energy);
     }
     const int* tn = tet_nodes_.data();
     const int* cn = ce6_nodes_.data();
@@ -642,21 +689,55 @@ class DeviceLoopImpl final : public DeviceLoop {
 
  public:
   bool advance(Solver& s, real dt, AdvanceSums& out) override {
+    ++t_.steps;
+    if (integrates_) {  // the next force evaluation's pass moves the nodes (materialize() before)
+      lead_dt_ = dt;
+      lead_pending_ = advance_pending_ = true;
+      return false;
+    }
     auto t0 = now();
+    // Several ranks with contact: the owned nodes a quarter of the contact reach from where the
+    // contact ghosts were last gathered (time to gather them again) and half the reach (too
+    // late: Solver::step). Prescribed nodes count before their prescription below.
+    const bool reach_check = s.halo_ && s.contacts.enabled() && s.dd_.reach > 0;
+    integrate_nodes(dt, reach_check ? plan_x_.data() : nullptr, s.dd_.reach);
+    t0 = lap(t0, t_.integrate);
+    if (s.halo_) halo_update(s);  // ghosts take their owners' new positions and velocities
+    new_powers(s.contacts.enabled(), s.scene_.confinement.enabled);
+    const Vec3 g = s.scene_.gravity;
+    const real* mass = mass_.data();
+    const Vec3* v = v_.data();
+    const std::uint8_t* own_n = own_node_.data();
+    if (s.scene_.has_gravity())
+      Exec::template sum_to<1>(
+          int(x_.size()),
+          [=] FDEM_LAMBDA(int n, real* acc) {
+            if (own_n[n]) acc[0] += mass[n] * dot(g, v[n]);
+          },
+          sums_.data() + kGravityNew);
+    if (!s.dd_.distributed()) {  // read with the next evaluation's first copy
+      advance_pending_ = true;
+      lap(t0, t_.energy);
+      return false;
+    }
+    const std::array<real, kSums> r = read_sums<kSums>();  // (several ranks apply the forces' own)
+    lap(t0, t_.energy);
+    out = advance_sums(r.data());
+    return true;
+  }
+
+  /// Central difference of every node with time step dt into sums [kBad, kSums) (cleared first:
+  /// non-finite velocities, m v.v, and with px the nodes a quarter and half of `reach` from px),
+  /// then the prescribed velocities.
+  void integrate_nodes(real dt, const Vec3* px, real reach) {
     Vec3* x = x_.data();
     Vec3* v = v_.data();
     const Vec3* f = f_.data();
     const real* inv_mass = inv_mass_.data();
     const real* mass = mass_.data();
-    real* sums = sums_.data();
     const std::uint8_t* own_n = own_node_.data();
     clear_sums(kBad, kSums);
-    // Several ranks with contact: the owned nodes a quarter of the contact reach from where the
-    // contact ghosts were last gathered (time to gather them again) and half the reach (too
-    // late: Solver::step). Prescribed nodes count before their prescription below.
-    const bool reach_check = s.halo_ && s.contacts.enabled() && s.dd_.reach > 0;
-    const Vec3* px = reach_check ? plan_x_.data() : nullptr;
-    const real lim2 = 0.0625 * s.dd_.reach * s.dd_.reach;
+    const real lim2 = 0.0625 * reach * reach;
     Exec::template sum_to<4>(
         int(x_.size()),
         [=] FDEM_LAMBDA(int n, real* acc) {
@@ -670,7 +751,7 @@ class DeviceLoopImpl final : public DeviceLoop {
             acc[3] += dot(d, d) >= 4 * lim2;
           }
         },
-        sums + kBad);
+        sums_.data() + kBad);
     const int* fn = fixed_node_.data();
     const int* fm = fixed_mask_.data();
     const Vec3* fv = fixed_v_.data();
@@ -682,28 +763,23 @@ class DeviceLoopImpl final : public DeviceLoop {
           v[n][d] = fv[i][d];
         }
     });
-    t0 = lap(t0, t_.integrate);
-    if (s.halo_) halo_update(s);  // ghosts take their owners' new positions and velocities
-    if (s.contacts.enabled()) contact_power(v, sums + kConPowerNew);
-    if (s.scene_.confinement.enabled) pressure_power(v, sums + kPressurePowerNew);
-    const Vec3 g = s.scene_.gravity;
-    if (s.scene_.has_gravity())
-      Exec::template sum_to<1>(
-          int(x_.size()),
-          [=] FDEM_LAMBDA(int n, real* acc) {
-            if (own_n[n]) acc[0] += mass[n] * dot(g, v[n]);
-          },
-          sums + kGravityNew);
-    ++t_.steps;
-    if (!s.dd_.distributed()) {  // read with the next evaluation's first copy
-      advance_pending_ = true;
-      lap(t0, t_.energy);
-      return false;
-    }
-    const std::array<real, kSums> r = read_sums<kSums>();  // (several ranks apply the forces' own)
-    lap(t0, t_.energy);
-    out = advance_sums(r.data());
-    return true;
+  }
+
+  /// The powers of the last contact and pressure forces with the velocities now (the work over
+  /// a step with the mean of the velocities before and after it).
+  void new_powers(bool contact, bool pressure) {
+    if (contact) contact_power(v_.data(), sums_.data() + kConPowerNew);
+    if (pressure) pressure_power(v_.data(), sums_.data() + kPressurePowerNew);
+  }
+
+  /// Where the fused pass integrates: the step advance() left pending, done now by the
+  /// integration's own passes (its sums wait for the next evaluation's copy, as on one rank),
+  /// for whatever reads the state before the next force evaluation.
+  void materialize() {
+    if (!lead_pending_) return;
+    lead_pending_ = false;
+    integrate_nodes(lead_dt_, nullptr, 0);
+    new_powers(lead_contact_, lead_pressure_);
   }
 
  private:
@@ -718,6 +794,7 @@ class DeviceLoopImpl final : public DeviceLoop {
 
  public:
   std::array<real, 16> measure_sums(const Solver& s) override {
+    materialize();
     const auto t0 = now();
     const Model& m = s.model_;
     const Vec3* x = x_.data();
@@ -853,6 +930,9 @@ class DeviceLoopImpl final : public DeviceLoop {
       ce6 = ce6_coloured_ * 1.0 + e[0] * sizeof(Ce6Damage) + e[1] * (6 * sizeof(int) + sizeof(real) + 1 + 6 * 2 * vec) +
             e[2] * sizeof(Ce6Anchors) + k[1] * (sizeof(Ce6Damage) + sizeof(Ce6Anchors)) +
             (ce6_coloured_ - k[0]) * sizeof(Ce6Damage);
+      // Integrating, each side moves the CE6's 6 nodes: their f and 1/m read (and their place in
+      // the prescribed lists where there are some).
+      if (integrates_) ce6 += e[1] * 6 * (vec + sizeof(real) + (fixed_of_.size() ? sizeof(int) : 0));
     }
     // Contact pairs: pair, evaluation, spring, 8 forces written then read, 8 nodes' x and v.
     const double con =
@@ -860,7 +940,10 @@ class DeviceLoopImpl final : public DeviceLoop {
     // Gravity (f written from m and v) or the zeroing of the nodes no TET4 reaches; integration
     // (x, v, f, 1/m, m) and the kinetic-energy sum.
     const double start = gravity_ ? nn * (vec + vec + sizeof(real)) : double(unreached_.size()) * (vec + sizeof(int));
-    const double node = start + nn * (5 * vec + 2 * sizeof(real));
+    // Where the fused pass integrates, each tet moves its own 4 nodes instead (f, 1/m, m and the
+    // own flag read, x and v written to the second copies; its place in the prescribed lists).
+    const double node = integrates_ ? nt * 4 * (3 * vec + 2 * sizeof(real) + 1 + (fixed_of_.size() ? sizeof(int) : 0))
+                                    : start + nn * (5 * vec + 2 * sizeof(real));
     return tet + ce6 + con + node;
   }
 
@@ -915,8 +998,9 @@ class DeviceLoopImpl final : public DeviceLoop {
           [=] FDEM_LAMBDA(int k, real* acc) {
             const int t = torder[b + k];
             const int* q = tn + 4 * t;
-            Vec3 fe[4];
-            device_pass::tet4_element(x, v, q, Xinv[t], V0[t], lambda, mu, eta[t], own_t[t], acc, fe);
+            Vec3 xe[4], ve[4], fe[4];
+            for (int i = 0; i < 4; ++i) xe[i] = x[q[i]], ve[i] = v[q[i]];
+            device_pass::tet4_element(xe, ve, Xinv[t], V0[t], lambda, mu, eta[t], own_t[t], acc, fe);
             device_pass::tet4_start(f, q, assigns ? assigns[t] : 0, fe);
             for (int i = 0; i < 4; ++i) f[q[i]] = fe[i];
           },
@@ -938,8 +1022,9 @@ class DeviceLoopImpl final : public DeviceLoop {
             const int i = b + k;
             if (!ce6_carries_force(p, st[i])) return;  // broken, its faces left to contact
             const int* q = cn + 6 * i;
-            Vec3 fe[6];
-            device_pass::ce6_element(p, x, v, q, h[i], st[i], sl[i].a, true, own_c[i], acc, broke + i, fe);
+            Vec3 xe[6], ve[6], fe[6];
+            for (int j = 0; j < 6; ++j) xe[j] = x[q[j]], ve[j] = v[q[j]];
+            device_pass::ce6_element(p, xe, ve, h[i], st[i], sl[i].a, true, own_c[i], acc, broke + i, fe);
             for (int j = 0; j < 6; ++j) f[q[j]] += fe[j];
           },
           sums + kCoh);
@@ -956,10 +1041,31 @@ class DeviceLoopImpl final : public DeviceLoop {
   /// matters; undamaged, both copies hold the intact state), its powers and its break; then the
   /// copies swap.
   void fused_forces(const Model& m, real lambda, real mu, real* sums) {
+    if (lead_pending_)
+      fused_pass<true>(m, lambda, mu, sums);
+    else
+      fused_pass<false>(m, lambda, mu, sums);
+  }
+
+  /// kLead: the pass integrates first (DeviceLoop::integrates). Each tet moves its own nodes by
+  /// the step advance() left pending into the second copies of x and v (the other tets still
+  /// read the first), counts them into the integration's sums, and computes its elements at the
+  /// moved positions; each CE6 moves the other side's nodes too, from the same stored values
+  /// (the same bits as their own tet's move). The forces go to the second copy of f; then x, v
+  /// and f swap.
+  template <bool kLead>
+  void fused_pass(const Model& m, real lambda, real mu, real* sums) {
     const int nk = int(m.tet_colours.order.size());
     const Vec3* x = x_.data();
     const Vec3* v = v_.data();
-    Vec3* f = f_.data();
+    Vec3* f = kLead ? f2_.data() : f_.data();
+    Vec3* x_new = kLead ? x2_.data() : nullptr;
+    Vec3* v_new = kLead ? v2_.data() : nullptr;
+    const device_pass::NodeStep mover{
+        f_.data(),          inv_mass_.data(), fixed_of_.size() ? fixed_of_.data() : nullptr,
+        fixed_mask_.data(), fixed_v_.data(),  lead_dt_};
+    const real* mass = mass_.data();
+    const std::uint8_t* own_n = own_node_.data();
     const int* tn = tet_nodes_.data();
     const int* torder = tet_order_.data();
     const Mat3* Xinv = Xinv_.data();
@@ -977,15 +1083,29 @@ class DeviceLoopImpl final : public DeviceLoop {
     Ce6Anchors* sw = slip_next_.data();
     std::uint8_t* broke = broke_.data();
     const Ce6Params p = ce6p_;
-    static_assert(kInverted == kVisc + 1 && kCoh == kVisc + 2 && kFric == kVisc + 3 && kBreaks == kVisc + 4,
-                  "the fused pass sums into five consecutive slots");
-    Exec::template sum_to<5>(
+    static_assert(kInverted == kVisc + 1 && kCoh == kVisc + 2 && kFric == kVisc + 3 && kBreaks == kVisc + 4 &&
+                      kBad == kVisc + 5 && kKinetic2 == kVisc + 6,
+                  "the fused pass sums into consecutive slots");
+    Exec::template sum_to<kLead ? 7 : 5>(
         nk,
         [=] FDEM_LAMBDA(int k, real* acc) {
           const int t = torder[k];
           const int* q = tn + 4 * t;
-          Vec3 fe[4];
-          device_pass::tet4_element(x, v, q, Xinv[t], V0[t], lambda, mu, eta[t], own_t[t], acc, fe);
+          Vec3 xe[4], ve[4], fe[4];
+          for (int i = 0; i < 4; ++i) {
+            const int n = q[i];
+            xe[i] = x[n], ve[i] = v[n];
+            if (kLead) {  // the sums of advance(): before the prescription
+              mover.move(n, xe[i], ve[i]);
+              if (own_n[n]) {
+                acc[5] += !finite_value(ve[i].x + ve[i].y + ve[i].z);
+                acc[6] += mass[n] * dot(ve[i], ve[i]);
+              }
+              mover.prescribe(n, xe[i], ve[i]);
+              x_new[n] = xe[i], v_new[n] = ve[i];
+            }
+          }
+          device_pass::tet4_element(xe, ve, Xinv[t], V0[t], lambda, mu, eta[t], own_t[t], acc, fe);
           device_pass::tet4_start(f, q, assigns ? assigns[t] : 0, fe);
           for (int j = 0; j < 4; ++j) {
             const int code = list[4 * k + j];
@@ -1001,8 +1121,12 @@ class DeviceLoopImpl final : public DeviceLoop {
             Ce6Anchors an{};
             if (ce6_max_damage(d) > 0) an = sr[c];  // damaged or broken: anchors kept
             const int* cq = cn + 6 * c;
-            Vec3 fc[6];
-            device_pass::ce6_element(p, x, v, cq, h[c], d, an.a, writer, own_c[c], acc + 2, broke + c, fc);
+            Vec3 xc[6], vc[6], fc[6];
+            for (int i = 0; i < 6; ++i) {
+              xc[i] = x[cq[i]], vc[i] = v[cq[i]];
+              if (kLead) mover.move(cq[i], xc[i], vc[i]), mover.prescribe(cq[i], xc[i], vc[i]);
+            }
+            device_pass::ce6_element(p, xc, vc, h[c], d, an.a, writer, own_c[c], acc + 2, broke + c, fc);
             for (int i = 0; i < 3; ++i) {  // constant indices only: the arrays stay in registers
               const int n = side ? cq[3 + i] : cq[i];
               const Vec3 add = side ? fc[3 + i] : fc[i];
@@ -1016,6 +1140,12 @@ class DeviceLoopImpl final : public DeviceLoop {
         sums + kVisc);
     std::swap(dmg_, dmg_next_);
     std::swap(slip_, slip_next_);
+    if (kLead) {
+      std::swap(x_, x2_);
+      std::swap(v_, v2_);
+      std::swap(f_, f2_);
+      lead_pending_ = false;
+    }
   }
 
   /// Between ce6_model_ (Ce6State in model order) and the slot-ordered damage and anchors:
@@ -1546,11 +1676,19 @@ class DeviceLoopImpl final : public DeviceLoop {
   // computed sides of each CE6 (the traffic model), and the copies of the damage and anchors it
   // writes while reading dmg_ and slip_ (swapped after it).
   bool fused_ = false;
-  FusedPlan plan_;  // until the first upload
+  bool may_integrate_ = false;  // the schedule lets the fused pass integrate (FusedPlan::integrate)
+  FusedPlan plan_;              // until the first upload
   DeviceArray<int> fused_ce6_;
   DeviceArray<std::uint8_t> ce6_sides_;
   DeviceArray<Ce6Damage> dmg_next_;
   DeviceArray<Ce6Anchors> slip_next_;
+  // Where the fused pass integrates (integrates_): the step advance() left to it (lead_pending_,
+  // lead_dt_), the second copies of x, v and f it writes (swapped after it), each node's place in
+  // the prescribed lists (empty without prescribed nodes), and what materialize() needs.
+  bool integrates_ = false, lead_pending_ = false, lead_contact_ = false, lead_pressure_ = false;
+  real lead_dt_ = 0;
+  DeviceArray<Vec3> x2_, v2_, f2_;
+  DeviceArray<int> fixed_of_;
   // Upload and download only: the host's layout and order. Kept between copies, so that a
   // copy allocates nothing (104 B per CE6 more device memory held; the peak is the same as
   // allocating it for each copy).

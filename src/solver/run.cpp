@@ -515,9 +515,11 @@ void report_model(const Solver& solver, std::ostream& out) {
       << " s)\n"
       << "  backend " << backend_name(solver.backend())
       << (solver.backend() == Backend::cuda ? " (" + cuda_device_description() + ")" : std::string())
-      << (solver.device_loop()
-              ? solver.device_loop()->fused() ? ", TET4 and CE6 fused in one pass" : ", TET4 and CE6 colour by colour"
-              : "")
+      << (solver.device_loop() ? solver.device_loop()->integrates()
+                                     ? ", TET4, CE6 and the integration fused in one pass"
+                                 : solver.device_loop()->fused() ? ", TET4 and CE6 fused in one pass"
+                                                                 : ", TET4 and CE6 colour by colour"
+                               : "")
       << (solver.device_loop() && dd.distributed() ? solver.device_loop()->halo_passes_device_buffers()
                                                          ? ", halo: device buffers to MPI"
                                                          : ", halo: staged through host memory"

@@ -24,9 +24,10 @@ void need_gpu() {
 
 }  // namespace
 
-// Both schedules of the element passes: "auto" (TET4 and CE6 fused in one pass here) and "colour".
+// The schedules of the element passes: "auto" (TET4, CE6 and the integration in one pass here),
+// "fused" (TET4 and CE6 in one pass) and "colour".
 class CudaSchedule : public ::testing::TestWithParam<const char*> {};
-INSTANTIATE_TEST_SUITE_P(Schedule, CudaSchedule, ::testing::Values("auto", "colour"));
+INSTANTIATE_TEST_SUITE_P(Schedule, CudaSchedule, ::testing::Values("auto", "fused", "colour"));
 
 TEST_P(CudaSchedule, ElasticBoxMatchesCpuTo1e10) {
   // The CE6 penalty amplifies a last-bit difference in a position some 10^7-fold in the forces
@@ -42,8 +43,9 @@ TEST_P(CudaSchedule, ElasticBoxMatchesCpuTo1e10) {
   auto cpu = backend_solver(backend_elastic_scene("cpu"));
   auto gpu = backend_solver(backend_elastic_scene("cuda"));
   ASSERT_EQ(gpu->backend(), Backend::cuda);
-  EXPECT_EQ(gpu->device_loop()->fused(), std::string(GetParam()) == "auto");
   for (int i = 0; i < 3000; ++i) cpu->step(), gpu->step();
+  EXPECT_EQ(gpu->device_loop()->fused(), std::string(GetParam()) != "colour");
+  EXPECT_EQ(gpu->device_loop()->integrates(), std::string(GetParam()) == "auto");
   gpu->sync_host();
   const real dx = max_rel_diff(cpu->x, gpu->x, 1e-6);
   const real df = max_rel_diff(cpu->f, gpu->f, 1e-6 * max_force(cpu->f));

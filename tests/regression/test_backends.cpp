@@ -7,6 +7,8 @@
 
 #include <cmath>
 #include <cstring>
+#include <string>
+#include <utility>
 
 #include "backend_support.hpp"
 #include "cli_support.hpp"
@@ -23,18 +25,27 @@ bool same_bits(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
 
 }  // namespace
 
-// Both schedules of the device loop's element passes: "auto" fuses TET4 and CE6 in one pass (a
-// CE6 on every internal face: every node is one tet's), "colour" keeps the colour passes.
-class DebugSchedule : public ::testing::TestWithParam<const char*> {};
-INSTANTIATE_TEST_SUITE_P(Schedule, DebugSchedule, ::testing::Values("auto", "colour"));
+// The schedules of the device loop's element passes: "auto" fuses TET4 and CE6 in one pass (a
+// CE6 on every internal face: every node is one tet's) that integrates too (one rank, no
+// gravity), "fused" the same pass without the integration, "colour" keeps the colour passes.
+class DebugSchedule : public ::testing::TestWithParam<const char*> {
+ protected:
+  /// The device loop of `s` is the one the schedule asks for.
+  void expect_schedule(const Solver& s) const {
+    const std::string name = GetParam();
+    EXPECT_EQ(s.device_loop()->fused(), name != "colour");
+    EXPECT_EQ(s.device_loop()->integrates(), name == "auto");
+  }
+};
+INSTANTIATE_TEST_SUITE_P(Schedule, DebugSchedule, ::testing::Values("auto", "fused", "colour"));
 
 TEST_P(DebugSchedule, ElasticBoxIsBitIdenticalToCpu) {
   EnvSetting schedule("FDEM_DEVICE_SCHEDULE", GetParam());
   auto cpu = backend_solver(backend_elastic_scene("cpu"));
   auto dbg = backend_solver(backend_elastic_scene("debug"));
   ASSERT_EQ(dbg->backend(), Backend::debug);
-  EXPECT_EQ(dbg->device_loop()->fused(), std::string(GetParam()) == "auto");
   for (int i = 0; i < 3000; ++i) cpu->step(), dbg->step();
+  expect_schedule(*dbg);
   dbg->sync_host();
   EXPECT_TRUE(same_bits(cpu->x, dbg->x));
   EXPECT_TRUE(same_bits(cpu->v, dbg->v));
@@ -51,8 +62,8 @@ TEST_P(DebugSchedule, FracturingBoxWithContactAndPressureMatchesCpu) {
   EnvSetting schedule("FDEM_DEVICE_SCHEDULE", GetParam());
   auto cpu = backend_solver(backend_fracture_scene("cpu"));
   auto dbg = backend_solver(backend_fracture_scene("debug"));
-  EXPECT_EQ(dbg->device_loop()->fused(), std::string(GetParam()) == "auto");
   const FractureResult ra = run_fracture(*cpu, 4000), rb = run_fracture(*dbg, 4000);
+  expect_schedule(*dbg);
   EXPECT_GT(ra.broken, 20) << "the run should fracture";
   RecordProperty("broken_ce6", std::to_string(ra.broken));
   RecordProperty("peak_Pa", std::to_string(ra.peak));
@@ -87,6 +98,102 @@ TEST_P(DebugSchedule, FracturingBoxWithContactAndPressureMatchesCpu) {
   EXPECT_NEAR(a.contact_friction, b.contact_friction, 1e-9 * std::fabs(a.contact_friction) + 1e-15);
   EXPECT_NEAR(a.cohesive_dissipated, b.cohesive_dissipated, 1e-10 * a.cohesive_dissipated);
   EXPECT_NEAR(a.confining_pressure, b.confining_pressure, 0);
+}
+
+TEST_P(DebugSchedule, PrescribedNodesUnderPressureAreBitIdenticalToCpu) {
+  // Prescribed velocity components and a constant confining pressure (its forces added after the
+  // elements'), without gravity, so that the fused pass integrates where the schedule lets it.
+  EnvSetting schedule("FDEM_DEVICE_SCHEDULE", GetParam());
+  auto make = [](const std::string& backend) {
+    Scene s = backend_elastic_scene(backend);
+    s.confinement.enabled = true;
+    s.confinement.pressure = 2e6;
+    s.confinement.path = "constant";
+    auto solver = backend_solver(s);
+    solver->prescribe(0, 0b011, Vec3{0.01, -0.02, 0});
+    solver->prescribe(5, 0b100, Vec3{0, 0, 0.03});
+    return solver;
+  };
+  auto cpu = make("cpu"), dbg = make("debug");
+  for (int i = 0; i < 1500; ++i) cpu->step(), dbg->step();
+  expect_schedule(*dbg);
+  dbg->sync_host();
+  EXPECT_TRUE(same_bits(cpu->x, dbg->x)) << "max relative difference " << max_rel_diff(cpu->x, dbg->x, 1e-9);
+  EXPECT_TRUE(same_bits(cpu->v, dbg->v));
+  EXPECT_TRUE(same_bits(cpu->f, dbg->f));
+  EXPECT_EQ(dbg->v[0].x, 0.01);
+  EXPECT_EQ(dbg->v[5].z, 0.03);
+  EXPECT_NE(dbg->v[5].x, 0.0) << "x is free: the pressure moves it";
+  const Monitors a = cpu->measure(), b = dbg->measure();
+  EXPECT_GT(a.confining_pressure, 1e5) << "the pressure should be rising";
+  EXPECT_EQ(a.confining_pressure, b.confining_pressure);
+  EXPECT_NEAR(a.external_work, b.external_work, 1e-12 * std::fabs(a.external_work));
+  EXPECT_NEAR(a.kinetic, b.kinetic, 1e-12 * a.kinetic);
+}
+
+TEST_P(DebugSchedule, AnUnstableRunStopsAtTheCpusStep) {
+  // 2 times the stable-step bound: the kinetic energy runs away slowly, and the check that
+  // reads the integration's sums (m v.v, non-finite velocities) stops the run at the CPU
+  // backend's step.
+  EnvSetting schedule("FDEM_DEVICE_SCHEDULE", GetParam());
+  auto run = [](const std::string& backend, bool& integrates) {
+    Scene s = backend_elastic_scene(backend);
+    s.solver.time_step_safety = 2.0;
+    auto solver = backend_solver(s);
+    std::string message;
+    try {
+      for (int i = 0; i < 20000; ++i) solver->step();
+    } catch (const RunError& e) {
+      message = e.what();
+    }
+    integrates = solver->device_loop() && solver->device_loop()->integrates();
+    return std::make_pair(solver->step_count(), message);
+  };
+  bool integrates = false;
+  const auto cpu = run("cpu", integrates), dbg = run("debug", integrates);
+  EXPECT_EQ(integrates, std::string(GetParam()) == "auto");
+  ASSERT_NE(cpu.second.find("unstable"), std::string::npos) << cpu.second;
+  EXPECT_NE(dbg.second.find("unstable"), std::string::npos) << dbg.second;
+  EXPECT_EQ(cpu.first, dbg.first);
+  EXPECT_GT(cpu.first, 20) << "a slow runaway";
+  RecordProperty("stopped_at_step", std::to_string(cpu.first));
+}
+
+TEST(DebugBackend, AStepLeftToTheFusedPassIsDoneWhenTheStateIsRead) {
+  // Where the fused pass integrates, advance() leaves the step to the next force evaluation; a
+  // read of the state before it (a download) does the step by the integration's own passes.
+  // Against the fused pass without the integration, driven the same way: the same bits.
+  auto make = [](const char* schedule) {
+    EnvSetting s("FDEM_DEVICE_SCHEDULE", schedule);
+    return backend_solver(backend_fracture_scene("debug"));
+  };
+  auto lead = make("auto"), plain = make("fused");
+  for (int i = 0; i < 2000; ++i) lead->step(), plain->step();
+  ASSERT_TRUE(lead->device_loop()->integrates());
+  ASSERT_FALSE(plain->device_loop()->integrates());
+  AdvanceSums a, b;
+  EXPECT_FALSE(lead->device_loop()->advance(*lead, lead->dt(), a));
+  EXPECT_FALSE(plain->device_loop()->advance(*plain, plain->dt(), b));
+  lead->device_loop()->download(*lead);
+  plain->device_loop()->download(*plain);
+  EXPECT_TRUE(same_bits(lead->x, plain->x)) << "max relative difference " << max_rel_diff(lead->x, plain->x, 1e-9);
+  EXPECT_TRUE(same_bits(lead->v, plain->v));
+  EXPECT_TRUE(same_bits(lead->f, plain->f));
+  // The step's bookkeeping (the works of contact and pressure over it, with the velocities after
+  // it) comes with the next force evaluation, as on a step of the solver.
+  lead->device_loop()->compute_forces(*lead);
+  plain->device_loop()->compute_forces(*plain);
+  for (int i = 0; i < 10; ++i) lead->step(), plain->step();
+  const Monitors ml = lead->measure(), mp = plain->measure();
+  EXPECT_GT(std::fabs(ml.external_work), 0);
+  EXPECT_NEAR(ml.external_work, mp.external_work, 1e-12 * std::fabs(mp.external_work));
+  EXPECT_NEAR(ml.contact, mp.contact, 1e-12 * std::fabs(mp.contact) + 1e-18);
+  EXPECT_NEAR(ml.energy_error, mp.energy_error, 1e-9);
+  // The step moved the state: the positions now are not those the last step left.
+  auto again = make("fused");
+  for (int i = 0; i < 2000; ++i) again->step();
+  again->sync_host();
+  EXPECT_FALSE(same_bits(again->x, plain->x));
 }
 
 TEST(DebugBackend, NodesSharedByTetsKeepTheColourPasses) {
