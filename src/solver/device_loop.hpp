@@ -52,7 +52,7 @@ class DeviceLoop {
   virtual bool fused() const = 0;
   /// True when the fused pass also integrates: each tet first moves its own nodes by the step
   /// that advance() left pending (one rank, no gravity; FDEM_DEVICE_SCHEDULE=auto), so the
-  /// integration is no pass of its own. Known after the first upload.
+  /// integration is no pass of its own.
   virtual bool integrates() const = 0;
   /// The whole state and the model's constants, host to device.
   virtual void upload(const Solver& s) = 0;
@@ -102,7 +102,7 @@ class DeviceLoop {
 struct FusedPlan {
   std::vector<int> list;
   std::vector<std::uint8_t> sides;
-  bool integrate = false;  // the pass may also integrate (DeviceLoop::integrates)
+  bool integrate = false;  // the pass integrates too (DeviceLoop::integrates)
 };
 /// Fills `plan` and returns true when the model allows the fused pass: every node in at most
 /// one computed tet (split nodes: a CE6 on every internal face of the rank's elements), each

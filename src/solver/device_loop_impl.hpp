@@ -121,7 +121,7 @@ class DeviceLoopImpl final : public DeviceLoop {
       : b_(b),
         direct_mpi_(direct_mpi),
         fused_(!plan.list.empty()),
-        may_integrate_(fused_ && plan.integrate),
+        integrates_(fused_ && plan.integrate),
         plan_(std::move(plan)) {
     auto set = [&](auto&... a) { (a.set_backend(b), ...); };
     set(tet_nodes_, tet_order_, ce6_nodes_, ce6_slot_, platen_nodes_, fixed_node_, fixed_mask_, lat_faces_, lat_ptr_,
@@ -191,9 +191,11 @@ class DeviceLoopImpl final : public DeviceLoop {
       gravity_ = s.scene_.has_gravity();
       unreached_.upload(s.unreached_nodes_);
       plan_fused();
-      // The fused pass integrates on one rank without gravity where it reaches every node (it
-      // moves only its tets' nodes; gravity's first force needs the new velocities).
-      integrates_ = may_integrate_ && !s.halo_ && !s.dd_.distributed() && !gravity_ && s.unreached_nodes_.empty();
+      // The fused pass integrates (make_device_loop: one rank, no gravity, every node a tet's).
+      if (integrates_ && (s.halo_ || s.dd_.distributed() || gravity_ || !s.unreached_nodes_.empty()))
+        throw RunError(
+            "device loop: the fused pass cannot integrate this run (several ranks, gravity or nodes outside "
+            "the tets)");
       lead_contact_ = s.contacts.enabled();
       lead_pressure_ = s.scene_.confinement.enabled;
       if (integrates_) x2_.resize(m.X.size()), v2_.resize(m.X.size()), f2_.resize(m.X.size());
@@ -663,7 +665,7 @@ class DeviceLoopImpl final : public DeviceLoop {
     apply_force_sums(s, b.data());
   }
 
-  void discard_pending() override { forces_pending_ = advance_pending_ = false; }
+  void discard_pending() override { forces_pending_ = advance_pending_ = lead_pending_ = false; }
 
  private:
   /// The Solver's bookkeeping of a force evaluation from its sums (b: slots [0, kBad)).
@@ -691,6 +693,7 @@ class DeviceLoopImpl final : public DeviceLoop {
   bool advance(Solver& s, real dt, AdvanceSums& out) override {
     ++t_.steps;
     if (integrates_) {  // the next force evaluation's pass moves the nodes (materialize() before)
+      materialize();    // (a step already pending, with no evaluation since: never in Solver::step)
       lead_dt_ = dt;
       lead_pending_ = advance_pending_ = true;
       return false;
@@ -1095,7 +1098,7 @@ class DeviceLoopImpl final : public DeviceLoop {
           for (int i = 0; i < 4; ++i) {
             const int n = q[i];
             xe[i] = x[n], ve[i] = v[n];
-            if (kLead) {  // the sums of advance(): before the prescription
+            if (kLead) {  // the sums of advance(): before the prescription (kLead: 7 sums)
               mover.move(n, xe[i], ve[i]);
               if (own_n[n]) {
                 acc[5] += !finite_value(ve[i].x + ve[i].y + ve[i].z);
@@ -1140,7 +1143,7 @@ class DeviceLoopImpl final : public DeviceLoop {
         sums + kVisc);
     std::swap(dmg_, dmg_next_);
     std::swap(slip_, slip_next_);
-    if (kLead) {
+    if constexpr (kLead) {
       std::swap(x_, x2_);
       std::swap(v_, v2_);
       std::swap(f_, f2_);
@@ -1676,8 +1679,8 @@ class DeviceLoopImpl final : public DeviceLoop {
   // computed sides of each CE6 (the traffic model), and the copies of the damage and anchors it
   // writes while reading dmg_ and slip_ (swapped after it).
   bool fused_ = false;
-  bool may_integrate_ = false;  // the schedule lets the fused pass integrate (FusedPlan::integrate)
-  FusedPlan plan_;              // until the first upload
+  bool integrates_ = false;  // the fused pass integrates too (FusedPlan::integrate)
+  FusedPlan plan_;           // until the first upload
   DeviceArray<int> fused_ce6_;
   DeviceArray<std::uint8_t> ce6_sides_;
   DeviceArray<Ce6Damage> dmg_next_;
@@ -1685,7 +1688,7 @@ class DeviceLoopImpl final : public DeviceLoop {
   // Where the fused pass integrates (integrates_): the step advance() left to it (lead_pending_,
   // lead_dt_), the second copies of x, v and f it writes (swapped after it), each node's place in
   // the prescribed lists (empty without prescribed nodes), and what materialize() needs.
-  bool integrates_ = false, lead_pending_ = false, lead_contact_ = false, lead_pressure_ = false;
+  bool lead_pending_ = false, lead_contact_ = false, lead_pressure_ = false;
   real lead_dt_ = 0;
   DeviceArray<Vec3> x2_, v2_, f2_;
   DeviceArray<int> fixed_of_;
