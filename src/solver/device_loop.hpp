@@ -69,10 +69,12 @@ class DeviceLoop {
   virtual void compute_forces(Solver& s) = 0;
   /// Central difference with time step dt, prescribed velocities, and the powers with the new
   /// velocities; where the fused pass integrates (integrates()), left pending for the next
-  /// compute_forces (or for the first read of the state before it). Several ranks: the sums come to the host now, into
-  /// `out`, and it returns true (their force evaluations bring their own scalars, summed over the ranks). One rank:
-  /// they stay on the device and it returns false; the next compute_forces reads them in the copy that brings the broad
-  /// phase's decision and finishes the step there (Solver::finish_step), so a step copies to the host once.
+  /// compute_forces (or for the first read of the state before it). Several ranks: the sums
+  /// come to the host now, into `out`, and it returns true (their force evaluations bring their
+  /// own scalars, summed over the ranks). One rank: they stay on the device and it returns
+  /// false; the next compute_forces reads them in the copy that brings the broad phase's
+  /// decision and finishes the step there (Solver::finish_step), so a step copies to the host
+  /// once.
   virtual bool advance(Solver& s, real dt, AdvanceSums& out) = 0;
   /// The last force evaluation's scalars to the Solver now (one copy), if they are still on the
   /// device: Solver::measure and Solver::sync_host call it, so that between steps the Solver's
