@@ -33,8 +33,8 @@
 //    (1/m, own flag, m read; x and v written to a second copy, as the other tets still read the
 //    old ones): no force array, no integration pass. Contact and platen forces, which a node's
 //    update would need first, are left out of this row altogether.
-//  fused, integrating the last step first (built: the device loop's default on one rank without
-//    gravity, DeviceLoop::integrates): each tet first moves its own 4 nodes by the last step
+//  fused, integrating the last step first (built: the device loop's default on one rank,
+//    DeviceLoop::integrates): each tet first moves its own 4 nodes by the last step
 //    (x, v, f, 1/m, m, own flag read; x and v written to the second copies), then its TET4 and
 //    CE6s, each CE6 moving its 6 nodes again from the first copies (x, v, f, 1/m);
 //    f written to its second copy. No integration pass; contact and platen forces are added to f

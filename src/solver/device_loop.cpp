@@ -77,13 +77,12 @@ std::unique_ptr<DeviceLoop> make_device_loop(Backend b, const Solver& s) {
     FusedPlan plan;  // empty: the colour passes
     const DeviceSchedule schedule = device_schedule();
     if (schedule == DeviceSchedule::colour || !plan_fused_pass(s.model(), plan)) return FusedPlan{};
-    // The pass integrates too on one rank without gravity (its first force needs the new
-    // velocities) where it moves every node: each in a tet.
+    // The pass integrates too on one rank, where it moves every node: each in a tet.
     std::vector<char> in_tet(s.model().X.size(), 0);
     for (const auto& q : s.model().tet_nodes)
       for (int n : q) in_tet[n] = 1;
     plan.integrate = schedule == DeviceSchedule::automatic && !s.decomposition().distributed() &&
-                     !s.scene().has_gravity() && std::find(in_tet.begin(), in_tet.end(), 0) == in_tet.end();
+                     std::find(in_tet.begin(), in_tet.end(), 0) == in_tet.end();
     return plan;
   };
   switch (b) {

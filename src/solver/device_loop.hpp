@@ -51,8 +51,8 @@ class DeviceLoop {
   /// they are colour-by-colour passes.
   virtual bool fused() const = 0;
   /// True when the fused pass also integrates: each tet first moves its own nodes by the step
-  /// that advance() left pending (one rank, no gravity; FDEM_DEVICE_SCHEDULE=auto), so the
-  /// integration is no pass of its own.
+  /// that advance() left pending (one rank; FDEM_DEVICE_SCHEDULE=auto), so the integration is
+  /// no pass of its own.
   virtual bool integrates() const = 0;
   /// The whole state and the model's constants, host to device.
   virtual void upload(const Solver& s) = 0;

@@ -189,13 +189,13 @@ class DeviceLoopImpl final : public DeviceLoop {
       assigned_corners_ = 0;
       for (std::uint8_t a : s.tet_assigns_) assigned_corners_ += (a & 1) + (a >> 1 & 1) + (a >> 2 & 1) + (a >> 3 & 1);
       gravity_ = s.scene_.has_gravity();
+      g_ = s.scene_.gravity;
       unreached_.upload(s.unreached_nodes_);
       plan_fused();
-      // The fused pass integrates (make_device_loop: one rank, no gravity, every node a tet's).
-      if (integrates_ && (s.halo_ || s.dd_.distributed() || gravity_ || !s.unreached_nodes_.empty()))
+      // The fused pass integrates (make_device_loop: one rank, every node a tet's).
+      if (integrates_ && (s.halo_ || s.dd_.distributed() || !s.unreached_nodes_.empty()))
         throw RunError(
-            "device loop: the fused pass cannot integrate this run (several ranks, gravity or nodes outside "
-            "the tets)");
+            "device loop: the fused pass cannot integrate this run (several ranks or nodes outside the tets)");
       lead_contact_ = s.contacts.enabled();
       lead_pressure_ = s.scene_.confinement.enabled;
       if (integrates_) x2_.resize(m.X.size()), v2_.resize(m.X.size()), f2_.resize(m.X.size());
@@ -360,13 +360,13 @@ class DeviceLoopImpl final : public DeviceLoop {
   // three times: after the CE6 pass, at the end of the forces (the sums over the ranks; once
   // more after a confining pressure, for its power) and after the integration (the contact
   // reach decides whether to gather ghosts before the next forces).
-  // [0, kBad): a force evaluation's sums, [kBad, kSums): an integration's. The element passes'
-  // come last of the first, so that a fused pass that integrates sums into them and the
-  // integration's first two (kBad, kKinetic2) in one run of slots.
+  // [0, kBad): a force evaluation's sums, [kBad, kSums): an integration's. Gravity's and the
+  // element passes' come last of the first, and the integration's kinetic energy and gravity
+  // power first of the second, so that a fused pass that integrates sums into one run of slots
+  // (kGravity to kGravityNew).
   enum Slot {
-    kAdded,  // activation
-    kMoved,  // the broad phase's watch
-    kGravity,
+    kAdded,     // activation
+    kMoved,     // the broad phase's watch
     kTouching,  // contact
     kConDiss,
     kConStored,
@@ -375,6 +375,7 @@ class DeviceLoopImpl final : public DeviceLoop {
     kBottom,
     kPlatenFric,
     kPressurePower,
+    kGravity,
     kVisc,  // the element passes
     kInverted,
     kCoh,
@@ -382,11 +383,11 @@ class DeviceLoopImpl final : public DeviceLoop {
     kBreaks,
     kBad,  // integration
     kKinetic2,
+    kGravityNew,
     kFar,
     kLost,
     kConPowerNew,
     kPressurePowerNew,
-    kGravityNew,
     kSums = 24,
     kPrev = kSums,  // [kPrev, kPrev + kBad): the last evaluation's [0, kBad), kept for its step
     kAll = kPrev + kBad
@@ -423,7 +424,7 @@ class DeviceLoopImpl final : public DeviceLoop {
     if (!gravity_) {
       const int* un = unreached_.data();
       Exec::forall(int(unreached_.size()), [=] FDEM_LAMBDA(int k) { f[un[k]] = Vec3{0, 0, 0}; });
-    } else {
+    } else if (!lead) {  // (a fused pass that integrates starts each force with gravity itself)
       Exec::template sum_to<1>(
           nn,
           [=] FDEM_LAMBDA(int n, real* acc) {
@@ -442,7 +443,7 @@ class DeviceLoopImpl final : public DeviceLoop {
     }
     if (lead) {  // x, v and f swapped: the moved state; the powers of the last forces with it
       x = x_.data(), v = v_.data(), f = f_.data();
-      new_powers(s.contacts.enabled(), scene.confinement.enabled);
+      new_powers(s.contacts.enabled(), scene.confinement.enabled, false);  // (gravity's: in the pass)
       t0 = lap(t0, t_.energy);
     }
     const int* tn = tet_nodes_.data();
@@ -706,18 +707,7 @@ class DeviceLoopImpl final : public DeviceLoop {
     integrate_nodes(dt, reach_check ? plan_x_.data() : nullptr, s.dd_.reach);
     t0 = lap(t0, t_.integrate);
     if (s.halo_) halo_update(s);  // ghosts take their owners' new positions and velocities
-    new_powers(s.contacts.enabled(), s.scene_.confinement.enabled);
-    const Vec3 g = s.scene_.gravity;
-    const real* mass = mass_.data();
-    const Vec3* v = v_.data();
-    const std::uint8_t* own_n = own_node_.data();
-    if (s.scene_.has_gravity())
-      Exec::template sum_to<1>(
-          int(x_.size()),
-          [=] FDEM_LAMBDA(int n, real* acc) {
-            if (own_n[n]) acc[0] += mass[n] * dot(g, v[n]);
-          },
-          sums_.data() + kGravityNew);
+    new_powers(s.contacts.enabled(), s.scene_.confinement.enabled, s.scene_.has_gravity());
     if (!s.dd_.distributed()) {  // read with the next evaluation's first copy
       advance_pending_ = true;
       lap(t0, t_.energy);
@@ -730,8 +720,8 @@ class DeviceLoopImpl final : public DeviceLoop {
   }
 
   /// Central difference of every node with time step dt into sums [kBad, kSums) (cleared first:
-  /// non-finite velocities, m v.v, and with px the nodes a quarter and half of `reach` from px),
-  /// then the prescribed velocities.
+  /// non-finite velocities, m v.v, and with px the nodes a quarter and half of `reach` from px;
+  /// gravity's power is the caller's), then the prescribed velocities.
   void integrate_nodes(real dt, const Vec3* px, real reach) {
     Vec3* x = x_.data();
     Vec3* v = v_.data();
@@ -741,7 +731,7 @@ class DeviceLoopImpl final : public DeviceLoop {
     const std::uint8_t* own_n = own_node_.data();
     clear_sums(kBad, kSums);
     const real lim2 = 0.0625 * reach * reach;
-    Exec::template sum_to<4>(
+    Exec::template sum_to<5>(  // (acc[2], gravity's power: after the prescription, elsewhere)
         int(x_.size()),
         [=] FDEM_LAMBDA(int n, real* acc) {
           central_difference(x[n], v[n], f[n], inv_mass[n], dt);  // ghosts too: overwritten below
@@ -750,11 +740,12 @@ class DeviceLoopImpl final : public DeviceLoop {
           acc[1] += mass[n] * dot(v[n], v[n]);
           if (px) {
             const Vec3 d = x[n] - px[n];
-            acc[2] += dot(d, d) >= lim2;
-            acc[3] += dot(d, d) >= 4 * lim2;
+            acc[3] += dot(d, d) >= lim2;
+            acc[4] += dot(d, d) >= 4 * lim2;
           }
         },
         sums_.data() + kBad);
+    static_assert(kKinetic2 == kBad + 1 && kFar == kBad + 3 && kLost == kBad + 4, "the integration's sums");
     const int* fn = fixed_node_.data();
     const int* fm = fixed_mask_.data();
     const Vec3* fv = fixed_v_.data();
@@ -768,11 +759,22 @@ class DeviceLoopImpl final : public DeviceLoop {
     });
   }
 
-  /// The powers of the last contact and pressure forces with the velocities now (the work over
-  /// a step with the mean of the velocities before and after it).
-  void new_powers(bool contact, bool pressure) {
+  /// The powers of the last contact and pressure forces, and of gravity, with the velocities now
+  /// (the work over a step with the mean of the velocities before and after it).
+  void new_powers(bool contact, bool pressure, bool gravity) {
     if (contact) contact_power(v_.data(), sums_.data() + kConPowerNew);
     if (pressure) pressure_power(v_.data(), sums_.data() + kPressurePowerNew);
+    if (!gravity) return;
+    const Vec3 g = g_;
+    const real* mass = mass_.data();
+    const Vec3* v = v_.data();
+    const std::uint8_t* own_n = own_node_.data();
+    Exec::template sum_to<1>(
+        int(x_.size()),
+        [=] FDEM_LAMBDA(int n, real* acc) {
+          if (own_n[n]) acc[0] += mass[n] * dot(g, v[n]);
+        },
+        sums_.data() + kGravityNew);
   }
 
   /// Where the fused pass integrates: the step advance() left pending, done now by the
@@ -782,7 +784,7 @@ class DeviceLoopImpl final : public DeviceLoop {
     if (!lead_pending_) return;
     lead_pending_ = false;
     integrate_nodes(lead_dt_, nullptr, 0);
-    new_powers(lead_contact_, lead_pressure_);
+    new_powers(lead_contact_, lead_pressure_, gravity_);
   }
 
  private:
@@ -1086,30 +1088,44 @@ class DeviceLoopImpl final : public DeviceLoop {
     Ce6Anchors* sw = slip_next_.data();
     std::uint8_t* broke = broke_.data();
     const Ce6Params p = ce6p_;
-    static_assert(kInverted == kVisc + 1 && kCoh == kVisc + 2 && kFric == kVisc + 3 && kBreaks == kVisc + 4 &&
-                      kBad == kVisc + 5 && kKinetic2 == kVisc + 6,
+    const bool gravity = gravity_;
+    const Vec3 g = g_;
+    // The sums: kVisc to kBreaks; integrating, kGravity before them and kBad, kKinetic2 and
+    // kGravityNew after (base: the element passes' first).
+    static_assert(kGravity == kVisc - 1 && kInverted == kVisc + 1 && kCoh == kVisc + 2 && kFric == kVisc + 3 &&
+                      kBreaks == kVisc + 4 && kBad == kVisc + 5 && kKinetic2 == kVisc + 6 && kGravityNew == kVisc + 7,
                   "the fused pass sums into consecutive slots");
-    Exec::template sum_to<kLead ? 7 : 5>(
+    constexpr int base = kLead ? 1 : 0;
+    Exec::template sum_to<kLead ? 9 : 5>(
         nk,
         [=] FDEM_LAMBDA(int k, real* acc) {
           const int t = torder[k];
           const int* q = tn + 4 * t;
-          Vec3 xe[4], ve[4], fe[4];
+          Vec3 xe[4], ve[4], fe[4], start[4];
           for (int i = 0; i < 4; ++i) {
             const int n = q[i];
             xe[i] = x[n], ve[i] = v[n];
-            if (kLead) {  // the sums of advance(): before the prescription (kLead: 7 sums)
+            if (kLead) {  // advance()'s sums: m v.v before the prescription, gravity's power after
               mover.move(n, xe[i], ve[i]);
               if (own_n[n]) {
-                acc[5] += !finite_value(ve[i].x + ve[i].y + ve[i].z);
-                acc[6] += mass[n] * dot(ve[i], ve[i]);
+                acc[6] += !finite_value(ve[i].x + ve[i].y + ve[i].z);
+                acc[7] += mass[n] * dot(ve[i], ve[i]);
               }
               mover.prescribe(n, xe[i], ve[i]);
               x_new[n] = xe[i], v_new[n] = ve[i];
+              // The force starts with gravity (compute_forces' gravity pass), or at zero.
+              start[i] = gravity ? mass[n] * g : Vec3{0, 0, 0};
+              if (gravity && own_n[n]) {
+                acc[0] += dot(start[i], ve[i]);
+                acc[8] += mass[n] * dot(g, ve[i]);
+              }
             }
           }
-          device_pass::tet4_element(xe, ve, Xinv[t], V0[t], lambda, mu, eta[t], own_t[t], acc, fe);
-          device_pass::tet4_start(f, q, assigns ? assigns[t] : 0, fe);
+          device_pass::tet4_element(xe, ve, Xinv[t], V0[t], lambda, mu, eta[t], own_t[t], acc + base, fe);
+          if (kLead)
+            for (int i = 0; i < 4; ++i) fe[i] = start[i] + fe[i];
+          else
+            device_pass::tet4_start(f, q, assigns ? assigns[t] : 0, fe);
           for (int j = 0; j < 4; ++j) {
             const int code = list[4 * k + j];
             if (code < 0) break;
@@ -1129,7 +1145,7 @@ class DeviceLoopImpl final : public DeviceLoop {
               xc[i] = x[cq[i]], vc[i] = v[cq[i]];
               if (kLead) mover.move(cq[i], xc[i], vc[i]), mover.prescribe(cq[i], xc[i], vc[i]);
             }
-            device_pass::ce6_element(p, xc, vc, h[c], d, an.a, writer, own_c[c], acc + 2, broke + c, fc);
+            device_pass::ce6_element(p, xc, vc, h[c], d, an.a, writer, own_c[c], acc + base + 2, broke + c, fc);
             for (int i = 0; i < 3; ++i) {  // constant indices only: the arrays stay in registers
               const int n = side ? cq[3 + i] : cq[i];
               const Vec3 add = side ? fc[3 + i] : fc[i];
@@ -1140,7 +1156,7 @@ class DeviceLoopImpl final : public DeviceLoop {
           }
           for (int i = 0; i < 4; ++i) f[q[i]] = fe[i];
         },
-        sums + kVisc);
+        sums + kVisc - base);
     std::swap(dmg_, dmg_next_);
     std::swap(slip_, slip_next_);
     if constexpr (kLead) {
@@ -1703,6 +1719,7 @@ class DeviceLoopImpl final : public DeviceLoop {
   DeviceArray<int> unreached_;
   double assigned_corners_ = 0;  // set bits of tet_assigns_
   bool gravity_ = false;
+  Vec3 g_{0, 0, 0};  // m/s^2
   DeviceArray<ContactPair> pairs_;
   DeviceArray<ContactEval> eval_;
 };

@@ -26,8 +26,8 @@ bool same_bits(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
 }  // namespace
 
 // The schedules of the device loop's element passes: "auto" fuses TET4 and CE6 in one pass (a
-// CE6 on every internal face: every node is one tet's) that integrates too (one rank, no
-// gravity), "fused" the same pass without the integration, "colour" keeps the colour passes.
+// CE6 on every internal face: every node is one tet's) that integrates too (one rank),
+// "fused" the same pass without the integration, "colour" keeps the colour passes.
 class DebugSchedule : public ::testing::TestWithParam<const char*> {
  protected:
   /// The device loop of `s` is the one the schedule asks for.
@@ -100,12 +100,14 @@ TEST_P(DebugSchedule, FracturingBoxWithContactAndPressureMatchesCpu) {
   EXPECT_NEAR(a.confining_pressure, b.confining_pressure, 0);
 }
 
-TEST_P(DebugSchedule, PrescribedNodesUnderPressureAreBitIdenticalToCpu) {
-  // Prescribed velocity components and a constant confining pressure (its forces added after the
-  // elements'), without gravity, so that the fused pass integrates where the schedule lets it.
+TEST_P(DebugSchedule, GravityPrescribedNodesAndPressureAreBitIdenticalToCpu) {
+  // Gravity (the first term of each node's force), prescribed velocity components and a constant
+  // confining pressure (its forces added after the elements'): the fused pass integrating all
+  // of them where the schedule lets it.
   EnvSetting schedule("FDEM_DEVICE_SCHEDULE", GetParam());
   auto make = [](const std::string& backend) {
     Scene s = backend_elastic_scene(backend);
+    s.gravity = {0, 0, -9.81};
     s.confinement.enabled = true;
     s.confinement.pressure = 2e6;
     s.confinement.path = "constant";
@@ -224,6 +226,7 @@ TEST(DebugBackend, GravityHydrostaticPressureAndPrescribedNodesMatchCpu) {
   // a sum whose order differs between the backends, so agreement is to round-off.
   auto cpu = backend_gravity_solver("cpu"), dbg = backend_gravity_solver("debug");
   for (int i = 0; i < 1500; ++i) cpu->step(), dbg->step();
+  EXPECT_TRUE(dbg->device_loop()->integrates()) << "the default schedule, one rank";
   dbg->sync_host();
   EXPECT_LT(max_rel_diff(cpu->x, dbg->x, 1e-6), 1e-12);
   EXPECT_LT(max_rel_diff(cpu->v, dbg->v, 1e-3), 1e-9);
