@@ -58,15 +58,17 @@ inline std::unique_ptr<Solver> backend_solver(const Scene& s) {
   return std::make_unique<Solver>(s, build_model(structured_box_mesh({0.006, 0.006, 0.012}, 3, 3, 6), s));
 }
 
-/// The elastic box with gravity, a hydrostatic confining pressure (it follows the measured
-/// axial stress, up to 2 MPa) and node 0 held at a prescribed horizontal velocity, given in
-/// two calls (x and y, then x again: (0.015, -0.02) m/s, z free).
-inline std::unique_ptr<Solver> backend_gravity_solver(const std::string& backend) {
+/// The elastic box with gravity, a confining pressure on `path` (hydrostatic: it follows the
+/// measured axial stress, up to 2 MPa; constant: it rises to 2 MPa) and node 0 held at a
+/// prescribed horizontal velocity, given in two calls (x and y, then x again: (0.015, -0.02)
+/// m/s, z free).
+inline std::unique_ptr<Solver> backend_gravity_solver(const std::string& backend,
+                                                      const std::string& path = "hydrostatic") {
   Scene s = backend_elastic_scene(backend);
   s.gravity = {0, 0, -9.81};
   s.confinement.enabled = true;
   s.confinement.pressure = 2e6;
-  s.confinement.path = "hydrostatic";
+  s.confinement.path = path;
   auto solver = backend_solver(s);
   solver->prescribe(0, 0b011, Vec3{0.01, -0.02, 0});
   solver->prescribe(0, 0b001, Vec3{0.015, 7, 7});  // the 7s are not prescribed

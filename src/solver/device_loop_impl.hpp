@@ -902,8 +902,9 @@ class DeviceLoopImpl final : public DeviceLoop {
     const double vec = sizeof(Vec3);
     // TET4 (those this rank computes): colour-order entry, connectivity, X0^-1, V0, eta, the
     // assign mask; x and v of its 4 nodes read, f written, and read too where the corner does not
-    // assign (gravity: every corner); fused, its list of CE6s.
-    const double read_f = gravity_ ? 4 * nt : 4 * nt - assigned_corners_;
+    // assign (gravity: every corner; none where the fused pass integrates, which starts each
+    // force itself); fused, its list of CE6s.
+    const double read_f = integrates_ ? 0 : gravity_ ? 4 * nt : 4 * nt - assigned_corners_;
     const double tet = nt * (5 * sizeof(int) + sizeof(Mat3) + 2 * sizeof(real) + 1 + 3 * 4 * vec) + read_f * vec +
                        (fused_ ? nt * 4 * sizeof(int) : 0);
     // CE6 (those this rank computes, in the state as it is now): connectivity, h, damage and the
