@@ -136,7 +136,10 @@ FDEM_HD bool separated_by(const Planes& pb, const Vec3 (&a)[4]) {
 /// roles are swapped (e.normal is always the force on the pair's first tet).
 FDEM_HD void faces_inside(const Vec3 (&a)[4], const Vec3 (&b)[4], const Planes& pb, const Mat3& Binv, real P,
                           Vec3 (&fa)[4], Vec3 (&fb)[4], real sign, ContactEval& e) {
-  Poly buf[2];
+  // Three polygons in all: the face clipped by b (ping-pong between buf[0] and buf[1]), and
+  // each sub-tet's part of it clipped from there into the other two by turns, never copied
+  // (a Poly is 16 vertices; on a GPU it lives in local memory).
+  Poly buf[3];
   for (int f = 0; f < 4; ++f) {  // face of a opposite node f
     const int i0 = (f + 1) % 4, i1 = (f + 2) % 4, i2 = (f + 3) % 4;
     const Vec3 q0 = a[i0], q1 = a[i1], q2 = a[i2];
@@ -162,22 +165,23 @@ FDEM_HD void faces_inside(const Vec3 (&a)[4], const Vec3 (&b)[4], const Planes& 
     }
     if (buf[cur].n < 3) continue;
     const Poly& inside = buf[cur];
+    Poly* const spare[2] = {&buf[1 - cur], &buf[2]};
     // Split among b's sub-tets: sub-tet k is cut out by the edge planes of face k's edges.
     for (int k = 0; k < 4; ++k) {
       if (!(pb.h[k] > 0)) continue;
-      Poly Q[2];
-      int c = 0;
-      Q[0] = inside;
-      for (int ed = 0; ed < 6 && Q[c].n >= 3; ++ed) {
+      const Poly* from = &inside;
+      int c = 0;  // the next clip writes spare[c]
+      for (int ed = 0; ed < 6 && from->n >= 3; ++ed) {
         int i, j, kk, l;
         tet_edge(ed, i, j, kk, l);
         if (i == k || j == k) continue;  // only the three edges of face k
         // Face k holds i, j and the one of (kk, l) that is not k.
         const Vec3 nrm = (kk == k) ? pb.en[ed] : -pb.en[ed];
-        clip(Q[c], nrm, b[i], Q[1 - c]);
+        clip(*from, nrm, b[i], *spare[c]);
+        from = spare[c];
         c = 1 - c;
       }
-      const Poly& q = Q[c];
+      const Poly& q = *from;
       if (q.n < 3) continue;
       for (int t = 1; t + 1 < q.n; ++t) {
         const Vec3 r0 = q.p[0], r1 = q.p[t], r2 = q.p[t + 1];
