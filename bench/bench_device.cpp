@@ -79,6 +79,7 @@ struct Row {
   long tets = 0, ce6 = 0, nodes = 0, pairs = 0;
   double step_us = 0, floor_us = 0, bytes = 0, monitor_ms = 0, sync_ms = 0, mem_mb = 0, dt = 0;
   double copies_to_host = 0, bytes_to_host = 0;  // per step, between monitor rows (device::traffic)
+  double launches = 0;                           // device passes per step (kernels; device::traffic)
   double host_bytes = 0;                         // peak resident memory over the size's start
   double setup_s = 0;                            // mesh, model and Solver built on the host
   std::string schedule;                          // the element passes: fused+integration, fused or colour
@@ -210,6 +211,7 @@ int main(int argc, char** argv) {
       r.step_us = 1e6 * since(t0) / steps;
       r.copies_to_host = double(device::traffic().to_host) / steps;
       r.bytes_to_host = double(device::traffic().host_bytes) / steps;
+      r.launches = double(device::traffic().launches) / steps;
       const DeviceTimes before = dev->times();
       dev->set_timing(true);
       for (int i = 0; i < steps; ++i) solver.step();
@@ -218,7 +220,7 @@ int main(int argc, char** argv) {
       auto per = [&](double DeviceTimes::*m) { return 1e6 * (after.*m - before.*m) / steps; };
       r.pass.tet4 = per(&DeviceTimes::tet4), r.pass.ce6 = per(&DeviceTimes::ce6);
       r.pass.activation = per(&DeviceTimes::activation), r.pass.broad = per(&DeviceTimes::broad);
-      r.pass.narrow = per(&DeviceTimes::narrow), r.pass.friction = per(&DeviceTimes::friction);
+      r.pass.narrow = per(&DeviceTimes::narrow);
       r.pass.contact_sum = per(&DeviceTimes::contact_sum), r.pass.platens = per(&DeviceTimes::platens);
       r.pass.pressure = per(&DeviceTimes::pressure), r.pass.integrate = per(&DeviceTimes::integrate);
       r.pass.energy = per(&DeviceTimes::energy), r.pass.copies = per(&DeviceTimes::copies);
@@ -246,27 +248,25 @@ int main(int argc, char** argv) {
   std::printf(
       "| tets | CE6 | nodes | pairs | schedule | step, us | floor, us | step / floor | GB/s | of measured | monitor "
       "row, ms | state to host, ms | device memory peak, MB | copies to host per step | bytes to host per step "
-      "| host peak, bytes per tet | set-up, s "
-      "|\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+      "| launches per step | host peak, bytes per tet | set-up, s "
+      "|\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const Row& r : rows)
     std::printf(
-        "| %ld | %ld | %ld | %ld | %s | %.1f | %.1f | %.2f | %.0f | %.0f %% | %.2f | %.2f | %.0f | %.1f | %.0f | %.0f "
-        "| "
-        "%.1f |\n",
+        "| %ld | %ld | %ld | %ld | %s | %.1f | %.1f | %.2f | %.0f | %.0f %% | %.2f | %.2f | %.0f | %.1f | %.0f | %.1f "
+        "| %.0f | %.1f |\n",
         r.tets, r.ce6, r.nodes, r.pairs, r.schedule.c_str(), r.step_us, r.floor_us, r.step_us / r.floor_us,
         r.bytes / (r.step_us * 1e3), 100 * r.bytes / (r.step_us * 1e3) / bw, r.monitor_ms, r.sync_ms, r.mem_mb,
-        r.copies_to_host, r.bytes_to_host, r.host_bytes / double(r.tets), r.setup_s);
+        r.copies_to_host, r.bytes_to_host, r.launches, r.host_bytes / double(r.tets), r.setup_s);
   std::printf(
       "\nPer pass, us per step (device waited for after each pass; fused: TET4 and CE6 in one pass, its time "
       "under CE6):\n\n| tets | schedule | TET4 | CE6 | activation | broad "
-      "| narrow | friction | contact sum | platens | pressure | integrate | energy sums | copies | "
-      "sum |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+      "| narrow and friction | contact sum | platens | pressure | integrate | energy sums | copies | "
+      "sum |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const Row& r : rows)
-    std::printf(
-        "| %ld | %s | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f |\n",
-        r.tets, r.schedule.c_str(), r.pass.tet4, r.pass.ce6, r.pass.activation, r.pass.broad, r.pass.narrow,
-        r.pass.friction, r.pass.contact_sum, r.pass.platens, r.pass.pressure, r.pass.integrate, r.pass.energy,
-        r.pass.copies, r.pass.total());
+    std::printf("| %ld | %s | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f |\n",
+                r.tets, r.schedule.c_str(), r.pass.tet4, r.pass.ce6, r.pass.activation, r.pass.broad, r.pass.narrow,
+                r.pass.contact_sum, r.pass.platens, r.pass.pressure, r.pass.integrate, r.pass.energy, r.pass.copies,
+                r.pass.total());
   const Fit fit = largest_fit(b, rows, device_free, host_free);
   std::printf(
       "\nLargest model that fits: about %.3g tets (%s: %.1f GB free at the start, %.0f bytes per tet on the "

@@ -141,6 +141,7 @@ struct CudaExec {
   template <class Body>
   static void forall(int n, Body body) {
     if (n <= 0) return;
+    device::count_launches(1);
     cuda_detail::forall_kernel<<<(n + cuda_detail::kBlock - 1) / cuda_detail::kBlock, cuda_detail::kBlock>>>(n, body);
     check_launch();
   }
@@ -151,6 +152,7 @@ struct CudaExec {
     if (n <= 0) return out;
     real* buf = cuda_detail::device_scratch().sums;
     cuda_check(cudaMemsetAsync(buf, 0, N * sizeof(real)), "cudaMemsetAsync");
+    device::count_launches(1);
     sum_to<N>(n, body, buf);
     cuda_check(cudaMemcpy(out.data(), buf, N * sizeof(real), cudaMemcpyDeviceToHost), "cudaMemcpy of sums");
     device::count_copy(true, N * sizeof(real));
@@ -161,6 +163,7 @@ struct CudaExec {
     static_assert(N <= 16, "at most 16 sums per pass");
     if (n <= 0) return;
     const cuda_detail::DeviceScratch& scratch = cuda_detail::device_scratch();
+    device::count_launches(1);
     cuda_detail::sum_kernel<N>
         <<<cuda_detail::reduction_blocks(n), cuda_detail::kBlock>>>(n, body, out, scratch.partials, scratch.ticket);
     check_launch();
@@ -172,6 +175,7 @@ struct CudaExec {
     out.fill(-INFINITY);
     if (n <= 0) return out;
     real* buf = cuda_detail::device_scratch().sums;
+    device::count_launches(2);
     cuda_detail::fill_kernel<N><<<1, N>>>(buf, -INFINITY);
     check_launch();
     cuda_detail::max_kernel<N><<<cuda_detail::reduction_blocks(n), cuda_detail::kBlock>>>(n, body, buf);
@@ -186,6 +190,7 @@ struct CudaExec {
     cuda_check(cudaMemcpy(&last[0], in + n - 1, sizeof(long), cudaMemcpyDeviceToHost), "cudaMemcpy");
     try {
       cuda_detail::ThrustScratch scratch;
+      device::count_launches(1);
       thrust::exclusive_scan(thrust::cuda::par(scratch), in, in + n, out);
     } catch (const std::exception& e) {  // Thrust's own scratch memory: thrust::system_error, std::bad_alloc
       throw RunError(std::string("CUDA: prefix sum (Thrust): ") + e.what() +
@@ -199,7 +204,7 @@ struct CudaExec {
   static void sort(T* first, long n, Less less) {
     try {
       cuda_detail::ThrustScratch scratch;
-      if (n > 1) thrust::sort(thrust::cuda::par(scratch), first, first + n, less);
+      if (n > 1) device::count_launches(1), thrust::sort(thrust::cuda::par(scratch), first, first + n, less);
     } catch (const std::exception& e) {
       throw RunError(std::string("CUDA: sort (Thrust): ") + e.what() + ". Fix: a smaller model per GPU, or more ranks");
     }

@@ -121,6 +121,9 @@ const Traffic& traffic() {
 void reset_traffic() {
   copies = Traffic{};
 }
+void count_launches(long n) {
+  copies.launches += n;
+}
 void count_copy(bool to_host, std::size_t bytes) {
   if (to_host) {
     ++copies.to_host, copies.host_bytes += bytes;

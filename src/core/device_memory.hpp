@@ -66,15 +66,22 @@ void reset_peak_bytes();
 /// to the host. The device loop's contract is that between monitor rows and output only a few
 /// scalars cross per step, whatever the model's size (tests/regression/test_backends.cpp).
 /// Counted on the host thread that drives the device.
+/// `launches` counts the device passes in the same way: each kernel CudaExec launches (a
+/// forall or reduction of at least one iteration; a reduction's start values set on the device
+/// count one more), each Thrust sort or scan one. On a GPU each costs a few microseconds
+/// however little it does, so a small model's step is bound by their number.
 struct Traffic {
   long to_host = 0, to_device = 0;               // copies
   std::size_t host_bytes = 0, device_bytes = 0;  // bytes copied device to host, host to device
   std::size_t largest_to_host = 0, largest_to_device = 0;
+  long launches = 0;
 };
 const Traffic& traffic();
 void reset_traffic();
 /// Counts one copy of `bytes` (to the host or to the device).
 void count_copy(bool to_host, std::size_t bytes);
+/// Counts `n` launches of device work.
+void count_launches(long n);
 }  // namespace device
 
 /// An array in a backend's memory. Its capacity grows geometrically (x 1.5), and growth after the

@@ -85,8 +85,10 @@ inline HostPermutation next_host_permutation(int n) {
 
 struct HostExec {
   static constexpr bool on_gpu = false;
+  // Launches counted as CudaExec makes them (device::Traffic).
   template <class Body>
   static void forall(int n, Body body) {
+    if (n > 0) device::count_launches(1);
     const HostPermutation p = next_host_permutation(n);
 #pragma omp parallel for schedule(static)
     for (int k = 0; k < n; ++k) body(p(k));
@@ -94,19 +96,24 @@ struct HostExec {
   // The values a reduction returns cross to the host on a GPU: counted as such.
   template <int N, class Body>
   static std::array<real, N> sum(int n, Body body) {
+    if (n <= 0) return {};
     device::count_copy(true, N * sizeof(real));
+    device::count_launches(2);  // the start values, the reduction
     return sum_here<N>(n, body);
   }
   template <int N, class Body>
   static void sum_to(int n, Body body, real* out) {
+    if (n > 0) device::count_launches(1);
     const std::array<real, N> r = sum_here<N>(n, body);
     for (int k = 0; k < N; ++k) out[k] += r[k];
   }
   template <int N, class Body>
   static std::array<real, N> max(int n, Body body) {
-    device::count_copy(true, N * sizeof(real));  // CudaExec's maxima (the start values are set there)
     std::array<real, N> out;
     out.fill(-std::numeric_limits<real>::infinity());
+    if (n <= 0) return out;
+    device::count_copy(true, N * sizeof(real));  // CudaExec's maxima (the start values are set there)
+    device::count_launches(2);
     const HostPermutation p = next_host_permutation(n);
 #pragma omp parallel
     {
@@ -121,7 +128,9 @@ struct HostExec {
   }
   static long scan(long n, const long* in, long* out) {
     // CudaExec copies the last input and the last output (a long each) to the host.
+    if (n <= 0) return 0;
     device::count_copy(true, sizeof(long)), device::count_copy(true, sizeof(long));
+    device::count_launches(1);
     long total = 0;
     for (long i = 0; i < n; ++i) {
       const long c = in[i];
@@ -132,6 +141,7 @@ struct HostExec {
   }
   template <class T, class Less>
   static void sort(T* first, long n, Less less) {
+    if (n > 1) device::count_launches(1);
     std::sort(first, first + n, less);
     // Elements that compare equal could come out in another order from the GPU's sort.
     if (host_order() == HostOrder::scrambled)

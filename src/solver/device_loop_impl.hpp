@@ -75,6 +75,23 @@ FDEM_HD void tet4_element(const Vec3 (&xe)[4], const Vec3 (&ve)[4], const Mat3& 
   if (own) acc[0] += ev.viscous_power;
 }
 /// A TET4's first force at its corners: assigned where `first` has the corner's bit, else added.
+/// A contact pair's power: -f.v of its forces fa (on nodes na) and fb (on nb), subtracted from
+/// acc node by node, owned nodes only.
+FDEM_HD void subtract_pair_power(const Vec3 (&fa)[4], const Vec3 (&fb)[4], const int (&na)[4], const int (&nb)[4],
+                                 const Vec3* v, const std::uint8_t* own_n, real& acc) {
+  for (int i = 0; i < 4; ++i) {
+    if (own_n[na[i]]) acc -= dot(fa[i], v[na[i]]);
+    if (own_n[nb[i]]) acc -= dot(fb[i], v[nb[i]]);
+  }
+}
+
+/// A pressure face's power: its force F (on each of its three nodes) dot their velocities,
+/// added to acc node by node, owned nodes only.
+FDEM_HD void add_face_power(Vec3 F, const int* face, const Vec3* v, const std::uint8_t* own_n, real& acc) {
+  for (int j = 0; j < 3; ++j)
+    if (own_n[face[j]]) acc += dot(F, v[face[j]]);
+}
+
 FDEM_HD void tet4_start(const Vec3* f, const int* q, int first, Vec3 (&fe)[4]) {
   for (int i = 0; i < 4; ++i) fe[i] = (first >> i & 1 ? Vec3{0, 0, 0} : f[q[i]]) + fe[i];
 }
@@ -400,10 +417,6 @@ class DeviceLoopImpl final : public DeviceLoop {
     const bool finish = advance_pending_;
     if (forces_pending_ && !finish) settle(s);
     const bool prev = forces_pending_;
-    if (prev) {
-      real* p = sums_.data();
-      Exec::forall(int(kBad), [=] FDEM_LAMBDA(int k) { p[kPrev + k] = p[k]; });
-    }
     const Model& m = s.model_;
     const Scene& scene = s.scene_;
     const int nn = int(x_.size());
@@ -416,7 +429,13 @@ class DeviceLoopImpl final : public DeviceLoop {
     const std::uint8_t* own_t = own_tet_.data();
     auto t0 = now();
     const bool lead = lead_pending_;  // the fused pass integrates the pending step first
-    clear_sums(0, lead ? kSums : kBad);
+    {  // One launch: the last evaluation's scalars kept at kPrev, then the slots cleared.
+      const int clear = lead ? kSums : kBad;
+      Exec::forall(clear, [=] FDEM_LAMBDA(int k) {
+        if (prev && k < kBad) sums[kPrev + k] = sums[k];
+        sums[k] = 0;
+      });
+    }
 
     // Gravity starts the sum; without it the TET4 pass assigns each node's first force (the
     // nodes it does not reach are zeroed here), so f is not written twice.
@@ -461,9 +480,20 @@ class DeviceLoopImpl final : public DeviceLoop {
       const int* vptr = vt_ptr_.data();
       const int* vtets = vt_tets_.data();
       std::uint8_t* active = active_.data();
-      Exec::template sum_to<1>(
-          nc,
+      // And in the same launch (indices nc on), the broad phase's watch: has a node of an active
+      // tet moved half the buffer? Both sums are counts, so exact in any order.
+      const int* wn = watch_nodes_.data();
+      const Vec3* wx = watch_x_.data();
+      const real lim2 = 0.25 * cs.buffer_ * cs.buffer_;
+      static_assert(kMoved == kAdded + 1, "the activation's and the watch's counts");
+      Exec::template sum_to<2>(
+          nc + int(watch_nodes_.size()),
           [=] FDEM_LAMBDA(int i, real* acc) {
+            if (i >= nc) {
+              const Vec3 d = x[wn[i - nc]] - wx[i - nc];
+              if (dot(d, d) > lim2) acc[1] += 1;
+              return;
+            }
             if (!broke[i]) return;
             broke[i] = 0;
             for (int a = 0; a < 3; ++a) {
@@ -473,17 +503,6 @@ class DeviceLoopImpl final : public DeviceLoop {
             }
           },
           sums + kAdded);
-      // The broad phase's watch: has a node of an active tet moved half the buffer?
-      const int* wn = watch_nodes_.data();
-      const Vec3* wx = watch_x_.data();
-      const real lim2 = 0.25 * cs.buffer_ * cs.buffer_;
-      Exec::template sum_to<1>(
-          int(watch_nodes_.size()),
-          [=] FDEM_LAMBDA(int i, real* acc) {
-            const Vec3 d = x[wn[i]] - wx[i];
-            if (dot(d, d) > lim2) acc[0] += 1;
-          },
-          sums + kMoved);
     } else {
       Exec::forall(nc, [=] FDEM_LAMBDA(int i) { broke[i] = 0; });
     }
@@ -528,49 +547,51 @@ class DeviceLoopImpl final : public DeviceLoop {
       Vec3* pf = pair_force_.data();
       Vec3* spring = spring_.data();
       const real P = cs.penalty_, mu_rock = cs.mu_, dt = s.dt_;
-      Exec::template sum_to<1>(
+      // One launch per pair: the narrow phase, friction, the pair's forces written once, and
+      // their power with the velocities now.
+      const std::uint8_t* own_n = own_node_.data();
+      static_assert(kConDiss == kTouching + 1 && kConStored == kTouching + 2 && kConPower == kTouching + 3,
+                    "the contact pass's sums");
+      Exec::template sum_to<4>(
           np,
           [=] FDEM_LAMBDA(int k, real* acc) {
             const ContactPair cp = pairs[k];
-            Vec3* fp = pf + 8 * k;
+            int na[4], nb[4];
+            for (int i = 0; i < 4; ++i) na[i] = tn[4 * cp.a + i], nb[i] = tn[4 * cp.b + i];
+            Vec3 fa[4], fb[4];  // the normal forces, then friction's added
             if (cp.joint >= 0 && !ce6_broken(st[slot[cp.joint]])) {
-              for (int i = 0; i < 8; ++i) fp[i] = Vec3{0, 0, 0};
+              for (int i = 0; i < 4; ++i) fa[i] = fb[i] = Vec3{0, 0, 0};
               ev[k] = ContactEval{{0, 0, 0}, {0, 0, 0}, 0};
-              return;
+              spring[k] = Vec3{0, 0, 0};
+            } else {
+              Vec3 xa[4], xb[4];
+              for (int i = 0; i < 4; ++i) xa[i] = x[na[i]], xb[i] = x[nb[i]];
+              const ContactEval e = contact_tet_pair(xa, xb, P, fa, fb);
+              ev[k] = e;
+              if (!(e.weight > 0)) {
+                spring[k] = Vec3{0, 0, 0};
+              } else {
+                if (own_t[cp.a]) acc[0] += 1;
+                Vec3 va[4], vb[4], ga[4], gb[4];
+                for (int i = 0; i < 4; ++i) {
+                  va[i] = v[na[i]], vb[i] = v[nb[i]];
+                  ga[i] = gb[i] = Vec3{0, 0, 0};
+                }
+                const real k_t = contact_tangential_stiffness(xa, xb, P);
+                const real d = contact_friction(xa, xb, va, vb, e, mu_rock, k_t, dt, spring[k], ga, gb);
+                if (own_t[cp.a]) {
+                  acc[1] += d;
+                  acc[2] += 0.5 * k_t * dot(spring[k], spring[k]);
+                }
+                for (int i = 0; i < 4; ++i) fa[i] += ga[i], fb[i] += gb[i];
+              }
             }
-            Vec3 xa[4], xb[4], fa[4], fb[4];
-            for (int i = 0; i < 4; ++i) xa[i] = x[tn[4 * cp.a + i]], xb[i] = x[tn[4 * cp.b + i]];
-            ev[k] = contact_tet_pair(xa, xb, P, fa, fb);
-            if (ev[k].weight > 0 && own_t[cp.a]) acc[0] += 1;
+            Vec3* fp = pf + 8 * k;
             for (int i = 0; i < 4; ++i) fp[i] = fa[i], fp[4 + i] = fb[i];
+            device_pass::subtract_pair_power(fa, fb, na, nb, v, own_n, acc[3]);
           },
           sums + kTouching);
       t0 = lap(t0, t_.narrow);
-      Exec::template sum_to<2>(
-          np,
-          [=] FDEM_LAMBDA(int k, real* acc) {
-            if (!(ev[k].weight > 0)) {
-              spring[k] = Vec3{0, 0, 0};
-              return;
-            }
-            const ContactPair cp = pairs[k];
-            Vec3 xa[4], xb[4], va[4], vb[4], fa[4], fb[4];
-            for (int i = 0; i < 4; ++i) {
-              const int na = tn[4 * cp.a + i], nb = tn[4 * cp.b + i];
-              xa[i] = x[na], xb[i] = x[nb], va[i] = v[na], vb[i] = v[nb];
-              fa[i] = fb[i] = Vec3{0, 0, 0};
-            }
-            const real k_t = contact_tangential_stiffness(xa, xb, P);
-            const real d = contact_friction(xa, xb, va, vb, ev[k], mu_rock, k_t, dt, spring[k], fa, fb);
-            if (own_t[cp.a]) {
-              acc[0] += d;
-              acc[1] += 0.5 * k_t * dot(spring[k], spring[k]);
-            }
-            Vec3* fp = pf + 8 * k;
-            for (int i = 0; i < 4; ++i) fp[i] += fa[i], fp[4 + i] += fb[i];
-          },
-          sums + kConDiss);
-      t0 = lap(t0, t_.friction);
       const int* gn = gather_node_.data();
       const int* gp = gather_ptr_.data();
       const int* gs = gather_slot_.data();
@@ -579,11 +600,10 @@ class DeviceLoopImpl final : public DeviceLoop {
         for (int j = gp[k]; j < gp[k + 1]; ++j) sum += pf[gs[j]];
         f[gn[k]] += sum;
       });
-      contact_power(v, sums + kConPower);
       t0 = lap(t0, t_.contact_sum);
-      cs.times.broad = t_.broad;  // the run's report reads the contact set's clocks
+      // The run's report reads the contact set's clocks (friction: in the narrow phase's pass).
+      cs.times.broad = t_.broad;
       cs.times.narrow = t_.narrow + t_.contact_sum;
-      cs.times.friction = t_.friction;
     }
 
     // Platens: each node against the nearer one.
@@ -631,22 +651,26 @@ class DeviceLoopImpl final : public DeviceLoop {
       const real area0 = m.area0;
       const int* lf = lat_faces_.data();
       Vec3* lforce = lat_force_.data();
-      Exec::forall(int(lat_force_.size()), [=] FDEM_LAMBDA(int i) {
-        real pr = p_set;
-        if (hydrostatic) {
-          const real axial = area0 > 0 ? 0.5 * (-sums[kTop] + sums[kBottom]) / area0 : 0;
-          pr = axial < 0 ? 0 : (axial < p_set ? axial : p_set);
-        }
-        const Vec3 ar = 0.5 * cross(x[lf[3 * i + 1]] - x[lf[3 * i]], x[lf[3 * i + 2]] - x[lf[3 * i]]);
-        lforce[i] = (-pr / 3) * ar;
-      });
+      const std::uint8_t* own_n = own_node_.data();
+      Exec::template sum_to<1>(  // each face's force, and its power with the velocities now
+          int(lat_force_.size()),
+          [=] FDEM_LAMBDA(int i, real* acc) {
+            real pr = p_set;
+            if (hydrostatic) {
+              const real axial = area0 > 0 ? 0.5 * (-sums[kTop] + sums[kBottom]) / area0 : 0;
+              pr = axial < 0 ? 0 : (axial < p_set ? axial : p_set);
+            }
+            const Vec3 ar = 0.5 * cross(x[lf[3 * i + 1]] - x[lf[3 * i]], x[lf[3 * i + 2]] - x[lf[3 * i]]);
+            lforce[i] = (-pr / 3) * ar;
+            device_pass::add_face_power(lforce[i], lf + 3 * i, v, own_n, acc[0]);
+          },
+          sums + kPressurePower);
       const int* ln = lat_node_.data();
       const int* lp = lat_ptr_.data();
       const int* lfa = lat_face_.data();
       Exec::forall(int(lat_node_.size()), [=] FDEM_LAMBDA(int k) {
         for (int j = lp[k]; j < lp[k + 1]; ++j) f[ln[k]] += lforce[lfa[j]];
       });
-      pressure_power(v, sums + kPressurePower);
     }
     // One rank: the scalars stay on the device until the next evaluation's first copy (or
     // settle()); several ranks read them here, summed over the ranks.
@@ -762,8 +786,7 @@ class DeviceLoopImpl final : public DeviceLoop {
   /// The powers of the last contact and pressure forces, and of gravity, with the velocities now
   /// (the work over a step with the mean of the velocities before and after it).
   void new_powers(bool contact, bool pressure, bool gravity) {
-    if (contact) contact_power(v_.data(), sums_.data() + kConPowerNew);
-    if (pressure) pressure_power(v_.data(), sums_.data() + kPressurePowerNew);
+    contact_pressure_powers(contact, pressure);
     if (!gravity) return;
     const Vec3 g = g_;
     const real* mass = mass_.data();
@@ -1619,37 +1642,37 @@ class DeviceLoopImpl final : public DeviceLoop {
     return r[0] > 0;
   }
 
-  /// -sum f.v of the last contact pair forces with velocities v (ContactSet::power), added to
-  /// out[0] in device memory.
-  void contact_power(const Vec3* v, real* out) {
+  /// The powers of the last contact pair forces (-sum f.v, ContactSet::power) and confining
+  /// pressure forces with the velocities now, added to kConPowerNew and kPressurePowerNew in
+  /// one launch (the pairs, then the faces).
+  void contact_pressure_powers(bool contact, bool pressure) {
+    const int np = contact ? int(pairs_.size()) : 0, nf = pressure ? int(lat_force_.size()) : 0;
+    const Vec3* v = v_.data();
     const int* tn = tet_nodes_.data();
     const ContactPair* pairs = pairs_.data();
     const Vec3* pf = pair_force_.data();
-    const std::uint8_t* own_n = own_node_.data();
-    Exec::template sum_to<1>(
-        int(pairs_.size()),
-        [=] FDEM_LAMBDA(int k, real* acc) {
-          const Vec3* fp = pf + 8 * k;
-          for (int i = 0; i < 4; ++i) {
-            const int na = tn[4 * pairs[k].a + i], nb = tn[4 * pairs[k].b + i];
-            if (own_n[na]) acc[0] -= dot(fp[i], v[na]);
-            if (own_n[nb]) acc[0] -= dot(fp[4 + i], v[nb]);
-          }
-        },
-        out);
-  }
-  /// The power of the confining pressure's last forces with velocities v, added to out[0].
-  void pressure_power(const Vec3* v, real* out) {
     const int* lf = lat_faces_.data();
     const Vec3* lforce = lat_force_.data();
     const std::uint8_t* own_n = own_node_.data();
-    Exec::template sum_to<1>(
-        int(lat_force_.size()),
-        [=] FDEM_LAMBDA(int i, real* acc) {
-          for (int j = 0; j < 3; ++j)
-            if (own_n[lf[3 * i + j]]) acc[0] += dot(lforce[i], v[lf[3 * i + j]]);
+    static_assert(kPressurePowerNew == kConPowerNew + 1, "the new powers' slots");
+    Exec::template sum_to<2>(
+        np + nf,
+        [=] FDEM_LAMBDA(int k, real* acc) {
+          if (k >= np) {
+            const int i = k - np;
+            device_pass::add_face_power(lforce[i], lf + 3 * i, v, own_n, acc[1]);
+            return;
+          }
+          const Vec3* fp = pf + 8 * k;
+          int na[4], nb[4];
+          Vec3 fa[4], fb[4];
+          for (int i = 0; i < 4; ++i) {
+            na[i] = tn[4 * pairs[k].a + i], nb[i] = tn[4 * pairs[k].b + i];
+            fa[i] = fp[i], fb[i] = fp[4 + i];
+          }
+          device_pass::subtract_pair_power(fa, fb, na, nb, v, own_n, acc[0]);
         },
-        out);
+        sums_.data() + kConPowerNew);
   }
 
  private:

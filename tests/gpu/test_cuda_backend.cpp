@@ -124,7 +124,7 @@ TEST(CudaBackend, TheDebugBackendCountsTheCopiesTheCudaBackendMakes) {
   // device::traffic() is the CUDA backend's count of its copies between host and device; the
   // debug backend counts the copies the CUDA backend would make, and the CI's traffic test
   // (test_backends: OnlyAFewScalarsCrossToTheHostBetweenMonitorRows) relies on that. The same
-  // steps and monitor rows on both: the same copies, bytes and largest copy.
+  // steps and monitor rows on both: the same copies, bytes, largest copy and launches.
   need_gpu();
   if (IsSkipped()) return;
   auto run = [](const char* backend) {
@@ -144,4 +144,6 @@ TEST(CudaBackend, TheDebugBackendCountsTheCopiesTheCudaBackendMakes) {
   EXPECT_EQ(d.to_device, c.to_device);
   EXPECT_EQ(d.device_bytes, c.device_bytes);
   EXPECT_EQ(d.largest_to_host, c.largest_to_host);
+  EXPECT_GT(c.launches, 300);
+  EXPECT_EQ(d.launches, c.launches);
 }

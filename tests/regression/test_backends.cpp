@@ -267,6 +267,14 @@ TEST(DebugBackend, OnlyAFewScalarsCrossToTheHostBetweenMonitorRows) {
   // One copy a step: the broad phase's decision after the CE6 pass, with the integration's sums
   // and the last force evaluation's scalars (platen reactions, powers) in the same copy.
   EXPECT_EQ(small.traffic.to_host, small.steps);
+  // Launches (a GPU spends microseconds on each, however small) do not grow with the model
+  // either. Where the fused pass integrates, a step with contact, platens and a confining
+  // pressure launches 9 passes: the sums' reset, the fused pass, the powers of the last
+  // contact and pressure forces with the new velocities, activation with the broad phase's
+  // watch, the contact pairs (narrow phase, friction and their power), their sum per node, the
+  // platens, the pressure's faces (with their power) and its sum per node.
+  EXPECT_EQ(small.traffic.launches, big.traffic.launches);
+  EXPECT_EQ(small.traffic.launches, 9 * small.steps);
   // Through fracture, activation and broad-phase rebuilds on the device: still a few hundred
   // bytes per step, none larger than one block of sums.
   const Seen frac = run(3, 4.0, 4000);
