@@ -21,7 +21,7 @@
 //    entry, node ids, X0^-1, V0, eta, assign mask; x and v of its 4 nodes read, f written, and
 //    read where the corner adds); CE6 colour by colour over slots in colour order (damage,
 //    node ids, h, own flag; x and v of its 6 nodes read, f read and written); activation (the
-//    break flags); integration (x, v, f, 1/m, own flag, m read; x, v written).
+//    break flags); integration (x, v, f, own flag, m read, 1/m divided; x, v written).
 //  fused (the device loop's default where every node is one tet's): one pass over the tets in
 //    index order: the TET4's arrays and its 4 nodes' x and v, then each CE6 on its faces in
 //    colour order (the tet's CE6 list; damage, node ids, h and own flag at the CE6's slot, the
@@ -30,13 +30,13 @@
 //    activation and integration as above. (The second copy of the damage and anchors is
 //    written only for damaged CE6s: none here.)
 //  fused with the integration (not built): the fused pass, each tet then moving its own 4 nodes
-//    (1/m, own flag, m read; x and v written to a second copy, as the other tets still read the
+//    (m read; x and v written to a second copy, as the other tets still read the
 //    old ones): no force array, no integration pass. Contact and platen forces, which a node's
 //    update would need first, are left out of this row altogether.
 //  fused, integrating the last step first (built: the device loop's default on one rank,
 //    DeviceLoop::integrates): each tet first moves its own 4 nodes by the last step
-//    (x, v, f, 1/m, m, own flag read; x and v written to the second copies), then its TET4 and
-//    CE6s, each CE6 moving its 6 nodes again from the first copies (x, v, f, 1/m);
+//    (x, v, f, m read; one rank: no own flag; x and v written to the second copies), then its
+//    TET4 and CE6s, each CE6 moving its 6 nodes again from the first copies (x, v, f, m);
 //    f written to its second copy. No integration pass; contact and platen forces are added to f
 //    after the pass as before. The rows with two copies read one and write the other by turns.
 // Not replayed (small before fracture): contact pairs, platens, the broad phase's watch list,
@@ -166,9 +166,9 @@ struct Array {
 
 /// The device loop's arrays, laid out one after the other (256-byte aligned).
 struct Layout {
-  Array x, v, f, inv_mass, mass, own_n, x2, v2, f2;  // nodes (x2, v2, f2: the second copies)
-  Array torder, tet_nodes, Xinv, V0, eta, assigns;   // tets
-  Array ce6_nodes, h, dmg, own_c, broke, tet_ce6;    // CE6 (and the fused pass's list)
+  Array x, v, f, mass, own_n, x2, v2, f2;           // nodes (x2, v2, f2: the second copies)
+  Array torder, tet_nodes, Xinv, V0, eta, assigns;  // tets
+  Array ce6_nodes, h, dmg, own_c, broke, tet_ce6;   // CE6 (and the fused pass's list)
   std::uint64_t end = 0;
   void place(Array& a, long n, std::uint64_t size) {
     a.base = end;
@@ -201,8 +201,6 @@ void replay(const Model& m, const Layout& L, Schedule sched, const std::vector<s
         c.access(xr.at(n), vec, false);
         c.access(vr.at(n), vec, false);
         c.access(fr.at(n), vec, false);
-        c.access(L.inv_mass.at(n), 8, false);
-        c.access(L.own_n.at(n), 1, false);
         c.access(L.mass.at(n), 8, false);
         c.access(xw.at(n), vec, true);
         c.access(vw.at(n), vec, true);
@@ -219,7 +217,7 @@ void replay(const Model& m, const Layout& L, Schedule sched, const std::vector<s
           c.access(xr.at(n), vec, false);
           c.access(vr.at(n), vec, false);
           c.access(fr.at(n), vec, false);
-          c.access(L.inv_mass.at(n), 8, false);
+          c.access(L.mass.at(n), 8, false);
         }
       }
       for (int n : q) c.access(fw.at(n), vec, true);
@@ -283,9 +281,7 @@ void replay(const Model& m, const Layout& L, Schedule sched, const std::vector<s
           c.access(L.f.at(n), vec, true);
           continue;
         }
-        c.access(L.inv_mass.at(n), 8, false);  // the node's new x and v into the other copy
-        c.access(L.own_n.at(n), 1, false);
-        c.access(L.mass.at(n), 8, false);
+        c.access(L.mass.at(n), 8, false);  // the node's new x and v into the other copy
         c.access(xw.at(n), vec, true);
         c.access(vw.at(n), vec, true);
       }
@@ -300,7 +296,6 @@ void replay(const Model& m, const Layout& L, Schedule sched, const std::vector<s
     c.access(L.x.at(n), vec, false);
     c.access(L.v.at(n), vec, false);
     c.access(L.f.at(n), vec, false);
-    c.access(L.inv_mass.at(n), 8, false);
     c.access(L.own_n.at(n), 1, false);
     c.access(L.mass.at(n), 8, false);
     c.access(L.x.at(n), vec, true);
@@ -361,7 +356,6 @@ int main(int argc, char** argv) {
                 [&](int a, int b) { return colour[a] < colour[b]; });
     Layout L;
     for (Array* a : {&L.x, &L.v, &L.f, &L.x2, &L.v2, &L.f2}) L.place(*a, nn, 24);
-    L.place(L.inv_mass, nn, 8);
     L.place(L.mass, nn, 8);
     L.place(L.own_n, nn, 1);
     L.place(L.torder, nt, 4);

@@ -112,12 +112,12 @@ FDEM_HD void ce6_element(const Ce6Params& p, const Vec3 (&xe)[6], const Vec3 (&v
 /// prescribed velocity), so that every tet that reads a node moves it to the same bits.
 struct NodeStep {
   const Vec3* f;
-  const real* inv_mass;
+  const real* mass;     // 1/m divided here: correctly rounded, so Solver::inv_mass_'s bits
   const int* fixed_of;  // per node: its place in the prescribed lists, or -1 (null: none)
   const int* fixed_mask;
   const Vec3* fixed_v;
   real dt;
-  FDEM_HD void move(int n, Vec3& x, Vec3& v) const { central_difference(x, v, f[n], inv_mass[n], dt); }
+  FDEM_HD void move(int n, Vec3& x, Vec3& v) const { central_difference(x, v, f[n], 1 / mass[n], dt); }
   FDEM_HD void prescribe(int n, Vec3& x, Vec3& v) const {
     const int i = fixed_of ? fixed_of[n] : -1;
     if (i < 0) return;
@@ -144,7 +144,7 @@ class DeviceLoopImpl final : public DeviceLoop {
     set(tet_nodes_, tet_order_, ce6_nodes_, ce6_slot_, platen_nodes_, fixed_node_, fixed_mask_, lat_faces_, lat_ptr_,
         lat_face_, lat_node_, node_vertex_, vt_ptr_, vt_tets_, watch_nodes_, gather_node_, gather_ptr_, gather_slot_,
         lateral_nodes_);
-    set(Xinv_, V0_, eta_, ce6_h_, mass_, inv_mass_, platen_k_, sums_);
+    set(Xinv_, V0_, eta_, ce6_h_, mass_, platen_k_, sums_);
     set(X_, plan_x_, x_, v_, f_, anchor_, fixed_v_, lat_force_, watch_x_, spring_, pair_force_);
     set(dmg_, slip_, ce6_model_, broke_, active_, mid_third_, own_node_, own_tet_, own_ce6_, tet_assigns_, unreached_,
         pairs_, eval_);
@@ -188,8 +188,7 @@ class DeviceLoopImpl final : public DeviceLoop {
       V0_.upload(m.tet_V0);
       eta_.upload(m.tet_eta);
       ce6_h_.upload(in_slots(m.ce6_h));
-      mass_.upload(m.mass);
-      inv_mass_.upload(s.inv_mass_);
+      mass_.upload(m.mass);  // (1/m: divided where needed, no array read for it)
       platen_nodes_.upload(m.platen_nodes);
       platen_k_.upload(s.platen_k_);
       node_vertex_.upload(m.node_vertex);
@@ -750,7 +749,6 @@ class DeviceLoopImpl final : public DeviceLoop {
     Vec3* x = x_.data();
     Vec3* v = v_.data();
     const Vec3* f = f_.data();
-    const real* inv_mass = inv_mass_.data();
     const real* mass = mass_.data();
     const std::uint8_t* own_n = own_node_.data();
     clear_sums(kBad, kSums);
@@ -758,7 +756,7 @@ class DeviceLoopImpl final : public DeviceLoop {
     Exec::template sum_to<5>(  // (acc[2], gravity's power: after the prescription, elsewhere)
         int(x_.size()),
         [=] FDEM_LAMBDA(int n, real* acc) {
-          central_difference(x[n], v[n], f[n], inv_mass[n], dt);  // ghosts too: overwritten below
+          central_difference(x[n], v[n], f[n], 1 / mass[n], dt);  // ghosts too: overwritten below
           if (!own_n[n]) return;
           acc[0] += !finite_value(v[n].x + v[n].y + v[n].z);
           acc[1] += mass[n] * dot(v[n], v[n]);
@@ -959,20 +957,21 @@ class DeviceLoopImpl final : public DeviceLoop {
       ce6 = ce6_coloured_ * 1.0 + e[0] * sizeof(Ce6Damage) + e[1] * (6 * sizeof(int) + sizeof(real) + 1 + 6 * 2 * vec) +
             e[2] * sizeof(Ce6Anchors) + k[1] * (sizeof(Ce6Damage) + sizeof(Ce6Anchors)) +
             (ce6_coloured_ - k[0]) * sizeof(Ce6Damage);
-      // Integrating, each side moves the CE6's 6 nodes: their f and 1/m read (and their place in
+      // Integrating, each side moves the CE6's 6 nodes: their f and m read (and their place in
       // the prescribed lists where there are some).
       if (integrates_) ce6 += e[1] * 6 * (vec + sizeof(real) + (fixed_of_.size() ? sizeof(int) : 0));
     }
-    // Contact pairs: pair, evaluation, spring, 8 forces written then read, 8 nodes' x and v.
+    // Contact pairs: pair, evaluation written, spring, 8 forces written (one pass with friction)
+    // and read (the gather), 8 nodes' x and v.
     const double con =
-        np * (sizeof(ContactPair) + 2 * sizeof(ContactEval) + 2 * vec + 16 * vec + 16 * vec + 8 * 4 * sizeof(int));
+        np * (sizeof(ContactPair) + sizeof(ContactEval) + 2 * vec + 16 * vec + 16 * vec + 8 * 4 * sizeof(int));
     // Gravity (f written from m and v) or the zeroing of the nodes no TET4 reaches; integration
-    // (x, v, f, 1/m, m) and the kinetic-energy sum.
+    // (x, v, f, m; 1/m divided) and the kinetic-energy sum.
     const double start = gravity_ ? nn * (vec + vec + sizeof(real)) : double(unreached_.size()) * (vec + sizeof(int));
-    // Where the fused pass integrates, each tet moves its own 4 nodes instead (f, 1/m, m and the
-    // own flag read, x and v written to the second copies; its place in the prescribed lists).
-    const double node = integrates_ ? nt * 4 * (3 * vec + 2 * sizeof(real) + 1 + (fixed_of_.size() ? sizeof(int) : 0))
-                                    : start + nn * (5 * vec + 2 * sizeof(real));
+    // Where the fused pass integrates, each tet moves its own 4 nodes instead (f and m read, x and
+    // v written to the second copies; its place in the prescribed lists).
+    const double node = integrates_ ? nt * 4 * (3 * vec + sizeof(real) + (fixed_of_.size() ? sizeof(int) : 0))
+                                    : start + nn * (5 * vec + sizeof(real));
     return tet + ce6 + con + node;
   }
 
@@ -1091,10 +1090,9 @@ class DeviceLoopImpl final : public DeviceLoop {
     Vec3* x_new = kLead ? x2_.data() : nullptr;
     Vec3* v_new = kLead ? v2_.data() : nullptr;
     const device_pass::NodeStep mover{
-        f_.data(),          inv_mass_.data(), fixed_of_.size() ? fixed_of_.data() : nullptr,
-        fixed_mask_.data(), fixed_v_.data(),  lead_dt_};
+        f_.data(),          mass_.data(),    fixed_of_.size() ? fixed_of_.data() : nullptr,
+        fixed_mask_.data(), fixed_v_.data(), lead_dt_};
     const real* mass = mass_.data();
-    const std::uint8_t* own_n = own_node_.data();
     const int* tn = tet_nodes_.data();
     const int* torder = tet_order_.data();
     const Mat3* Xinv = Xinv_.data();
@@ -1130,16 +1128,15 @@ class DeviceLoopImpl final : public DeviceLoop {
             const int n = q[i];
             xe[i] = x[n], ve[i] = v[n];
             if (kLead) {  // advance()'s sums: m v.v before the prescription, gravity's power after
+              // (one rank, make_device_loop: every node is owned, no flag to read)
               mover.move(n, xe[i], ve[i]);
-              if (own_n[n]) {
-                acc[6] += !finite_value(ve[i].x + ve[i].y + ve[i].z);
-                acc[7] += mass[n] * dot(ve[i], ve[i]);
-              }
+              acc[6] += !finite_value(ve[i].x + ve[i].y + ve[i].z);
+              acc[7] += mass[n] * dot(ve[i], ve[i]);
               mover.prescribe(n, xe[i], ve[i]);
               x_new[n] = xe[i], v_new[n] = ve[i];
               // The force starts with gravity (compute_forces' gravity pass), or at zero.
               start[i] = gravity ? mass[n] * g : Vec3{0, 0, 0};
-              if (gravity && own_n[n]) {
+              if (gravity) {
                 acc[0] += dot(start[i], ve[i]);
                 acc[8] += mass[n] * dot(g, ve[i]);
               }
@@ -1709,7 +1706,7 @@ class DeviceLoopImpl final : public DeviceLoop {
       lat_ptr_, lat_face_, lat_node_, node_vertex_, vt_ptr_, vt_tets_, watch_nodes_, gather_node_, gather_ptr_,
       gather_slot_, lateral_nodes_;
   DeviceArray<Mat3> Xinv_;
-  DeviceArray<real> V0_, eta_, ce6_h_, mass_, inv_mass_, platen_k_, sums_;
+  DeviceArray<real> V0_, eta_, ce6_h_, mass_, platen_k_, sums_;
   DeviceArray<Vec3> X_, plan_x_, x_, v_, f_, anchor_, fixed_v_, lat_force_, watch_x_, spring_, pair_force_;
   // CE6 arrays (nodes, h, damage, anchors, flags) are in slot order: slot k holds model CE6
   // ce6_perm_[k]; ce6_slot_ maps back.
