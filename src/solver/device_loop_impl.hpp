@@ -626,6 +626,14 @@ class DeviceLoopImpl final : public DeviceLoop {
     }
     t0 = lap(t0, t_.platens);
 
+    // Confining pressure (pressure_forces). A constant path's comes first, so that several ranks
+    // read its power with the rest below, one copy to the host; the hydrostatic path follows
+    // this evaluation's platen reactions, summed over the ranks there. Either way its forces
+    // add to f after the platens'.
+    const Confinement& cf = scene.confinement;
+    const bool follows = cf.enabled && s.hydrostatic_;
+    if (cf.enabled && !follows) pressure_forces(s, x, v, f);
+
     // Several ranks: the whole model's sums, as the CPU backend takes them (one reduction);
     // the platen reactions go back to the device for the hydrostatic pressure.
     const bool dist = s.dd_.distributed();
@@ -637,50 +645,53 @@ class DeviceLoopImpl final : public DeviceLoop {
       for (int k = 0; k < 9; ++k) vals[k] = reduced[whole[k]];
       s.sum(vals, 9);
       for (int k = 0; k < 9; ++k) reduced[whole[k]] = vals[k];
-      if (scene.confinement.enabled && s.hydrostatic_)  // the pressure below follows them
+      if (follows)  // the pressure below follows them
         device::to_device(b_, sums_.data() + kTop, &vals[0], 2 * sizeof(real));
     }
-
-    // Confining pressure, a follower load: -p a / 3 per node of each lateral face. On the
-    // hydrostatic path p follows this evaluation's platen reactions, read where they were summed.
-    const Confinement& cf = scene.confinement;
-    if (cf.enabled) {
-      const bool hydrostatic = s.hydrostatic_;
-      const real p_set = hydrostatic ? cf.pressure : ramped_speed(s.time_, cf.pressure, s.confine_ramp_);
-      const real area0 = m.area0;
-      const int* lf = lat_faces_.data();
-      Vec3* lforce = lat_force_.data();
-      const std::uint8_t* own_n = own_node_.data();
-      Exec::template sum_to<1>(  // each face's force, and its power with the velocities now
-          int(lat_force_.size()),
-          [=] FDEM_LAMBDA(int i, real* acc) {
-            real pr = p_set;
-            if (hydrostatic) {
-              const real axial = area0 > 0 ? 0.5 * (-sums[kTop] + sums[kBottom]) / area0 : 0;
-              pr = axial < 0 ? 0 : (axial < p_set ? axial : p_set);
-            }
-            const Vec3 ar = 0.5 * cross(x[lf[3 * i + 1]] - x[lf[3 * i]], x[lf[3 * i + 2]] - x[lf[3 * i]]);
-            lforce[i] = (-pr / 3) * ar;
-            device_pass::add_face_power(lforce[i], lf + 3 * i, v, own_n, acc[0]);
-          },
-          sums + kPressurePower);
-      const int* ln = lat_node_.data();
-      const int* lp = lat_ptr_.data();
-      const int* lfa = lat_face_.data();
-      Exec::forall(int(lat_node_.size()), [=] FDEM_LAMBDA(int k) {
-        for (int j = lp[k]; j < lp[k + 1]; ++j) f[ln[k]] += lforce[lfa[j]];
-      });
-    }
+    if (follows) pressure_forces(s, x, v, f);
     // One rank: the scalars stay on the device until the next evaluation's first copy (or
     // settle()); several ranks read them here, summed over the ranks.
-    if (dist) {  // the pressure's power is the one sum added since the read above
-      std::array<real, kBad> b = cf.enabled ? read_sums<kBad>() : reduced;
+    if (dist) {  // on the hydrostatic path the pressure's power is the one sum added since the read
+      std::array<real, kBad> b = follows ? read_sums<kBad>() : reduced;
       for (int k : whole) b[k] = reduced[k];
       apply_force_sums(s, b.data());
     } else {
       forces_pending_ = true;
     }
     lap(t0, t_.pressure);
+  }
+
+  /// Confining pressure, a follower load: -p a / 3 per node of each lateral face, added to f, and
+  /// its power with v into kPressurePower. On the hydrostatic path p follows the platen
+  /// reactions in sums_ (kTop, kBottom).
+  void pressure_forces(const Solver& s, const Vec3* x, const Vec3* v, Vec3* f) {
+    const Confinement& cf = s.scene_.confinement;
+    const bool hydrostatic = s.hydrostatic_;
+    const real p_set = hydrostatic ? cf.pressure : ramped_speed(s.time_, cf.pressure, s.confine_ramp_);
+    const real area0 = s.model_.area0;
+    real* sums = sums_.data();
+    const int* lf = lat_faces_.data();
+    Vec3* lforce = lat_force_.data();
+    const std::uint8_t* own_n = own_node_.data();
+    Exec::template sum_to<1>(  // each face's force, and its power with the velocities now
+        int(lat_force_.size()),
+        [=] FDEM_LAMBDA(int i, real* acc) {
+          real pr = p_set;
+          if (hydrostatic) {
+            const real axial = area0 > 0 ? 0.5 * (-sums[kTop] + sums[kBottom]) / area0 : 0;
+            pr = axial < 0 ? 0 : (axial < p_set ? axial : p_set);
+          }
+          const Vec3 ar = 0.5 * cross(x[lf[3 * i + 1]] - x[lf[3 * i]], x[lf[3 * i + 2]] - x[lf[3 * i]]);
+          lforce[i] = (-pr / 3) * ar;
+          device_pass::add_face_power(lforce[i], lf + 3 * i, v, own_n, acc[0]);
+        },
+        sums + kPressurePower);
+    const int* ln = lat_node_.data();
+    const int* lp = lat_ptr_.data();
+    const int* lfa = lat_face_.data();
+    Exec::forall(int(lat_node_.size()), [=] FDEM_LAMBDA(int k) {
+      for (int j = lp[k]; j < lp[k + 1]; ++j) f[ln[k]] += lforce[lfa[j]];
+    });
   }
 
   void settle(Solver& s) override {

@@ -740,12 +740,13 @@ int main(int argc, char** argv) {
 TEST(Ranks, DeviceLoopCopiesToTheHostAFewTimesAStep) {
   // Each copy between host and device waits for the device. On several ranks a step of the
   // device loop copies to the host: the broad phase's decision after the CE6 pass, the scalars
-  // summed over the ranks after the platens, the halo's send buffer and the integration's sums;
-  // with a confining pressure, its power too. To the device: the halo's receive buffer, and on
-  // the hydrostatic path the summed platen reactions the pressure follows. Activation flags are
-  // exchanged only on steps where a rank raised one (none here: elastic). Handing device buffers
-  // to MPI (FDEM_GPU_AWARE_MPI=1) leaves out the halo's two copies. One rank: one copy a step
-  // (DebugBackend.OnlyAFewScalarsCrossToTheHostBetweenMonitorRows).
+  // summed over the ranks after the platens (a constant confining pressure's power with them),
+  // the halo's send buffer and the integration's sums; with a hydrostatic confining pressure,
+  // which follows the summed reactions, its power too. To the device: the halo's receive
+  // buffer, and on the hydrostatic path the summed platen reactions the pressure follows.
+  // Activation flags are exchanged only on steps where a rank raised one (none here: elastic).
+  // Handing device buffers to MPI (FDEM_GPU_AWARE_MPI=1) leaves out the halo's two copies. One
+  // rank: one copy a step (DebugBackend.OnlyAFewScalarsCrossToTheHostBetweenMonitorRows).
   const bool several = world_size() > 1;
   for (const std::string path : {"none", "constant", "hydrostatic"})
     for (const bool direct : {false, true}) {
@@ -766,7 +767,7 @@ TEST(Ranks, DeviceLoopCopiesToTheHostAFewTimesAStep) {
       for (int i = 0; i < steps; ++i) d->step();
       const device::Traffic t = device::traffic();
       EXPECT_EQ(d->measure().damaged, 0) << "elastic";
-      const long to_host = !several ? 1 : 3 + (path != "none") + (direct ? 0 : 1);
+      const long to_host = !several ? 1 : 3 + (path == "hydrostatic") + (direct ? 0 : 1);
       const long to_device = !several ? 0 : (path == "hydrostatic") + (direct ? 0 : 1);
       EXPECT_EQ(t.to_host, to_host * steps) << path << (direct ? ", device buffers to MPI" : "");
       EXPECT_EQ(t.to_device, to_device * steps) << path << (direct ? ", device buffers to MPI" : "");
