@@ -74,7 +74,6 @@ FDEM_HD void tet4_element(const Vec3 (&xe)[4], const Vec3 (&ve)[4], const Mat3& 
   if (!(ev.J > 0)) acc[1] += 1;
   if (own) acc[0] += ev.viscous_power;
 }
-/// A TET4's first force at its corners: assigned where `first` has the corner's bit, else added.
 /// A contact pair's power: -f.v of its forces fa (on nodes na) and fb (on nb), subtracted from
 /// acc node by node, owned nodes only.
 FDEM_HD void subtract_pair_power(const Vec3 (&fa)[4], const Vec3 (&fb)[4], const int (&na)[4], const int (&nb)[4],
@@ -84,14 +83,13 @@ FDEM_HD void subtract_pair_power(const Vec3 (&fa)[4], const Vec3 (&fb)[4], const
     if (own_n[nb[i]]) acc -= dot(fb[i], v[nb[i]]);
   }
 }
-
 /// A pressure face's power: its force F (on each of its three nodes) dot their velocities,
 /// added to acc node by node, owned nodes only.
 FDEM_HD void add_face_power(Vec3 F, const int* face, const Vec3* v, const std::uint8_t* own_n, real& acc) {
   for (int j = 0; j < 3; ++j)
     if (own_n[face[j]]) acc += dot(F, v[face[j]]);
 }
-
+/// A TET4's first force at its corners: assigned where `first` has the corner's bit, else added.
 FDEM_HD void tet4_start(const Vec3* f, const int* q, int first, Vec3 (&fe)[4]) {
   for (int i = 0; i < 4; ++i) fe[i] = (first >> i & 1 ? Vec3{0, 0, 0} : f[q[i]]) + fe[i];
 }
@@ -374,8 +372,8 @@ class DeviceLoopImpl final : public DeviceLoop {
   // the last force evaluation's scalars (platen reactions, powers, slip: slots below kBad, moved
   // to kPrev before the new evaluation clears them) in the same copy. Several ranks read them
   // three times: after the CE6 pass, at the end of the forces (the sums over the ranks; once
-  // more after a confining pressure, for its power) and after the integration (the contact
-  // reach decides whether to gather ghosts before the next forces).
+  // more after a hydrostatic confining pressure, for its power) and after the integration (the
+  // contact reach decides whether to gather ghosts before the next forces).
   // [0, kBad): a force evaluation's sums, [kBad, kSums): an integration's. Gravity's and the
   // element passes' come last of the first, and the integration's kinetic energy and gravity
   // power first of the second, so that a fused pass that integrates sums into one run of slots
@@ -548,7 +546,6 @@ class DeviceLoopImpl final : public DeviceLoop {
       const real P = cs.penalty_, mu_rock = cs.mu_, dt = s.dt_;
       // One launch per pair: the narrow phase, friction, the pair's forces written once, and
       // their power with the velocities now.
-      const std::uint8_t* own_n = own_node_.data();
       static_assert(kConDiss == kTouching + 1 && kConStored == kTouching + 2 && kConPower == kTouching + 3,
                     "the contact pass's sums");
       Exec::template sum_to<4>(
@@ -972,10 +969,11 @@ class DeviceLoopImpl final : public DeviceLoop {
       // the prescribed lists where there are some).
       if (integrates_) ce6 += e[1] * 6 * (vec + sizeof(real) + (fixed_of_.size() ? sizeof(int) : 0));
     }
-    // Contact pairs: pair, evaluation written, spring, 8 forces written (one pass with friction)
-    // and read (the gather), 8 nodes' x and v.
-    const double con =
-        np * (sizeof(ContactPair) + sizeof(ContactEval) + 2 * vec + 16 * vec + 16 * vec + 8 * 4 * sizeof(int));
+    // Contact pairs: the pair, its evaluation written, its spring read and written, 8 node ids and
+    // the 8 nodes' x and v, 8 forces written (narrow phase and friction in one pass); the gather
+    // reads the forces; the new velocities' power reads the ids, forces and v again.
+    const double con = np * (sizeof(ContactPair) + sizeof(ContactEval) + 2 * vec + 2 * 8 * sizeof(int) + 16 * vec +
+                             8 * vec + 8 * vec + 16 * vec);
     // Gravity (f written from m and v) or the zeroing of the nodes no TET4 reaches; integration
     // (x, v, f, m; 1/m divided) and the kinetic-energy sum.
     const double start = gravity_ ? nn * (vec + vec + sizeof(real)) : double(unreached_.size()) * (vec + sizeof(int));
