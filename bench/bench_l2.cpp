@@ -20,14 +20,15 @@
 //  colour (the device loop, solver/device_loop_impl.hpp): TET4 in colour order (colour-order
 //    entry, node ids, X0^-1, V0, eta, assign mask; x and v of its 4 nodes read, f written, and
 //    read where the corner adds); CE6 colour by colour over slots in colour order (damage,
-//    node ids, h, own flag; x and v of its 6 nodes read, f read and written); activation (the
-//    break flags); integration (x, v, f, own flag, m read, 1/m divided; x, v written).
+//    node ids, h, own flag; x and v of its 6 nodes read, f read and written); integration (x,
+//    v, f, own flag, m read, 1/m divided; x, v written). Activation reads the break flags only
+//    on the evaluations where a CE6 broke: none here.
 //  fused (the device loop's default where every node is one tet's): one pass over the tets in
 //    index order: the TET4's arrays and its 4 nodes' x and v, then each CE6 on its faces in
 //    colour order (the tet's CE6 list; damage, node ids, h and own flag at the CE6's slot, the
 //    arrays being in colour order as above; the 6 nodes' x and v), every CE6 evaluated by both
 //    of its tets, each adding only to its own nodes; f written once, never read; then
-//    activation and integration as above. (The second copy of the damage and anchors is
+//    integration as above. (The second copy of the damage and anchors is
 //    written only for damaged CE6s: none here.)
 //  fused with the integration (not built): the fused pass, each tet then moving its own 4 nodes
 //    (m read; x and v written to a second copy, as the other tets still read the
@@ -222,7 +223,6 @@ void replay(const Model& m, const Layout& L, Schedule sched, const std::vector<s
       }
       for (int n : q) c.access(fw.at(n), vec, true);
     }
-    for (long i = 0; i < nc; ++i) c.access(L.broke.at(i), 1, false);  // activation
     return;
   }
   if (sched == Schedule::colour) {
@@ -286,13 +286,9 @@ void replay(const Model& m, const Layout& L, Schedule sched, const std::vector<s
         c.access(vw.at(n), vec, true);
       }
     }
-    if (integrated) {
-      for (long i = 0; i < nc; ++i) c.access(L.broke.at(i), 1, false);  // activation
-      return;
-    }
+    if (integrated) return;
   }
-  for (long i = 0; i < nc; ++i) c.access(L.broke.at(i), 1, false);  // activation
-  for (long n = 0; n < nn; ++n) {                                   // integration
+  for (long n = 0; n < nn; ++n) {  // integration
     c.access(L.x.at(n), vec, false);
     c.access(L.v.at(n), vec, false);
     c.access(L.f.at(n), vec, false);

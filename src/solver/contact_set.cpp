@@ -260,7 +260,8 @@ real ContactSet::power(const Model& m, const std::vector<Vec3>& v) const {
 }
 
 ContactPower ContactSet::add_forces(const Model& m, const std::vector<Vec3>& x, const std::vector<Vec3>& v,
-                                    const std::vector<Ce6State>& ce6, real dt, std::vector<Vec3>& f) {
+                                    const std::vector<Ce6State>& ce6, const std::vector<std::uint8_t>& fresh, real dt,
+                                    std::vector<Vec3>& f) {
   ContactPower out;
   if (!enabled_) return out;
   double t0 = omp_get_wtime();
@@ -274,7 +275,7 @@ ContactPower ContactSet::add_forces(const Model& m, const std::vector<Vec3>& x, 
   for (int p = 0; p < np; ++p) {
     const ContactPair& cp = pairs_[p];
     Vec3* fp = &pair_force_[8 * p];
-    if (cp.joint >= 0 && !ce6_broken(ce6[cp.joint])) {
+    if (cp.joint >= 0 && (!ce6_broken(ce6[cp.joint]) || fresh[cp.joint])) {
       for (int i = 0; i < 8; ++i) fp[i] = Vec3{0, 0, 0};
       eval_[p] = ContactEval{{0, 0, 0}, {0, 0, 0}, 0};
       continue;

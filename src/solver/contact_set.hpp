@@ -47,9 +47,12 @@ class ContactSet {
   /// Flags the vicinity of CE6 `c` (every tet sharing a vertex of its face). Returns the
   /// number of tets newly activated.
   long activate_ce6(const Model& m, int c);
-  /// Adds the contact forces to f and returns their work rates.
+  /// Adds the contact forces to f and returns their work rates. A pair of tets joined by a CE6
+  /// touches only once the CE6 is broken and was so before this evaluation (`fresh[c]`: CE6 c
+  /// broke in it), so a face is held by its CE6 or by contact, never by both on one step.
   ContactPower add_forces(const Model& m, const std::vector<Vec3>& x, const std::vector<Vec3>& v,
-                          const std::vector<Ce6State>& ce6, real dt, std::vector<Vec3>& f);
+                          const std::vector<Ce6State>& ce6, const std::vector<std::uint8_t>& fresh, real dt,
+                          std::vector<Vec3>& f);
 
   /// -sum f.v of the forces of the last evaluation with velocities v (W). With the velocities
   /// before and after a step, the mean of the two rates times dt is the work done exactly by
@@ -90,6 +93,8 @@ class ContactSet {
   long pair_count() const { return long(pairs_.size()); }
   real buffer() const { return buffer_; }
   const std::vector<ContactPair>& pairs() const { return pairs_; }
+  /// The last evaluation's forces of each pair (8: a's nodes, then b's; N), for tests.
+  const std::vector<Vec3>& pair_forces() const { return pair_force_; }
   const BroadPhaseStats& last_build() const { return stats_; }
   ContactTimes times;
 

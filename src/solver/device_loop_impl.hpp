@@ -467,41 +467,20 @@ class DeviceLoopImpl final : public DeviceLoop {
     std::uint8_t* broke = broke_.data();
     const Ce6Damage* st = dmg_.data();  // after the fused pass: the copy it wrote
 
-    // Adaptive activation: the vicinity of each CE6 that broke on this step (every tet sharing a
-    // vertex of its face); a pass over the flags every step, so the host need not know first.
-    // Flags only rise, so concurrent writes of 1 agree.
+    // The broad phase's watch: has a node of an active tet moved half the buffer? (A count.)
     const int nc = int(dmg_.size());
     ContactSet& cs = s.contacts;
     if (cs.enabled()) {
-      const int* nv = node_vertex_.data();
-      const int* vptr = vt_ptr_.data();
-      const int* vtets = vt_tets_.data();
-      std::uint8_t* active = active_.data();
-      // And in the same launch (indices nc on), the broad phase's watch: has a node of an active
-      // tet moved half the buffer? Both sums are counts, so exact in any order.
       const int* wn = watch_nodes_.data();
       const Vec3* wx = watch_x_.data();
       const real lim2 = 0.25 * cs.buffer_ * cs.buffer_;
-      static_assert(kMoved == kAdded + 1, "the activation's and the watch's counts");
-      Exec::template sum_to<2>(
-          nc + int(watch_nodes_.size()),
+      Exec::template sum_to<1>(
+          int(watch_nodes_.size()),
           [=] FDEM_LAMBDA(int i, real* acc) {
-            if (i >= nc) {
-              const Vec3 d = x[wn[i - nc]] - wx[i - nc];
-              if (dot(d, d) > lim2) acc[1] += 1;
-              return;
-            }
-            if (!broke[i]) return;
-            broke[i] = 0;
-            for (int a = 0; a < 3; ++a) {
-              const int vtx = nv[cn[6 * i + a]];
-              for (int k = vptr[vtx]; k < vptr[vtx + 1]; ++k)
-                if (!active[vtets[k]]) active[vtets[k]] = 1, acc[0] += 1;
-            }
+            const Vec3 d = x[wn[i]] - wx[i];
+            if (dot(d, d) > lim2) acc[0] += 1;
           },
-          sums + kAdded);
-    } else {
-      Exec::forall(nc, [=] FDEM_LAMBDA(int i) { broke[i] = 0; });
+          sums + kMoved);
     }
     const std::array<real, kAll> a = read_sums<kAll>();
     if (finish) {  // the step that led here: its bookkeeping, checks and clock (may throw)
@@ -521,7 +500,8 @@ class DeviceLoopImpl final : public DeviceLoop {
     // flag since the last merge (or took flags from its host): one number summed over the ranks
     // instead of the flags' exchange and its three copies, on the steps (most) that raise none.
     if (s.halo_ && cs.enabled()) {
-      real raised = a[kAdded] + (flags_merged_ ? 0 : 1);
+      real raised = (raised_ ? 1 : 0) + (flags_merged_ ? 0 : 1);
+      raised_ = false;
       s.sum(&raised, 1);
       if (raised > 0 && merge_flags(s)) cs.dirty_ = true;
       flags_merged_ = true;
@@ -530,7 +510,6 @@ class DeviceLoopImpl final : public DeviceLoop {
     // Tet-tet contact: the candidate list rebuilt on the device when flags changed or a node
     // moved half the buffer; narrow phase, friction and the deterministic per-node sum.
     if (cs.enabled()) {
-      if (a[kAdded] > 0) cs.dirty_ = true;
       if (cs.dirty_ || a[kMoved] > 0) {
         rebuild_pairs(s);
         ++t_.rebuilds;
@@ -555,7 +534,8 @@ class DeviceLoopImpl final : public DeviceLoop {
             int na[4], nb[4];
             for (int i = 0; i < 4; ++i) na[i] = tn[4 * cp.a + i], nb[i] = tn[4 * cp.b + i];
             Vec3 fa[4], fb[4];  // the normal forces, then friction's added
-            if (cp.joint >= 0 && !ce6_broken(st[slot[cp.joint]])) {
+            // A joint broken in this evaluation (its flag still up) still holds its faces.
+            if (cp.joint >= 0 && (!ce6_broken(st[slot[cp.joint]]) || broke[slot[cp.joint]])) {
               for (int i = 0; i < 4; ++i) fa[i] = fb[i] = Vec3{0, 0, 0};
               ev[k] = ContactEval{{0, 0, 0}, {0, 0, 0}, 0};
               spring[k] = Vec3{0, 0, 0};
@@ -601,6 +581,32 @@ class DeviceLoopImpl final : public DeviceLoop {
       cs.times.broad = t_.broad;
       cs.times.narrow = t_.narrow + t_.contact_sum;
     }
+
+    // Adaptive activation, on the evaluations where a CE6 broke: the vicinity of each (every tet
+    // sharing a vertex of its face) joins the contact candidates for the next evaluation's
+    // contact (its count, kAdded, marks the set dirty with this evaluation's sums), and the
+    // flags go down. Flags only rise, so concurrent writes of 1 agree.
+    if (a[kBreaks] > 0) {
+      const bool activate = cs.enabled();
+      const int* nv = node_vertex_.data();
+      const int* vptr = vt_ptr_.data();
+      const int* vtets = vt_tets_.data();
+      std::uint8_t* active = active_.data();
+      Exec::template sum_to<1>(
+          nc,
+          [=] FDEM_LAMBDA(int i, real* acc) {
+            if (!broke[i]) return;
+            broke[i] = 0;
+            if (!activate) return;
+            for (int j = 0; j < 3; ++j) {
+              const int vtx = nv[cn[6 * i + j]];
+              for (int k = vptr[vtx]; k < vptr[vtx + 1]; ++k)
+                if (!active[vtets[k]]) active[vtets[k]] = 1, acc[0] += 1;
+            }
+          },
+          sums + kAdded);
+    }
+    t0 = lap(t0, t_.activation);
 
     // Platens: each node against the nearer one.
     if (scene.platens.enabled) {
@@ -703,6 +709,7 @@ class DeviceLoopImpl final : public DeviceLoop {
   /// The Solver's bookkeeping of a force evaluation from its sums (b: slots [0, kBad)).
   void apply_force_sums(Solver& s, const real* b) {
     forces_pending_ = false;
+    if (b[kAdded] > 0) s.contacts.dirty_ = raised_ = true;  // for the next evaluation's contact
     const Confinement& cf = s.scene_.confinement;
     s.p_contact_ = b[kConPower];
     s.w_contact_slip_ += b[kConDiss];
@@ -937,7 +944,7 @@ class DeviceLoopImpl final : public DeviceLoop {
     const double tet = nt * (5 * sizeof(int) + sizeof(Mat3) + 2 * sizeof(real) + 1 + 3 * 4 * vec) + read_f * vec +
                        (fused_ ? nt * 4 * sizeof(int) : 0);
     // CE6 (those this rank computes, in the state as it is now): connectivity, h, damage and the
-    // own flag read, the break flag read by activation; where it carries force, x and v of 6
+    // own flag read (the break flags: read by activation only where one broke); where it carries force, x and v of 6
     // nodes read and f read and written; where damaged (or broken and carrying force), the
     // damage written (an upper bound: only when it rises) and the anchors read and written.
     const Ce6Damage* st = dmg_.data();
@@ -947,14 +954,14 @@ class DeviceLoopImpl final : public DeviceLoop {
       acc[0] += carries;
       acc[1] += carries && ce6_max_damage(st[i]) > 0;
     });
-    double ce6 = ce6_coloured_ * (6 * sizeof(int) + sizeof(real) + sizeof(Ce6Damage) + 2) + k[0] * 6 * 4 * vec +
+    double ce6 = ce6_coloured_ * (6 * sizeof(int) + sizeof(real) + sizeof(Ce6Damage) + 1) + k[0] * 6 * 4 * vec +
                  k[1] * (sizeof(Ce6Damage) + 2 * sizeof(Ce6Anchors));
     if (fused_) {
       // Fused, each side that computes the CE6: its damage read; where it carries force, the
       // connectivity, h, own flag and 6 nodes' x and v read (its forces go to the tet's own
       // nodes in registers: f is the TET4's write above), and where damaged the anchors read and,
       // by the writer side, damage and anchors written; where not (broken, inert), the writer
-      // reads the other copy's damage. The break flags, read by activation.
+      // reads the other copy's damage.
       const std::uint8_t* sides = ce6_sides_.data();
       const auto e = Exec::template sum<3>(ce6_coloured_, [=] FDEM_LAMBDA(int i, real* acc) {
         const bool carries = ce6_carries_force(p, st[i]);
@@ -962,7 +969,7 @@ class DeviceLoopImpl final : public DeviceLoop {
         acc[1] += carries ? sides[i] : 0;
         acc[2] += carries && ce6_max_damage(st[i]) > 0 ? sides[i] : 0;
       });
-      ce6 = ce6_coloured_ * 1.0 + e[0] * sizeof(Ce6Damage) + e[1] * (6 * sizeof(int) + sizeof(real) + 1 + 6 * 2 * vec) +
+      ce6 = e[0] * sizeof(Ce6Damage) + e[1] * (6 * sizeof(int) + sizeof(real) + 1 + 6 * 2 * vec) +
             e[2] * sizeof(Ce6Anchors) + k[1] * (sizeof(Ce6Damage) + sizeof(Ce6Anchors)) +
             (ce6_coloured_ - k[0]) * sizeof(Ce6Damage);
       // Integrating, each side moves the CE6's 6 nodes: their f and m read (and their place in
@@ -1708,6 +1715,7 @@ class DeviceLoopImpl final : public DeviceLoop {
   std::vector<int> recv_range_;  // neighbour i's entries of the receive index lists: [i], [i+1]
   long shared_active_ = -1;      // active flags among the shared tets at the last merge
   bool flags_merged_ = false;    // false from an upload of the host's flags to the next merge
+  bool raised_ = false;          // several ranks: this rank activated tets in the last evaluation
   DeviceArray<ContactPair> next_pairs_;
   DeviceArray<Vec3> next_spring_;
   DeviceTimes t_;

@@ -368,18 +368,8 @@ void Solver::compute_forces() {
       if (!was_broken && ce6_broken(ce6[i])) ce6_broke_[i] = 1, ++breaks;
     }
   }
-  // Adaptive activation: the vicinity of each CE6 that broke on this step joins the contact
-  // candidates (at once, so the faces it freed are in contact on the same step).
-  if (breaks > 0) {
-    const int nc = int(ce6_broke_.size());
-    for (int i = 0; i < nc; ++i)
-      if (ce6_broke_[i]) {
-        ce6_broke_[i] = 0;
-        contacts.activate_ce6(m, i);
-      }
-  }
-  // A flag raised on any rank holding a tet reaches every other rank holding it, before the
-  // broad phase looks at the flags.
+  // A flag raised on any rank holding a tet (by the last evaluation's breaks, below) reaches
+  // every other rank holding it, before the broad phase looks at the flags.
   if (halo_ && contacts.enabled()) {
     if (halo_->merge_flags(contacts.active_flags())) contacts.flags_changed();
     // Ghost tets that became contact candidates: their nodes from their owners, now.
@@ -389,11 +379,23 @@ void Solver::compute_forces() {
       halo_seconds_ += MPI_Wtime() - t0;
     }
   }
-  const ContactPower cp = contacts.add_forces(m, x, v, ce6, dt_, f);
+  // A CE6 that broke in this evaluation still holds its faces in it (its law gave them their
+  // forces): contact takes them over from the next evaluation on.
+  const ContactPower cp = contacts.add_forces(m, x, v, ce6, ce6_broke_, dt_, f);
   p_contact_ = cp.power;
   w_contact_slip_ += cp.dissipated;
   contact_spring_ = cp.spring_energy;
   touching_ = cp.touching;
+  // Adaptive activation: the vicinity of each CE6 that broke in this evaluation joins the
+  // contact candidates, for the next evaluation's contact.
+  if (breaks > 0) {
+    const int nc = int(ce6_broke_.size());
+    for (int i = 0; i < nc; ++i)
+      if (ce6_broke_[i]) {
+        ce6_broke_[i] = 0;
+        contacts.activate_ce6(m, i);
+      }
+  }
 
   real ftop = 0, fbot = 0, dfric = 0;
   if (scene_.platens.enabled) {

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <memory>
 
 #include "model/structured.hpp"
 #include "support.hpp"
@@ -208,26 +209,35 @@ TEST(ContactBlocks, CohesiveFacesOnARegionBorderAreCandidatesToo) {
 
 namespace {
 
-void bar_halves(const std::string& activation) {
-  // A 2x2x2-cell bar of height 2h with CE6s only on its mid-plane z = h (the region holds just
-  // the tets with a face on that plane). Pulled apart until the mid-plane breaks, then pushed
-  // back together.
+/// A 2x2x2-cell bar of height 2h (h = 0.01 m) with CE6s only on its mid-plane z = h (the region
+/// holds just the tets with a face on that plane), platens off. `mid`: the CE6s on the plane
+/// (8: 2 triangles per cell); the region's inner faces get CE6s whose node pairs are single
+/// nodes (joined to the continuous halves), which never open.
+std::unique_ptr<Solver> mid_plane_bar(const std::string& activation, std::vector<int>& mid) {
   const real h = 0.01;
   Scene scene = test::test_scene();
   scene.platens.enabled = false;
   scene.contact.activation = activation;
   scene.fracture.everywhere = false;
   scene.fracture.boxes.push_back({{-1, -1, h - 0.3 * h / 2}, {1, 1, h + 0.3 * h / 2}});
-  Solver s(scene, build_model(structured_box_mesh({h, h, 2 * h}, 2, 2, 4), scene));
-  const Model& m = s.model();
-  // The mid-plane carries 8 CE6s (2 triangles per cell); the region's inner faces get CE6s
-  // whose node pairs are single nodes (joined to the continuous halves), which never open.
-  std::vector<int> mid_ce6;
+  auto s = std::make_unique<Solver>(scene, build_model(structured_box_mesh({h, h, 2 * h}, 2, 2, 4), scene));
+  const Model& m = s->model();
+  mid.clear();
   for (std::size_t c = 0; c < m.ce6_nodes.size(); ++c) {
     bool on_plane = true;
     for (int i = 0; i < 3; ++i) on_plane = on_plane && std::fabs(m.X[m.ce6_nodes[c][i]].z - h) < 1e-9;
-    if (on_plane) mid_ce6.push_back(int(c));
+    if (on_plane) mid.push_back(int(c));
   }
+  return s;
+}
+
+void bar_halves(const std::string& activation) {
+  // The mid-plane bar pulled apart until the mid-plane breaks, then pushed back together.
+  const real h = 0.01;
+  std::vector<int> mid_ce6;
+  const auto bar = mid_plane_bar(activation, mid_ce6);
+  Solver& s = *bar;
+  const Model& m = s.model();
   ASSERT_EQ(mid_ce6.size(), 8u) << "expected 8 CE6s on the mid-plane";
   auto mid_broken = [&] {
     int k = 0;
@@ -311,4 +321,69 @@ TEST(ContactBlocks, BarHalvesTouchOnlyThroughContactOnceBrokenAdaptive) {
 // "no contact force while the CE6s are intact" is a real check here.
 TEST(ContactBlocks, BarHalvesTouchOnlyThroughContactOnceBrokenFull) {
   bar_halves("full");
+}
+
+namespace {
+
+/// The mid-plane bar, its base held and its top driven sideways while pressed down, so the
+/// mid-plane breaks in shear under compression. Step by step: a CE6 that breaks holds its faces in that evaluation (its
+/// law's overlap penalty and friction), and its tets' contact pair carries no force there; from the next evaluation on
+/// contact holds them (the CE6 none). Returns the number of CE6s whose pair carried force on the evaluation after their
+/// break.
+int shear_break_handover(const std::string& activation) {
+  const real h = 0.01;
+  std::vector<int> mid;
+  const auto bar = mid_plane_bar(activation, mid);
+  Solver& s = *bar;
+  const Model& m = s.model();
+  EXPECT_EQ(mid.size(), 8u);
+  for (std::size_t n = 0; n < m.X.size(); ++n) {
+    if (m.X[n].z > 2 * h - 1e-9) s.prescribe(int(n), 7, {0.5, 0, -0.05});
+    if (m.X[n].z < 1e-9) s.prescribe(int(n), 7, {0, 0, 0});
+  }
+  // The force a pair joined by CE6 c carried in the last evaluation (0 when no such pair).
+  auto joint_force = [&](int c) {
+    real sum = 0;
+    const auto& pairs = s.contacts.pairs();
+    for (std::size_t p = 0; p < pairs.size(); ++p)
+      if (pairs[p].joint == c)
+        for (int i = 0; i < 8; ++i) sum += norm(s.contacts.pair_forces()[8 * p + i]);
+    return sum;
+  };
+  std::vector<char> broken(mid.size(), 0);
+  std::vector<long> broke_at(mid.size(), -1);
+  int handed_over = 0, breaks = 0;
+  for (long step = 0; step < 400000 && breaks < 8; ++step) {
+    s.step();
+    for (std::size_t k = 0; k < mid.size(); ++k) {
+      const int c = mid[k];
+      if (broke_at[k] >= 0 && s.step_count() == broke_at[k] + 1) {
+        EXPECT_FALSE(ce6_carries_force(s.ce6_params(), s.ce6[c])) << "CE6 #" << c;
+        handed_over += joint_force(c) > 0;
+      }
+      if (broken[k] || !ce6_broken(s.ce6[c])) continue;
+      broken[k] = 1, ++breaks;
+      broke_at[k] = s.step_count();
+      EXPECT_EQ(joint_force(c), 0) << "CE6 #" << c << " broke at step " << s.step_count()
+                                   << ": contact held its faces in the same evaluation as the CE6";
+    }
+  }
+  EXPECT_EQ(breaks, 8) << "the mid-plane did not break";
+  s.step();  // the evaluation after the last break
+  for (std::size_t k = 0; k < mid.size(); ++k)
+    if (s.step_count() == broke_at[k] + 1) handed_over += joint_force(mid[k]) > 0;
+  return handed_over;
+}
+
+}  // namespace
+
+// Full activation: the pairs across the mid-plane are candidates throughout, so the check that
+// a breaking CE6's pair carries nothing on its break is a real one.
+TEST(ContactBlocks, ABreakingCe6HandsItsFacesToContactOnTheNextEvaluationFull) {
+  EXPECT_GT(shear_break_handover("full"), 0) << "no CE6 broke pressed together";
+}
+
+// Adaptive: the vicinity joins the candidates after the break, in time for the next evaluation.
+TEST(ContactBlocks, ABreakingCe6HandsItsFacesToContactOnTheNextEvaluationAdaptive) {
+  EXPECT_GT(shear_break_handover("adaptive"), 0) << "no CE6 broke pressed together";
 }
