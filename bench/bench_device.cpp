@@ -82,7 +82,7 @@ struct Row {
   double launches = 0;                           // device passes per step (kernels; device::traffic)
   double host_bytes = 0;                         // peak resident memory over the size's start
   double setup_s = 0;                            // mesh, model and Solver built on the host
-  std::string schedule;                          // the element passes: fused+integration, fused or colour
+  std::string schedule;                          // the element passes: fused+step, fused or colour
   DeviceTimes pass;
 };
 
@@ -198,7 +198,7 @@ int main(int argc, char** argv) {
       solver.sync_host();
       device::synchronize(b);
       Row r;
-      r.schedule = dev->integrates() ? "fused+integration" : dev->fused() ? "fused" : "colour";
+      r.schedule = dev->integrates() ? "fused+step" : dev->fused() ? "fused" : "colour";
       r.tets = long(solver.model().tet_nodes.size());
       r.ce6 = long(solver.model().ce6_nodes.size());
       r.nodes = long(solver.model().X.size());

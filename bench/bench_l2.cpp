@@ -1,7 +1,6 @@
 // bench_l2: the memory traffic of one step of the device loop, simulated through a GPU's
-// last-level cache, for the loop's two schedules of its element passes (colour by colour, and
-// fused, and fused with the integration of the last step first) and for a fused pass that
-// integrates its own step (not built): design questions for the GPU.
+// last-level cache, for the loop's schedules of its element passes (colour by colour, fused,
+// and fused with the step): design questions for the GPU.
 //
 // Why: DeviceLoop::bytes_per_step (bench_device's floor) counts node data once per element
 // corner, as if the cache kept nothing between two reads of a node; the compulsory traffic
@@ -23,23 +22,17 @@
 //    node ids, h, own flag; x and v of its 6 nodes read, f read and written); integration (x,
 //    v, f, own flag, m read, 1/m divided; x, v written). Activation reads the break flags only
 //    on the evaluations where a CE6 broke: none here.
-//  fused (the device loop's default where every node is one tet's): one pass over the tets in
-//    index order: the TET4's arrays and its 4 nodes' x and v, then each CE6 on its faces in
-//    colour order (the tet's CE6 list; damage, node ids, h and own flag at the CE6's slot, the
-//    arrays being in colour order as above; the 6 nodes' x and v), every CE6 evaluated by both
-//    of its tets, each adding only to its own nodes; f written once, never read; then
-//    integration as above. (The second copy of the damage and anchors is
-//    written only for damaged CE6s: none here.)
-//  fused with the integration (not built): the fused pass, each tet then moving its own 4 nodes
-//    (m read; x and v written to a second copy, as the other tets still read the
-//    old ones): no force array, no integration pass. Contact and platen forces, which a node's
-//    update would need first, are left out of this row altogether.
-//  fused, integrating the last step first (built: the device loop's default on one rank,
-//    DeviceLoop::integrates): each tet first moves its own 4 nodes by the last step
-//    (x, v, f, m read; one rank: no own flag; x and v written to the second copies), then its
-//    TET4 and CE6s, each CE6 moving its 6 nodes again from the first copies (x, v, f, m);
-//    f written to its second copy. No integration pass; contact and platen forces are added to f
-//    after the pass as before. The rows with two copies read one and write the other by turns.
+//  fused (FDEM_DEVICE_SCHEDULE=fused): one pass over the tets in index order: the TET4's arrays
+//    and its 4 nodes' x and v, then each CE6 on its faces in colour order (the tet's CE6 list;
+//    damage, node ids, h and own flag at the CE6's slot, the arrays being in colour order as
+//    above; the 6 nodes' x and v), every CE6 evaluated by both of its tets, each adding only to
+//    its own nodes; f written once, never read; then integration as above. (The second copy of
+//    the damage and anchors is written only for damaged CE6s: none here.)
+//  fused+step (the device loop's default on one rank where every node is one tet's,
+//    DeviceLoop::integrates): the fused pass, each tet also reading its flag of forces held for
+//    it (contact, platens, pressure: none read here) and then moving its own 4 nodes (m read;
+//    x and v written to the second copies, as the other tets still read the first ones, by
+//    turns from step to step): no force array, no integration pass.
 // Not replayed (small before fracture): contact pairs, platens, the broad phase's watch list,
 // the reductions' sums. Cache size 0 counts every access as a miss: the per-reference count
 // at sector granularity, comparable with DeviceLoop::bytes_per_step.
@@ -167,9 +160,10 @@ struct Array {
 
 /// The device loop's arrays, laid out one after the other (256-byte aligned).
 struct Layout {
-  Array x, v, f, mass, own_n, x2, v2, f2;           // nodes (x2, v2, f2: the second copies)
+  Array x, v, f, mass, own_n, x2, v2;               // nodes (x2, v2: the second copies)
   Array torder, tet_nodes, Xinv, V0, eta, assigns;  // tets
   Array ce6_nodes, h, dmg, own_c, broke, tet_ce6;   // CE6 (and the fused pass's list)
+  Array ext;                                        // per tet: forces held for the pass
   std::uint64_t end = 0;
   void place(Array& a, long n, std::uint64_t size) {
     a.base = end;
@@ -178,7 +172,7 @@ struct Layout {
   }
 };
 
-enum class Schedule { colour, fused, integrated, leading };
+enum class Schedule { colour, fused, integrated };
 
 /// One step's accesses in launch order.
 void replay(const Model& m, const Layout& L, Schedule sched, const std::vector<std::array<int, 4>>& tet_ce6,
@@ -187,44 +181,13 @@ void replay(const Model& m, const Layout& L, Schedule sched, const std::vector<s
   const std::uint32_t vec = 24;
   // The rows with two copies of the node state read one and write the other, by turns.
   const bool odd = step % 2;
-  const Array &xr = odd ? L.x2 : L.x, &vr = odd ? L.v2 : L.v, &fr = odd ? L.f2 : L.f;
-  const Array &xw = odd ? L.x : L.x2, &vw = odd ? L.v : L.v2, &fw = odd ? L.f : L.f2;
+  const Array &xr = odd ? L.x2 : L.x, &vr = odd ? L.v2 : L.v;
+  const Array &xw = odd ? L.x : L.x2, &vw = odd ? L.v : L.v2;
   auto ce6_arrays = [&](long i) {  // i: the CE6's index in the arrays' order
     c.access(L.dmg.at(i), 32, false);
     c.access(L.ce6_nodes.at(i), 24, false);
     c.access(L.h.at(i), 8, false);
   };
-  if (sched == Schedule::leading) {
-    for (long t = 0; t < nt; ++t) {
-      const auto& q = m.tet_nodes[t];
-      c.access(L.tet_nodes.at(t), 16, false);
-      for (int n : q) {  // the last step's integration of the tet's own nodes, into the other copy
-        c.access(xr.at(n), vec, false);
-        c.access(vr.at(n), vec, false);
-        c.access(fr.at(n), vec, false);
-        c.access(L.mass.at(n), 8, false);
-        c.access(xw.at(n), vec, true);
-        c.access(vw.at(n), vec, true);
-      }
-      c.access(L.Xinv.at(t), 72, false);
-      c.access(L.V0.at(t), 8, false);
-      c.access(L.eta.at(t), 8, false);
-      c.access(L.tet_ce6.at(t), 16, false);
-      for (int e : tet_ce6[t]) {
-        if (e < 0) continue;
-        ce6_arrays(slot[e]);
-        c.access(L.own_c.at(slot[e]), 1, false);
-        for (int n : m.ce6_nodes[e]) {  // all 6 moved again from the old copy (own side: cached)
-          c.access(xr.at(n), vec, false);
-          c.access(vr.at(n), vec, false);
-          c.access(fr.at(n), vec, false);
-          c.access(L.mass.at(n), 8, false);
-        }
-      }
-      for (int n : q) c.access(fw.at(n), vec, true);
-    }
-    return;
-  }
   if (sched == Schedule::colour) {
     std::vector<char> reached(nn, 0);
     for (long k = 0; k < nt; ++k) {
@@ -254,11 +217,12 @@ void replay(const Model& m, const Layout& L, Schedule sched, const std::vector<s
       }
       c.access(L.own_c.at(i), 1, false);
     }
-  } else {  // fused, or fused with the integration
+  } else {  // fused, or fused with the step
     const bool integrated = sched == Schedule::integrated;
     const Array &xs = integrated ? xr : L.x, &vs = integrated ? vr : L.v;
     for (long t = 0; t < nt; ++t) {
       c.access(L.tet_nodes.at(t), 16, false);
+      if (integrated) c.access(L.ext.at(t), 1, false);
       c.access(L.Xinv.at(t), 72, false);
       c.access(L.V0.at(t), 8, false);
       c.access(L.eta.at(t), 8, false);
@@ -281,6 +245,8 @@ void replay(const Model& m, const Layout& L, Schedule sched, const std::vector<s
           c.access(L.f.at(n), vec, true);
           continue;
         }
+        c.access(xs.at(n), vec, false);  // read again (the pass keeps fewer registers)
+        c.access(vs.at(n), vec, false);
         c.access(L.mass.at(n), 8, false);  // the node's new x and v into the other copy
         c.access(xw.at(n), vec, true);
         c.access(vw.at(n), vec, true);
@@ -351,7 +317,7 @@ int main(int argc, char** argv) {
       std::sort(l.begin(), l.begin() + std::count_if(l.begin(), l.end(), [](int e) { return e >= 0; }),
                 [&](int a, int b) { return colour[a] < colour[b]; });
     Layout L;
-    for (Array* a : {&L.x, &L.v, &L.f, &L.x2, &L.v2, &L.f2}) L.place(*a, nn, 24);
+    for (Array* a : {&L.x, &L.v, &L.f, &L.x2, &L.v2}) L.place(*a, nn, 24);
     L.place(L.mass, nn, 8);
     L.place(L.own_n, nn, 1);
     L.place(L.torder, nt, 4);
@@ -366,7 +332,8 @@ int main(int argc, char** argv) {
     L.place(L.own_c, nc, 1);
     L.place(L.broke, nc, 1);
     L.place(L.tet_ce6, nt, 16);
-    for (const Schedule sched : {Schedule::colour, Schedule::fused, Schedule::integrated, Schedule::leading})
+    L.place(L.ext, nt, 1);
+    for (const Schedule sched : {Schedule::colour, Schedule::fused, Schedule::integrated})
       for (const double mb : cache_mb) {
         SectorCache c(std::uint64_t(mb * 1e6), L.end);
         for (int step = 0; step < 3; ++step) {
@@ -375,10 +342,9 @@ int main(int argc, char** argv) {
         }
         const double r = c.read_bytes(), w = c.written_bytes(), all = r + w, once = c.compulsory_bytes();
         std::printf("| %ld | %ld | %ld | %s | %g | %.1f | %.1f | %.1f | %.1f | %.2f | %.0f |\n", nt, nc, nn,
-                    sched == Schedule::colour       ? "colour (built)"
-                    : sched == Schedule::fused      ? "fused (built)"
-                    : sched == Schedule::integrated ? "fused with the integration (not built)"
-                                                    : "fused+integration: the last step first (built)",
+                    sched == Schedule::colour  ? "colour"
+                    : sched == Schedule::fused ? "fused"
+                                               : "fused+step",
                     mb, r / 1e6, w / 1e6, all / 1e6, once / 1e6, all / once, all / (bandwidth * 1e12) * 1e6);
         std::fflush(stdout);
       }

@@ -140,7 +140,7 @@ int run_main(int argc, char** argv) {
                   "Time loop (overrides solver.backend): cpu (OpenMP), cuda (the GPU), or debug (the GPU's loop on "
                   "the CPU with separate device memory and each pass's iterations scrambled, for checking; "
                   "FDEM_DEBUG_ORDER=forward keeps index order; FDEM_DEVICE_SCHEDULE=colour computes TET4 and CE6 "
-                  "colour by colour instead of in one fused pass, =fused keeps the integration out of that pass). "
+                  "colour by colour instead of in one fused pass, =fused keeps the step out of that pass). "
                   "Several ranks: the halo hands device buffers "
                   "to a CUDA-aware MPI, else stages them through host memory; FDEM_GPU_AWARE_MPI=auto|1|0 overrides "
                   "(docs/cluster.md)")

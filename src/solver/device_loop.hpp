@@ -50,9 +50,11 @@ class DeviceLoop {
   /// True when the TET4 and CE6 forces are one pass over the tets (plan_fused_pass), false when
   /// they are colour-by-colour passes.
   virtual bool fused() const = 0;
-  /// True when the fused pass also integrates: each tet first moves its own nodes by the step
-  /// that advance() left pending (one rank; FDEM_DEVICE_SCHEDULE=auto), so the integration is
-  /// no pass of its own.
+  /// True when the fused pass also integrates (one rank; FDEM_DEVICE_SCHEDULE=auto): a force
+  /// evaluation computes contact, platens and pressure and leaves its elements to the next
+  /// step's pass, which computes them, adds the forces held for each node and moves the tet's
+  /// nodes by the step advance() left pending. No force array and no integration pass; a read of
+  /// the state in between completes the evaluation first (the same bits).
   virtual bool integrates() const = 0;
   /// The whole state and the model's constants, host to device.
   virtual void upload(const Solver& s) = 0;

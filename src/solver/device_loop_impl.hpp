@@ -105,17 +105,15 @@ FDEM_HD void ce6_element(const Ce6Params& p, const Vec3 (&xe)[6], const Vec3 (&v
   if (own && !was_broken) acc[0] += ev.power;
   if (!was_broken && ce6_broken(d)) *broke = 1, acc[2] += 1;
 }
-/// Where the fused pass integrates (DeviceLoop::integrates): a node's move by the step left
-/// pending, from the stored x, v and f, the arithmetic of advance() (central difference, then a
-/// prescribed velocity), so that every tet that reads a node moves it to the same bits.
+/// Where the fused pass integrates (DeviceLoop::integrates): a node's step by its force, the
+/// arithmetic of advance() (central difference, then a prescribed velocity).
 struct NodeStep {
-  const Vec3* f;
   const real* mass;     // 1/m divided here: correctly rounded, so Solver::inv_mass_'s bits
   const int* fixed_of;  // per node: its place in the prescribed lists, or -1 (null: none)
   const int* fixed_mask;
   const Vec3* fixed_v;
   real dt;
-  FDEM_HD void move(int n, Vec3& x, Vec3& v) const { central_difference(x, v, f[n], 1 / mass[n], dt); }
+  FDEM_HD void move(int n, Vec3& x, Vec3& v, const Vec3& f) const { central_difference(x, v, f, 1 / mass[n], dt); }
   FDEM_HD void prescribe(int n, Vec3& x, Vec3& v) const {
     const int i = fixed_of ? fixed_of[n] : -1;
     if (i < 0) return;
@@ -149,7 +147,8 @@ class DeviceLoopImpl final : public DeviceLoop {
     set(tet_global_, flags_, offsets_, counts_, entry_offsets_, head_, head_offsets_, cell_start_, cell_counts_,
         cell_offsets_);
     set(ids_, tet_ce6_, ce6_tets_, boxes_, entries_, node_slots_, next_pairs_, next_spring_);
-    set(fused_ce6_, ce6_sides_, dmg_next_, slip_next_, x2_, v2_, f2_, fixed_of_);
+    set(fused_ce6_, ce6_sides_, dmg_next_, slip_next_, x2_, v2_, fixed_of_);
+    set(contact_sum_, platen_force_, gather_of_, platen_of_, lateral_of_, ext_tet_, ext_static_);
     set(halo_send_node_, halo_send_x_, halo_send_v_, halo_recv_node_, halo_recv_x_, halo_recv_v_, halo_flag_tet_,
         halo_send_, halo_recv_, flag_send_, flag_recv_);
     sums_.resize(kAll);
@@ -164,6 +163,7 @@ class DeviceLoopImpl final : public DeviceLoop {
 
   void upload(const Solver& s) override {
     const auto t0 = now();
+    solver_ = &s;  // (what complete_forces() reads of it: the model, the Lamé constants, contact's buffer)
     const Model& m = s.model_;
     if (!constants_) {
       tet_nodes_.upload(reinterpret_cast<const int*>(m.tet_nodes.data()), 4 * m.tet_nodes.size());
@@ -212,7 +212,7 @@ class DeviceLoopImpl final : public DeviceLoop {
             "device loop: the fused pass cannot integrate this run (several ranks or nodes outside the tets)");
       lead_contact_ = s.contacts.enabled();
       lead_pressure_ = s.scene_.confinement.enabled;
-      if (integrates_) x2_.resize(m.X.size()), v2_.resize(m.X.size()), f2_.resize(m.X.size());
+      if (integrates_) x2_.resize(m.X.size()), v2_.resize(m.X.size());
       if (s.halo_) plan_halo(s);
       // Monitor rows: the tets whose reference centroid lies in the middle third of the height.
       std::vector<std::uint8_t> mid(m.tet_nodes.size());
@@ -249,6 +249,24 @@ class DeviceLoopImpl final : public DeviceLoop {
       lat_node_.upload(node);
       lat_ptr_.upload(ptr);
       lat_face_.upload(face);
+      if (integrates_) {  // where the platens' and the pressure's forces wait for the pass
+        std::vector<int> pof(m.X.size(), -1), lof(m.X.size(), -1);
+        if (s.scene_.platens.enabled)
+          for (std::size_t i = 0; i < m.platen_nodes.size(); ++i) pof[m.platen_nodes[i]] = int(i);
+        if (s.scene_.confinement.enabled)
+          for (std::size_t k = 0; k < node.size(); ++k) lof[node[k]] = int(k);
+        std::vector<std::uint8_t> ext(m.tet_nodes.size(), 0);
+        for (std::size_t t = 0; t < ext.size(); ++t)
+          for (int n : m.tet_nodes[t])
+            if (pof[n] >= 0 || lof[n] >= 0) ext[t] = 2;
+        ext_nodes_ = 4 * long(std::count(ext.begin(), ext.end(), 2));
+        platen_of_.upload(pof);
+        lateral_of_.upload(lof);
+        ext_static_.upload(ext);
+        ext_tet_.upload(ext);
+        platen_force_.resize(m.platen_nodes.size());
+        gather_of_.upload(std::vector<int>(m.X.size(), -1));
+      }
       constants_ = true;
     }
     discard_pending();  // the host copy, its scalars included, is the state
@@ -287,10 +305,12 @@ class DeviceLoopImpl final : public DeviceLoop {
       const ContactSet& c = s.contacts;
       active_.upload(c.active_);
       flags_merged_ = false;
+      if (integrates_) follow_gather(false);  // the old list's nodes out
       upload_pairs(c);
       pairs_on_host_ = true;
       eval_.upload(c.eval_);
       pair_force_.upload(c.pair_force_);
+      if (integrates_) follow_gather(true);
     }
     t_.copies += seconds_since(t0);
   }
@@ -425,9 +445,19 @@ class DeviceLoopImpl final : public DeviceLoop {
     const std::uint8_t* own_n = own_node_.data();
     const std::uint8_t* own_t = own_tet_.data();
     auto t0 = now();
-    const bool lead = lead_pending_;  // the fused pass integrates the pending step first
+    // Where the fused pass integrates, the element part of an evaluation waits for the next step:
+    // that step's pass computes the elements at the state the last evaluation left, adds the
+    // forces contact, platens and pressure put there, and moves its nodes (fused_pass, kStep).
+    // Where it was completed since (complete_forces), the step is a pass of its own.
+    const bool stepping = lead_pending_ && elements_pending_;
+    if (lead_pending_ && !stepping) {
+      lead_pending_ = false;
+      integrate_nodes(lead_dt_, nullptr, 0);
+      new_powers(lead_contact_, lead_pressure_, gravity_);
+      t0 = lap(t0, t_.integrate);
+    }
     {  // One launch: the last evaluation's scalars kept at kPrev, then the slots cleared.
-      const int clear = lead ? kSums : kBad;
+      const int clear = stepping ? kSums : kBad;
       Exec::forall(clear, [=] FDEM_LAMBDA(int k) {
         if (prev && k < kBad) sums[kPrev + k] = sums[k];
         sums[k] = 0;
@@ -435,12 +465,14 @@ class DeviceLoopImpl final : public DeviceLoop {
     }
 
     // Gravity starts the sum; without it the TET4 pass assigns each node's first force (the
-    // nodes it does not reach are zeroed here), so f is not written twice.
+    // nodes it does not reach are zeroed here), so f is not written twice. (A fused pass that
+    // integrates starts each force itself.)
     const Vec3 g = scene.gravity;
-    if (!gravity_) {
+    if (integrates_) {
+    } else if (!gravity_) {
       const int* un = unreached_.data();
       Exec::forall(int(unreached_.size()), [=] FDEM_LAMBDA(int k) { f[un[k]] = Vec3{0, 0, 0}; });
-    } else if (!lead) {  // (a fused pass that integrates starts each force with gravity itself)
+    } else {
       Exec::template sum_to<1>(
           nn,
           [=] FDEM_LAMBDA(int n, real* acc) {
@@ -450,51 +482,58 @@ class DeviceLoopImpl final : public DeviceLoop {
           sums + kGravity);
     }
 
-    // TET4 and CE6: fused in one pass, or colour by colour (plan_fused_pass).
-    if (fused_) {
-      fused_forces(m, s.lambda_, s.mu_, sums);
-      t0 = lap(t0, t_.ce6);  // (the TET4 and, where it integrates, integration columns stay empty)
+    // TET4 and CE6: fused in one pass, or colour by colour (plan_fused_pass); where the fused
+    // pass integrates, the last evaluation's, with the step.
+    if (stepping) {
+      fused_pass<kStep>(m, s.lambda_, s.mu_, sums);
+      t0 = lap(t0, t_.ce6);          // (the TET4 and integration columns stay empty)
+      x = x_.data(), v = v_.data();  // swapped: the moved state; the powers of the last forces with it
+      new_powers(s.contacts.enabled(), scene.confinement.enabled, false);  // (gravity's: in the pass)
+      t0 = lap(t0, t_.energy);
+    } else if (integrates_) {
+    } else if (fused_) {
+      fused_pass<kForces>(m, s.lambda_, s.mu_, sums);
+      t0 = lap(t0, t_.ce6);  // (the TET4 column stays empty)
     } else {
       colour_forces(m, s.lambda_, s.mu_, sums, t0);
     }
-    if (lead) {  // x, v and f swapped: the moved state; the powers of the last forces with it
-      x = x_.data(), v = v_.data(), f = f_.data();
-      new_powers(s.contacts.enabled(), scene.confinement.enabled, false);  // (gravity's: in the pass)
-      t0 = lap(t0, t_.energy);
-    }
     const int* tn = tet_nodes_.data();
-    const int* cn = ce6_nodes_.data();
     std::uint8_t* broke = broke_.data();
     const Ce6Damage* st = dmg_.data();  // after the fused pass: the copy it wrote
 
     // The broad phase's watch: has a node of an active tet moved half the buffer? (A count.)
+    // Where the pass stepped, the activation by its breaks in the same launch (activate()).
     const int nc = int(dmg_.size());
     ContactSet& cs = s.contacts;
-    if (cs.enabled()) {
-      const int* wn = watch_nodes_.data();
-      const Vec3* wx = watch_x_.data();
-      const real lim2 = 0.25 * cs.buffer_ * cs.buffer_;
-      Exec::template sum_to<1>(
-          int(watch_nodes_.size()),
-          [=] FDEM_LAMBDA(int i, real* acc) {
-            const Vec3 d = x[wn[i]] - wx[i];
-            if (dot(d, d) > lim2) acc[0] += 1;
-          },
-          sums + kMoved);
-    }
+    if (cs.enabled() || stepping) activate(cs, stepping ? nc : 0, true);
     const std::array<real, kAll> a = read_sums<kAll>();
+    if (stepping && a[kInverted] > 0) {  // rare: the host names the element in the state the pass
+      std::swap(x_, x2_);                // read (the first copies), before the step is counted,
+      std::swap(v_, v2_);                // as the CPU backend does
+      download(s);
+      s.report_inverted();
+    }
     if (finish) {  // the step that led here: its bookkeeping, checks and clock (may throw)
       advance_pending_ = false;
-      if (prev) apply_force_sums(s, a.data() + kPrev);
+      if (stepping) {  // the last evaluation: the elements' sums (and their breaks') of the pass
+        std::array<real, kBad> b;
+        for (int k = 0; k < kBad; ++k) b[k] = a[kPrev + k];
+        for (int k : {kAdded, kGravity, kVisc, kInverted, kCoh, kFric, kBreaks}) b[k] = a[k];
+        apply_force_sums(s, b.data());
+      } else if (prev) {
+        apply_force_sums(s, a.data() + kPrev);
+      }
       if (s.finish_step(s.step_sums(advance_sums(a.data()))))
         throw RunError("device loop: a step on one rank asked to gather contact ghosts");
     }
     t0 = lap(t0, t_.activation);
-    if (a[kInverted] > 0) {  // rare: the host finds and names the element
-      download(s);
+    // Inverted TET4s of the elements computed in this call, or where the fused pass integrates,
+    // of an evaluation it completed before the step (materialize()).
+    if ((stepping ? 0 : a[kInverted]) + (integrates_ && finish && prev && !stepping ? a[kPrev + kInverted] : 0) > 0) {
+      download(s);  // rare: the host finds and names the element
       s.report_inverted();
     }
-    s.p_gravity_ = a[kGravity];
+    if (!integrates_) s.p_gravity_ = a[kGravity];  // (integrating: with the evaluation's sums)
     // Several ranks: a flag raised on any rank holding a tet reaches the others before the broad
     // phase looks at the flags. The ranks merge them together, and only when one of them raised a
     // flag since the last merge (or took flags from its host): one number summed over the ranks
@@ -511,7 +550,9 @@ class DeviceLoopImpl final : public DeviceLoop {
     // moved half the buffer; narrow phase, friction and the deterministic per-node sum.
     if (cs.enabled()) {
       if (cs.dirty_ || a[kMoved] > 0) {
+        if (integrates_) follow_gather(false);
         rebuild_pairs(s);
+        if (integrates_) follow_gather(true);
         ++t_.rebuilds;
       }
       t0 = lap(t0, t_.broad);
@@ -571,10 +612,14 @@ class DeviceLoopImpl final : public DeviceLoop {
       const int* gn = gather_node_.data();
       const int* gp = gather_ptr_.data();
       const int* gs = gather_slot_.data();
+      Vec3* held = integrates_ ? contact_sum_.data() : nullptr;  // (for the pass that steps)
       Exec::forall(int(gather_node_.size()), [=] FDEM_LAMBDA(int k) {
         Vec3 sum{0, 0, 0};
         for (int j = gp[k]; j < gp[k + 1]; ++j) sum += pf[gs[j]];
-        f[gn[k]] += sum;
+        if (held)
+          held[k] = sum;
+        else
+          f[gn[k]] += sum;
       });
       t0 = lap(t0, t_.contact_sum);
       // The run's report reads the contact set's clocks (friction: in the narrow phase's pass).
@@ -582,30 +627,9 @@ class DeviceLoopImpl final : public DeviceLoop {
       cs.times.narrow = t_.narrow + t_.contact_sum;
     }
 
-    // Adaptive activation, on the evaluations where a CE6 broke: the vicinity of each (every tet
-    // sharing a vertex of its face) joins the contact candidates for the next evaluation's
-    // contact (its count, kAdded, marks the set dirty with this evaluation's sums), and the
-    // flags go down. Flags only rise, so concurrent writes of 1 agree.
-    if (a[kBreaks] > 0) {
-      const bool activate = cs.enabled();
-      const int* nv = node_vertex_.data();
-      const int* vptr = vt_ptr_.data();
-      const int* vtets = vt_tets_.data();
-      std::uint8_t* active = active_.data();
-      Exec::template sum_to<1>(
-          nc,
-          [=] FDEM_LAMBDA(int i, real* acc) {
-            if (!broke[i]) return;
-            broke[i] = 0;
-            if (!activate) return;
-            for (int j = 0; j < 3; ++j) {
-              const int vtx = nv[cn[6 * i + j]];
-              for (int k = vptr[vtx]; k < vptr[vtx + 1]; ++k)
-                if (!active[vtets[k]]) active[vtets[k]] = 1, acc[0] += 1;
-            }
-          },
-          sums + kAdded);
-    }
+    // Adaptive activation, on the evaluations where a CE6 broke (activate()), for the next
+    // evaluation's contact. (Where the fused pass integrates: with the pass's breaks, above.)
+    if (!integrates_ && a[kBreaks] > 0) activate(cs, nc, false);
     t0 = lap(t0, t_.activation);
 
     // Platens: each node against the nearer one.
@@ -613,6 +637,7 @@ class DeviceLoopImpl final : public DeviceLoop {
       const int* pn = platen_nodes_.data();
       const real* pk = platen_k_.data();
       Vec3* anchor = anchor_.data();
+      Vec3* held = integrates_ ? platen_force_.data() : nullptr;  // (for the pass that steps)
       const real ztop = s.top_z0_ - s.top_offset, zbot = s.bottom_z0_, mu_p = scene.material.friction_platen;
       Exec::template sum_to<3>(
           int(platen_nodes_.size()),
@@ -621,7 +646,10 @@ class DeviceLoopImpl final : public DeviceLoop {
             const bool near_top = x[n].z > 0.5 * (ztop + zbot);
             const Vec3 xr = x[n] - Vec3{0, 0, near_top ? ztop : zbot};
             const PlatenEval pe = platen_node_force(xr, Vec3{0, 0, near_top ? -1.0 : 1.0}, pk[i], mu_p, anchor[i]);
-            f[n] += pe.force;
+            if (held)
+              held[i] = pe.force;
+            else
+              f[n] += pe.force;
             acc[near_top ? 0 : 1] += pe.force.z;
             acc[2] += pe.dissipated;
           },
@@ -660,6 +688,7 @@ class DeviceLoopImpl final : public DeviceLoop {
       apply_force_sums(s, b.data());
     } else {
       forces_pending_ = true;
+      elements_pending_ = integrates_;
     }
     lap(t0, t_.pressure);
   }
@@ -689,6 +718,7 @@ class DeviceLoopImpl final : public DeviceLoop {
           device_pass::add_face_power(lforce[i], lf + 3 * i, v, own_n, acc[0]);
         },
         sums + kPressurePower);
+    if (integrates_) return;  // the pass that steps adds them (fused_pass)
     const int* ln = lat_node_.data();
     const int* lp = lat_ptr_.data();
     const int* lfa = lat_face_.data();
@@ -699,11 +729,16 @@ class DeviceLoopImpl final : public DeviceLoop {
 
   void settle(Solver& s) override {
     if (!forces_pending_) return;
+    complete_forces();
     const std::array<real, kBad> b = read_sums<kBad>();
     apply_force_sums(s, b.data());
+    if (integrates_ && b[kInverted] > 0) {  // (completed here: named here)
+      download(s);
+      s.report_inverted();
+    }
   }
 
-  void discard_pending() override { forces_pending_ = advance_pending_ = lead_pending_ = false; }
+  void discard_pending() override { forces_pending_ = advance_pending_ = lead_pending_ = elements_pending_ = false; }
 
  private:
   /// The Solver's bookkeeping of a force evaluation from its sums (b: slots [0, kBad)).
@@ -726,13 +761,14 @@ class DeviceLoopImpl final : public DeviceLoop {
     s.p_cohesive_ = b[kCoh];
     s.p_friction_ = b[kFric];
     s.w_platen_friction_ += b[kPlatenFric];
+    if (integrates_) s.p_gravity_ = b[kGravity];  // (computed with the elements, by the pass)
   }
 
  public:
   bool advance(Solver& s, real dt, AdvanceSums& out) override {
     ++t_.steps;
-    if (integrates_) {  // the next force evaluation's pass moves the nodes (materialize() before)
-      materialize();    // (a step already pending, with no evaluation since: never in Solver::step)
+    if (integrates_) {                   // the next force evaluation's pass moves the nodes
+      if (lead_pending_) materialize();  // (a step already pending, no evaluation since: never in Solver::step)
       lead_dt_ = dt;
       lead_pending_ = advance_pending_ = true;
       return false;
@@ -813,14 +849,35 @@ class DeviceLoopImpl final : public DeviceLoop {
         sums_.data() + kGravityNew);
   }
 
-  /// Where the fused pass integrates: the step advance() left pending, done now by the
-  /// integration's own passes (its sums wait for the next evaluation's copy, as on one rank),
-  /// for whatever reads the state before the next force evaluation.
+  /// Where the fused pass integrates, for whatever reads the state before the next step's pass:
+  /// the last evaluation completed (complete_forces), and the step advance() left pending done
+  /// by the integration's own passes (its sums wait for the next evaluation's copy, as on one
+  /// rank).
   void materialize() {
+    complete_forces();
     if (!lead_pending_) return;
     lead_pending_ = false;
     integrate_nodes(lead_dt_, nullptr, 0);
     new_powers(lead_contact_, lead_pressure_, gravity_);
+  }
+
+  /// Where the fused pass integrates: the element part of the last evaluation, left to the next
+  /// step's pass, done now by the same pass without the step (f: each node's whole force, the
+  /// CPU backend's), then the activation by its breaks. Its sums go to the evaluation's slots.
+  void complete_forces() {
+    if (!elements_pending_) return;
+    elements_pending_ = false;
+    const Solver& s = *solver_;
+    {  // the slots of the elements' sums and the activation's count (the last step's pass left
+       // its own there): cleared; the sums add to them
+      real* sums = sums_.data();
+      Exec::forall(kBreaks + 1 - kGravity, [=] FDEM_LAMBDA(int k) {
+        sums[kGravity + k] = 0;
+        if (k == 0) sums[kAdded] = 0;
+      });
+    }
+    fused_pass<kComplete>(s.model_, s.lambda_, s.mu_, sums_.data());
+    activate(s.contacts, int(dmg_.size()), false);
   }
 
  private:
@@ -937,12 +994,12 @@ class DeviceLoopImpl final : public DeviceLoop {
     const double nn = double(x_.size()), nt = double(tet_order_.size()), np = double(pairs_.size());
     const double vec = sizeof(Vec3);
     // TET4 (those this rank computes): colour-order entry, connectivity, X0^-1, V0, eta, the
-    // assign mask; x and v of its 4 nodes read, f written, and read too where the corner does not
-    // assign (gravity: every corner; none where the fused pass integrates, which starts each
-    // force itself); fused, its list of CE6s.
+    // assign mask; x and v of its 4 nodes read, f written (none where the fused pass integrates),
+    // and read too where the corner does not assign (gravity: every corner; none where the fused
+    // pass integrates, which starts each force itself); fused, its list of CE6s.
     const double read_f = integrates_ ? 0 : gravity_ ? 4 * nt : 4 * nt - assigned_corners_;
-    const double tet = nt * (5 * sizeof(int) + sizeof(Mat3) + 2 * sizeof(real) + 1 + 3 * 4 * vec) + read_f * vec +
-                       (fused_ ? nt * 4 * sizeof(int) : 0);
+    const double tet = nt * (5 * sizeof(int) + sizeof(Mat3) + 2 * sizeof(real) + 1 + (integrates_ ? 2 : 3) * 4 * vec) +
+                       read_f * vec + (fused_ ? nt * 4 * sizeof(int) : 0);
     // CE6 (those this rank computes, in the state as it is now): connectivity, h, damage and the
     // own flag read (the break flags: read by activation only where one broke); where it carries force, x and v of 6
     // nodes read and f read and written; where damaged (or broken and carrying force), the
@@ -972,9 +1029,6 @@ class DeviceLoopImpl final : public DeviceLoop {
       ce6 = e[0] * sizeof(Ce6Damage) + e[1] * (6 * sizeof(int) + sizeof(real) + 1 + 6 * 2 * vec) +
             e[2] * sizeof(Ce6Anchors) + k[1] * (sizeof(Ce6Damage) + sizeof(Ce6Anchors)) +
             (ce6_coloured_ - k[0]) * sizeof(Ce6Damage);
-      // Integrating, each side moves the CE6's 6 nodes: their f and m read (and their place in
-      // the prescribed lists where there are some).
-      if (integrates_) ce6 += e[1] * 6 * (vec + sizeof(real) + (fixed_of_.size() ? sizeof(int) : 0));
     }
     // Contact pairs: the pair, its evaluation written, its spring read and written, 8 node ids and
     // the 8 nodes' x and v, 8 forces written (narrow phase and friction in one pass); the gather
@@ -984,9 +1038,13 @@ class DeviceLoopImpl final : public DeviceLoop {
     // Gravity (f written from m and v) or the zeroing of the nodes no TET4 reaches; integration
     // (x, v, f, m; 1/m divided) and the kinetic-energy sum.
     const double start = gravity_ ? nn * (vec + vec + sizeof(real)) : double(unreached_.size()) * (vec + sizeof(int));
-    // Where the fused pass integrates, each tet moves its own 4 nodes instead (f and m read, x and
-    // v written to the second copies; its place in the prescribed lists).
-    const double node = integrates_ ? nt * 4 * (3 * vec + sizeof(real) + (fixed_of_.size() ? sizeof(int) : 0))
+    // Where the fused pass integrates, each tet moves its own 4 nodes instead (m read, x and v
+    // written to the second copies; its place in the prescribed lists) after adding what contact,
+    // platens and pressure hold for it (its flags; where flagged, each node's places, and the sum
+    // or force there).
+    const double held = nt + double(ext_nodes_) * 3 * sizeof(int) +
+                        double(gather_node_.size() + platen_nodes_.size() + lat_face_.size()) * vec;
+    const double node = integrates_ ? nt * 4 * (2 * vec + sizeof(real) + (fixed_of_.size() ? sizeof(int) : 0)) + held
                                     : start + nn * (5 * vec + sizeof(real));
     return tet + ce6 + con + node;
   }
@@ -1076,38 +1134,34 @@ class DeviceLoopImpl final : public DeviceLoop {
     t0 = lap(t0, t_.ce6);
   }
 
+  /// What the fused pass does with each tet's forces (fused_pass).
+  enum PassMode { kForces, kStep, kComplete };
+
   /// TET4 and CE6 forces in one pass over the computed tets: each tet's TET4, then each CE6 on
   /// its faces in colour order, every CE6 evaluated by both of its tets from the damage and
-  /// anchors at the start of the pass (dmg_, slip_), each adding only to its own nodes, so that
-  /// f is written once per node and never read (without gravity), in the same order of sums as
-  /// the colour passes (the same bits). One side, the writer, keeps the new damage and anchors
-  /// (dmg_next_, slip_next_: written for every damaged CE6, so the pair stays current where it
-  /// matters; undamaged, both copies hold the intact state), its powers and its break; then the
-  /// copies swap.
-  void fused_forces(const Model& m, real lambda, real mu, real* sums) {
-    if (lead_pending_)
-      fused_pass<true>(m, lambda, mu, sums);
-    else
-      fused_pass<false>(m, lambda, mu, sums);
-  }
-
-  /// kLead: the pass integrates first (DeviceLoop::integrates). Each tet moves its own nodes by
-  /// the step advance() left pending into the second copies of x and v (the other tets still
-  /// read the first), counts them into the integration's sums, and computes its elements at the
-  /// moved positions; each CE6 moves the other side's nodes too, from the same stored values
-  /// (the same bits as their own tet's move). The forces go to the second copy of f; then x, v
-  /// and f swap.
-  template <bool kLead>
+  /// anchors at the start of the pass (dmg_, slip_), each adding only to its own nodes, in the
+  /// same order of sums as the colour passes (the same bits). One side, the writer, keeps the
+  /// new damage and anchors (dmg_next_, slip_next_: written for every damaged CE6, so the pair
+  /// stays current where it matters; undamaged, both copies hold the intact state), its powers
+  /// and its break; then the copies swap.
+  ///   kForces: f written once per node and never read (without gravity).
+  ///   kStep (DeviceLoop::integrates): the evaluation compute_forces left at this state; each
+  ///   node's force also takes what contact, platens and pressure put there (held for the pass,
+  ///   in the CPU backend's order of sums), and the tet moves its nodes by the step advance()
+  ///   left pending, into the second copies of x and v (the other tets still read the first),
+  ///   with the integration's sums; then x and v swap. No force array is written or read.
+  ///   kComplete: the same without the step: f gets each node's whole force.
+  template <int kMode>
   void fused_pass(const Model& m, real lambda, real mu, real* sums) {
+    constexpr bool kOwn = kMode != kForces;  // the pass starts and ends each node's force
     const int nk = int(m.tet_colours.order.size());
     const Vec3* x = x_.data();
     const Vec3* v = v_.data();
-    Vec3* f = kLead ? f2_.data() : f_.data();
-    Vec3* x_new = kLead ? x2_.data() : nullptr;
-    Vec3* v_new = kLead ? v2_.data() : nullptr;
-    const device_pass::NodeStep mover{
-        f_.data(),          mass_.data(),    fixed_of_.size() ? fixed_of_.data() : nullptr,
-        fixed_mask_.data(), fixed_v_.data(), lead_dt_};
+    Vec3* f = f_.data();
+    Vec3* x_new = kMode == kStep ? x2_.data() : nullptr;
+    Vec3* v_new = kMode == kStep ? v2_.data() : nullptr;
+    const device_pass::NodeStep mover{mass_.data(), fixed_of_.size() ? fixed_of_.data() : nullptr, fixed_mask_.data(),
+                                      fixed_v_.data(), lead_dt_};
     const real* mass = mass_.data();
     const int* tn = tet_nodes_.data();
     const int* torder = tet_order_.data();
@@ -1128,13 +1182,25 @@ class DeviceLoopImpl final : public DeviceLoop {
     const Ce6Params p = ce6p_;
     const bool gravity = gravity_;
     const Vec3 g = g_;
-    // The sums: kVisc to kBreaks; integrating, kGravity before them and kBad, kKinetic2 and
+    // The forces held for the pass (kOwn): per tet its flags, per node its places.
+    const std::uint8_t* ext = kOwn ? ext_tet_.data() : nullptr;
+    const int* gof = gather_of_.data();
+    const int* pof = platen_of_.data();
+    const int* lof = lateral_of_.data();
+    const Vec3* csum = contact_sum_.data();
+    const Vec3* pforce = platen_force_.data();
+    const int* lp = lat_ptr_.data();
+    const int* lfa = lat_face_.data();
+    const Vec3* lforce = lat_force_.data();
+    // The sums: kVisc to kBreaks; kOwn, kGravity before them; kStep, kBad, kKinetic2 and
     // kGravityNew after (base: the element passes' first).
     static_assert(kGravity == kVisc - 1 && kInverted == kVisc + 1 && kCoh == kVisc + 2 && kFric == kVisc + 3 &&
                       kBreaks == kVisc + 4 && kBad == kVisc + 5 && kKinetic2 == kVisc + 6 && kGravityNew == kVisc + 7,
                   "the fused pass sums into consecutive slots");
-    constexpr int base = kLead ? 1 : 0;
-    Exec::template sum_to<kLead ? 9 : 5>(
+    constexpr int base = kOwn ? 1 : 0;
+    Exec::template sum_to<kMode == kStep ? 9
+                          : kOwn         ? 6
+                                         : 5>(
         nk,
         [=] FDEM_LAMBDA(int k, real* acc) {
           const int t = torder[k];
@@ -1143,23 +1209,13 @@ class DeviceLoopImpl final : public DeviceLoop {
           for (int i = 0; i < 4; ++i) {
             const int n = q[i];
             xe[i] = x[n], ve[i] = v[n];
-            if (kLead) {  // advance()'s sums: m v.v before the prescription, gravity's power after
-              // (one rank, make_device_loop: every node is owned, no flag to read)
-              mover.move(n, xe[i], ve[i]);
-              acc[6] += !finite_value(ve[i].x + ve[i].y + ve[i].z);
-              acc[7] += mass[n] * dot(ve[i], ve[i]);
-              mover.prescribe(n, xe[i], ve[i]);
-              x_new[n] = xe[i], v_new[n] = ve[i];
-              // The force starts with gravity (compute_forces' gravity pass), or at zero.
+            if (kOwn) {  // the force starts with gravity (compute_forces' gravity pass), or at zero
               start[i] = gravity ? mass[n] * g : Vec3{0, 0, 0};
-              if (gravity) {
-                acc[0] += dot(start[i], ve[i]);
-                acc[8] += mass[n] * dot(g, ve[i]);
-              }
+              if (gravity) acc[0] += dot(start[i], ve[i]);  // (one rank: every node owned)
             }
           }
           device_pass::tet4_element(xe, ve, Xinv[t], V0[t], lambda, mu, eta[t], own_t[t], acc + base, fe);
-          if (kLead)
+          if (kOwn)
             for (int i = 0; i < 4; ++i) fe[i] = start[i] + fe[i];
           else
             device_pass::tet4_start(f, q, assigns ? assigns[t] : 0, fe);
@@ -1178,10 +1234,7 @@ class DeviceLoopImpl final : public DeviceLoop {
             if (ce6_max_damage(d) > 0) an = sr[c];  // damaged or broken: anchors kept
             const int* cq = cn + 6 * c;
             Vec3 xc[6], vc[6], fc[6];
-            for (int i = 0; i < 6; ++i) {
-              xc[i] = x[cq[i]], vc[i] = v[cq[i]];
-              if (kLead) mover.move(cq[i], xc[i], vc[i]), mover.prescribe(cq[i], xc[i], vc[i]);
-            }
+            for (int i = 0; i < 6; ++i) xc[i] = x[cq[i]], vc[i] = v[cq[i]];
             device_pass::ce6_element(p, xc, vc, h[c], d, an.a, writer, own_c[c], acc + base + 2, broke + c, fc);
             for (int i = 0; i < 3; ++i) {  // constant indices only: the arrays stay in registers
               const int n = side ? cq[3 + i] : cq[i];
@@ -1191,16 +1244,44 @@ class DeviceLoopImpl final : public DeviceLoop {
             }
             if (writer && ce6_max_damage(d) > 0) dw[c] = d, sw[c] = an;
           }
-          for (int i = 0; i < 4; ++i) f[q[i]] = fe[i];
+          if (kOwn && ext[t]) {  // contact's sum, the platen's force, the pressure's faces
+            for (int i = 0; i < 4; ++i) {
+              const int n = q[i];
+              if (ext[t] & 1) {
+                const int gi = gof[n];
+                if (gi >= 0) fe[i] += csum[gi];
+              }
+              if (ext[t] & 2) {
+                const int pi = pof[n];
+                if (pi >= 0) fe[i] += pforce[pi];
+                const int li = lof[n];
+                if (li >= 0)
+                  for (int jj = lp[li]; jj < lp[li + 1]; ++jj) fe[i] += lforce[lfa[jj]];
+              }
+            }
+          }
+          if (kMode == kStep) {  // advance()'s sums: m v.v before the prescription, gravity's power after
+            for (int i = 0; i < 4; ++i) {
+              const int n = q[i];
+              Vec3 xn = x[n], vn = v[n];  // read again (from cache): fewer registers held over the CE6s
+              mover.move(n, xn, vn, fe[i]);
+              acc[6] += !finite_value(vn.x + vn.y + vn.z);
+              acc[7] += mass[n] * dot(vn, vn);
+              mover.prescribe(n, xn, vn);
+              x_new[n] = xn, v_new[n] = vn;
+              if (gravity) acc[8] += mass[n] * dot(g, vn);
+            }
+          } else {
+            for (int i = 0; i < 4; ++i) f[q[i]] = fe[i];
+          }
         },
         sums + kVisc - base);
     std::swap(dmg_, dmg_next_);
     std::swap(slip_, slip_next_);
-    if constexpr (kLead) {
+    if constexpr (kMode == kStep) {
       std::swap(x_, x2_);
       std::swap(v_, v2_);
-      std::swap(f_, f2_);
-      lead_pending_ = false;
+      lead_pending_ = elements_pending_ = false;
     }
   }
 
@@ -1256,6 +1337,65 @@ class DeviceLoopImpl final : public DeviceLoop {
   /// host (contact/broad_phase.cpp's passes: bounds, count, scan, fill, sort, runs, pair test),
   /// with the same filters (a joining CE6, shared nodes), springs carried over by (a, b), the
   /// gather index and the watch list. Only counts come back to the host.
+  /// One launch: with `flags` (the CE6 slots), adaptive activation: the vicinity of each CE6 whose
+  /// break flag is up (every tet sharing a vertex of its face) joins the contact candidates and
+  /// the flag goes down (kAdded counts the tets added, which marks the set dirty with the
+  /// evaluation's sums); with `watch` and contact, the broad phase's watch (kMoved: nodes of active
+  /// tets that moved half the buffer since the list was built). Both are counts, exact in any
+  /// order; flags only rise, so concurrent writes of 1 agree.
+  void activate(const ContactSet& cs, int flags, bool watch) {
+    const bool on = cs.enabled();
+    const int nw = watch && on ? int(watch_nodes_.size()) : 0;
+    const int* cn = ce6_nodes_.data();
+    const int* nv = node_vertex_.data();
+    const int* vptr = vt_ptr_.data();
+    const int* vtets = vt_tets_.data();
+    std::uint8_t* broke = broke_.data();
+    std::uint8_t* active = active_.data();
+    const int* wn = watch_nodes_.data();
+    const Vec3* wx = watch_x_.data();
+    const Vec3* x = x_.data();
+    const real lim2 = 0.25 * cs.buffer_ * cs.buffer_;
+    static_assert(kMoved == kAdded + 1, "the activation's and the watch's counts");
+    Exec::template sum_to<2>(
+        flags + nw,
+        [=] FDEM_LAMBDA(int i, real* acc) {
+          if (i >= flags) {
+            const Vec3 d = x[wn[i - flags]] - wx[i - flags];
+            if (dot(d, d) > lim2) acc[1] += 1;
+            return;
+          }
+          if (!broke[i]) return;
+          broke[i] = 0;
+          if (!on) return;
+          for (int j = 0; j < 3; ++j) {
+            const int vtx = nv[cn[6 * i + j]];
+            for (int k = vptr[vtx]; k < vptr[vtx + 1]; ++k)
+              if (!active[vtets[k]]) active[vtets[k]] = 1, acc[0] += 1;
+          }
+        },
+        sums_.data() + kAdded);
+  }
+
+  /// Where the fused pass integrates: `into`, each node of the gather list gets its place in it
+  /// (gather_of_) and the tets their flags (ext_tet_: bit 0 where a node is listed, bit 1 as
+  /// ext_static_); otherwise the listed nodes leave (before the list changes).
+  void follow_gather(bool into) {
+    const int* gn = gather_node_.data();
+    int* of = gather_of_.data();
+    Exec::forall(int(gather_node_.size()), [=] FDEM_LAMBDA(int k) { of[gn[k]] = into ? k : -1; });
+    if (!into) return;
+    contact_sum_.resize(gather_node_.size());
+    const int* tn = tet_nodes_.data();
+    const std::uint8_t* fixed = ext_static_.data();
+    std::uint8_t* ext = ext_tet_.data();
+    Exec::forall(int(ext_tet_.size()), [=] FDEM_LAMBDA(int t) {
+      const int* q = tn + 4 * t;
+      const bool listed = of[q[0]] >= 0 || of[q[1]] >= 0 || of[q[2]] >= 0 || of[q[3]] >= 0;
+      ext[t] = std::uint8_t(fixed[t] | (listed ? 1 : 0));
+    });
+  }
+
   void rebuild_pairs(Solver& s) {
     using namespace device_build;
     ContactSet& cs = s.contacts;
@@ -1740,12 +1880,21 @@ class DeviceLoopImpl final : public DeviceLoop {
   DeviceArray<Ce6Damage> dmg_next_;
   DeviceArray<Ce6Anchors> slip_next_;
   // Where the fused pass integrates (integrates_): the step advance() left to it (lead_pending_,
-  // lead_dt_), the second copies of x, v and f it writes (swapped after it), each node's place in
-  // the prescribed lists (empty without prescribed nodes), and what materialize() needs.
-  bool lead_pending_ = false, lead_contact_ = false, lead_pressure_ = false;
+  // lead_dt_); the last evaluation's element part left to that pass (elements_pending_); the
+  // second copies of x and v it writes (swapped after it); each node's place in the prescribed
+  // lists (empty without prescribed nodes), and what materialize() needs. The forces that
+  // contact, platens and pressure put on a node wait for the pass in arrays of their own:
+  // per node its place in the gather list (gather_of_, -1: none; the pair forces' sum in
+  // contact_sum_), in the platen nodes (platen_of_; platen_force_) and in the pressure's node
+  // list (lateral_of_; lat_force_ by lat_ptr_), read only for the tets flagged in ext_tet_
+  // (bit 0: a node in the gather list, bit 1: on a platen or a lateral face; ext_static_).
+  bool lead_pending_ = false, lead_contact_ = false, lead_pressure_ = false, elements_pending_ = false;
+  const Solver* solver_ = nullptr;  // the last upload's
+  long ext_nodes_ = 0;              // nodes of the tets ext_static_ flags (the traffic model)
   real lead_dt_ = 0;
-  DeviceArray<Vec3> x2_, v2_, f2_;
-  DeviceArray<int> fixed_of_;
+  DeviceArray<Vec3> x2_, v2_, contact_sum_, platen_force_;
+  DeviceArray<int> fixed_of_, gather_of_, platen_of_, lateral_of_;
+  DeviceArray<std::uint8_t> ext_tet_, ext_static_;
   // Upload and download only: the host's layout and order. Kept between copies, so that a
   // copy allocates nothing (104 B per CE6 more device memory held; the peak is the same as
   // allocating it for each copy).

@@ -516,7 +516,7 @@ void report_model(const Solver& solver, std::ostream& out) {
       << "  backend " << backend_name(solver.backend())
       << (solver.backend() == Backend::cuda ? " (" + cuda_device_description() + ")" : std::string())
       << (solver.device_loop() ? solver.device_loop()->integrates()
-                                     ? ", TET4, CE6 and the integration fused in one pass"
+                                     ? ", TET4, CE6, the forces held for their nodes and the step fused in one pass"
                                  : solver.device_loop()->fused() ? ", TET4 and CE6 fused in one pass"
                                                                  : ", TET4 and CE6 colour by colour"
                                : "")

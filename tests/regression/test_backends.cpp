@@ -26,8 +26,9 @@ bool same_bits(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
 }  // namespace
 
 // The schedules of the device loop's element passes: "auto" fuses TET4 and CE6 in one pass (a
-// CE6 on every internal face: every node is one tet's) that integrates too (one rank),
-// "fused" the same pass without the integration, "colour" keeps the colour passes.
+// CE6 on every internal face: every node is one tet's) that takes the forces contact, platens
+// and pressure put on its nodes and does the step too (one rank), "fused" the same pass without
+// the step, "colour" keeps the colour passes.
 class DebugSchedule : public ::testing::TestWithParam<const char*> {
  protected:
   /// The device loop of `s` is the one the schedule asks for.
@@ -156,10 +157,39 @@ TEST_P(DebugSchedule, AnUnstableRunStopsAtTheCpusStep) {
   RecordProperty("stopped_at_step", std::to_string(cpu.first));
 }
 
+TEST_P(DebugSchedule, AnInvertedTetIsNamedAsTheCpuNamesIt) {
+  // One node driven through its tet's opposite face: the run stops on the inverted TET4 with
+  // the CPU backend's message (step, time, element, J: the state the elements were computed
+  // in), where the fused pass integrates too (it finds the inversion a step after the CPU would
+  // evaluate it, and names it in the state it read).
+  EnvSetting schedule("FDEM_DEVICE_SCHEDULE", GetParam());
+  auto run = [](const std::string& backend) {
+    auto solver = backend_solver(backend_elastic_scene(backend));
+    const Model& m = solver->model();
+    int top = 0;  // the highest node
+    for (std::size_t n = 0; n < m.X.size(); ++n)
+      if (m.X[n].z > m.X[top].z) top = int(n);
+    solver->prescribe(top, 0b111, Vec3{0, 0, -400});
+    std::string message;
+    try {
+      for (int i = 0; i < 20000; ++i) solver->step();
+    } catch (const RunError& e) {
+      message = e.what();
+    }
+    return std::make_pair(solver->step_count(), message);
+  };
+  const auto cpu = run("cpu"), dbg = run("debug");
+  ASSERT_NE(cpu.second.find("inverted"), std::string::npos) << cpu.second;
+  EXPECT_EQ(dbg.second, cpu.second);
+  EXPECT_EQ(dbg.first, cpu.first);
+}
+
 TEST(DebugBackend, AStepLeftToTheFusedPassIsDoneWhenTheStateIsRead) {
-  // Where the fused pass integrates, advance() leaves the step to the next force evaluation; a
-  // read of the state before it (a download) does the step by the integration's own passes.
-  // Against the fused pass without the integration, driven the same way: the same bits.
+  // Where the fused pass integrates, a force evaluation leaves its elements to the next step's
+  // pass and advance() the step to the next force evaluation; a read of the state before it (a
+  // download) completes the elements by the same pass without the step, and does the step by
+  // the integration's own passes. Against the fused pass without the integration, driven the
+  // same way: the same bits.
   auto make = [](const char* schedule) {
     EnvSetting s("FDEM_DEVICE_SCHEDULE", schedule);
     return backend_solver(backend_fracture_scene("debug"));
@@ -269,12 +299,13 @@ TEST(DebugBackend, OnlyAFewScalarsCrossToTheHostBetweenMonitorRows) {
   EXPECT_EQ(small.traffic.to_host, small.steps);
   // Launches (a GPU spends microseconds on each, however small) do not grow with the model
   // either. Where the fused pass integrates, a step with contact, platens and a confining
-  // pressure launches 9 passes: the sums' reset, the fused pass, the powers of the last
-  // contact and pressure forces with the new velocities, activation with the broad phase's
+  // pressure launches 8 passes: the sums' reset, the fused pass (the last evaluation's elements,
+  // with the forces contact, platens and pressure held for it, and the step), the powers of the
+  // last contact and pressure forces with the new velocities, activation with the broad phase's
   // watch, the contact pairs (narrow phase, friction and their power), their sum per node, the
-  // platens, the pressure's faces (with their power) and its sum per node.
+  // platens and the pressure's faces (with their power).
   EXPECT_EQ(small.traffic.launches, big.traffic.launches);
-  EXPECT_EQ(small.traffic.launches, 9 * small.steps);
+  EXPECT_EQ(small.traffic.launches, 8 * small.steps);
   // Through fracture, activation and broad-phase rebuilds on the device: still a few hundred
   // bytes per step, none larger than one block of sums.
   const Seen frac = run(3, 4.0, 4000);
