@@ -372,6 +372,7 @@ class DeviceLoopImpl final : public DeviceLoop {
     if (forces_pending_) {
       s.force_top_ = s.force_bottom_ = s.p_contact_ = s.contact_spring_ = nan;
       s.p_viscous_ = s.p_cohesive_ = s.p_friction_ = nan;
+      if (integrates_) s.p_gravity_ = nan;  // (with the elements' sums there)
       if (s.scene_.confinement.enabled) s.pressure_ = s.p_pressure_ = nan;
     }
   }
@@ -387,8 +388,10 @@ class DeviceLoopImpl final : public DeviceLoop {
   }
 
   // Sums of a step stay in device memory (sums_). On one rank they come to the host once per
-  // step, after the CE6 pass of the next force evaluation (breaks, activation, the broad-phase
-  // watch: the broad phase's decision), with the integration's sums (slots kBad to kSums) and
+  // step, after the CE6 pass of the next force evaluation (breaks, the broad-phase watch: the
+  // broad phase's decision; the count of tets an activation added comes with the evaluation's
+  // scalars, or where the fused pass steps in one value more on the steps it broke a CE6),
+  // with the integration's sums (slots kBad to kSums) and
   // the last force evaluation's scalars (platen reactions, powers, slip: slots below kBad, moved
   // to kPrev before the new evaluation clears them) in the same copy. Several ranks read them
   // three times: after the CE6 pass, at the end of the forces (the sums over the ranks; once
@@ -502,33 +505,40 @@ class DeviceLoopImpl final : public DeviceLoop {
     const Ce6Damage* st = dmg_.data();  // after the fused pass: the copy it wrote
 
     // The broad phase's watch: has a node of an active tet moved half the buffer? (A count.)
-    // Where the pass stepped, the activation by its breaks in the same launch (activate()).
     const int nc = int(dmg_.size());
     ContactSet& cs = s.contacts;
-    if (cs.enabled() || stepping) activate(cs, stepping ? nc : 0, true);
+    if (cs.enabled()) activate(cs, 0, true);
     const std::array<real, kAll> a = read_sums<kAll>();
-    if (stepping && a[kInverted] > 0) {  // rare: the host names the element in the state the pass
-      std::swap(x_, x2_);                // read (the first copies), before the step is counted,
-      std::swap(v_, v2_);                // as the CPU backend does
-      download(s);
-      s.report_inverted();
+    if (stepping) {  // the last evaluation's sums: its contact, platens and pressure (kPrev), its elements (the pass)
+      std::array<real, kBad> b;
+      for (int k = 0; k < kBad; ++k) b[k] = a[kPrev + k];
+      for (int k : {kGravity, kVisc, kInverted, kCoh, kFric, kBreaks}) b[k] = a[k];
+      b[kAdded] = 0;
+      if (a[kInverted] > 0) {           // rare: the host names the element in the state the pass read (the
+        apply_force_sums(s, b.data());  // first copies of x and v, the CE6 states before it),
+        std::swap(x_, x2_);             // before the step is counted, as the CPU backend does
+        std::swap(v_, v2_);
+        std::swap(dmg_, dmg_next_);
+        std::swap(slip_, slip_next_);
+        download(s);
+        s.report_inverted();
+      }
+      if (a[kBreaks] > 0) {       // the pass broke CE6s: their vicinity joins the candidates now, for
+        activate(cs, nc, false);  // this evaluation's contact (with contact, one value more to the host)
+        if (cs.enabled()) device::to_host(b_, &b[kAdded], sums_.data() + kAdded, sizeof(real));
+      }
+      apply_force_sums(s, b.data());
     }
     if (finish) {  // the step that led here: its bookkeeping, checks and clock (may throw)
       advance_pending_ = false;
-      if (stepping) {  // the last evaluation: the elements' sums (and their breaks') of the pass
-        std::array<real, kBad> b;
-        for (int k = 0; k < kBad; ++k) b[k] = a[kPrev + k];
-        for (int k : {kAdded, kGravity, kVisc, kInverted, kCoh, kFric, kBreaks}) b[k] = a[k];
-        apply_force_sums(s, b.data());
-      } else if (prev) {
-        apply_force_sums(s, a.data() + kPrev);
-      }
+      if (prev && !stepping) apply_force_sums(s, a.data() + kPrev);
       if (s.finish_step(s.step_sums(advance_sums(a.data()))))
         throw RunError("device loop: a step on one rank asked to gather contact ghosts");
     }
     t0 = lap(t0, t_.activation);
     // Inverted TET4s of the elements computed in this call, or where the fused pass integrates,
-    // of an evaluation it completed before the step (materialize()).
+    // of an evaluation it completed before the step without settle() (materialize(): after the
+    // step, so named a step late; Solver::step and sync_host settle first).
     if ((stepping ? 0 : a[kInverted]) + (integrates_ && finish && prev && !stepping ? a[kPrev + kInverted] : 0) > 0) {
       download(s);  // rare: the host finds and names the element
       s.report_inverted();
@@ -1042,9 +1052,13 @@ class DeviceLoopImpl final : public DeviceLoop {
     // written to the second copies; its place in the prescribed lists) after adding what contact,
     // platens and pressure hold for it (its flags; where flagged, each node's places, and the sum
     // or force there).
-    const double held = nt + double(ext_nodes_) * 3 * sizeof(int) +
-                        double(gather_node_.size() + platen_nodes_.size() + lat_face_.size()) * vec;
-    const double node = integrates_ ? nt * 4 * (2 * vec + sizeof(real) + (fixed_of_.size() ? sizeof(int) : 0)) + held
+    // (Static flags: 3 places per node of a flagged tet; the gather's nodes: their place, their
+    // sum written by the gather and read by the pass; platen and face forces read.) The tet's
+    // own x and v are read again for the step.
+    const double ng = double(gather_node_.size());
+    const double held = nt + double(ext_nodes_) * 3 * sizeof(int) + ng * (sizeof(int) + 2 * vec) +
+                        double(platen_nodes_.size() + lat_face_.size()) * vec;
+    const double node = integrates_ ? nt * 4 * (4 * vec + sizeof(real) + (fixed_of_.size() ? sizeof(int) : 0)) + held
                                     : start + nn * (5 * vec + sizeof(real));
     return tet + ce6 + con + node;
   }
@@ -1333,16 +1347,13 @@ class DeviceLoopImpl final : public DeviceLoop {
   }
 
  public:  // (public: nvcc's device lambdas cannot live in private member functions)
-  /// The contact candidate list built on the device, as ContactSet::rebuild builds it on the
-  /// host (contact/broad_phase.cpp's passes: bounds, count, scan, fill, sort, runs, pair test),
-  /// with the same filters (a joining CE6, shared nodes), springs carried over by (a, b), the
-  /// gather index and the watch list. Only counts come back to the host.
   /// One launch: with `flags` (the CE6 slots), adaptive activation: the vicinity of each CE6 whose
   /// break flag is up (every tet sharing a vertex of its face) joins the contact candidates and
   /// the flag goes down (kAdded counts the tets added, which marks the set dirty with the
   /// evaluation's sums); with `watch` and contact, the broad phase's watch (kMoved: nodes of active
-  /// tets that moved half the buffer since the list was built). Both are counts, exact in any
-  /// order; flags only rise, so concurrent writes of 1 agree.
+  /// tets that moved half the buffer since the list was built). Flags only rise, so concurrent
+  /// writes of 1 agree; two threads may both count a tet they both raised, so kAdded is exact
+  /// only as to whether it is above zero, which is all that is read of it.
   void activate(const ContactSet& cs, int flags, bool watch) {
     const bool on = cs.enabled();
     const int nw = watch && on ? int(watch_nodes_.size()) : 0;
@@ -1396,6 +1407,10 @@ class DeviceLoopImpl final : public DeviceLoop {
     });
   }
 
+  /// The contact candidate list built on the device, as ContactSet::rebuild builds it on the
+  /// host (contact/broad_phase.cpp's passes: bounds, count, scan, fill, sort, runs, pair test),
+  /// with the same filters (a joining CE6, shared nodes), springs carried over by (a, b), the
+  /// gather index and the watch list. Only counts come back to the host.
   void rebuild_pairs(Solver& s) {
     using namespace device_build;
     ContactSet& cs = s.contacts;

@@ -301,9 +301,9 @@ TEST(DebugBackend, OnlyAFewScalarsCrossToTheHostBetweenMonitorRows) {
   // either. Where the fused pass integrates, a step with contact, platens and a confining
   // pressure launches 8 passes: the sums' reset, the fused pass (the last evaluation's elements,
   // with the forces contact, platens and pressure held for it, and the step), the powers of the
-  // last contact and pressure forces with the new velocities, activation with the broad phase's
-  // watch, the contact pairs (narrow phase, friction and their power), their sum per node, the
-  // platens and the pressure's faces (with their power).
+  // last contact and pressure forces with the new velocities, the broad phase's watch, the
+  // contact pairs (narrow phase, friction and their power), their sum per node, the platens and
+  // the pressure's faces (with their power). (Activation: on the steps that break a CE6.)
   EXPECT_EQ(small.traffic.launches, big.traffic.launches);
   EXPECT_EQ(small.traffic.launches, 8 * small.steps);
   // Through fracture, activation and broad-phase rebuilds on the device: still a few hundred
