@@ -210,8 +210,8 @@ class DeviceLoopImpl final : public DeviceLoop {
       if (integrates_ && (s.halo_ || s.dd_.distributed() || !s.unreached_nodes_.empty()))
         throw RunError(
             "device loop: the fused pass cannot integrate this run (several ranks or nodes outside the tets)");
-      lead_contact_ = s.contacts.enabled();
-      lead_pressure_ = s.scene_.confinement.enabled;
+      step_contact_ = s.contacts.enabled();
+      step_pressure_ = s.scene_.confinement.enabled;
       if (integrates_) x2_.resize(m.X.size()), v2_.resize(m.X.size());
       if (s.halo_) plan_halo(s);
       // Monitor rows: the tets whose reference centroid lies in the middle third of the height.
@@ -292,7 +292,7 @@ class DeviceLoopImpl final : public DeviceLoop {
     fixed_node_.upload(s.fixed_node_);
     fixed_mask_.upload(s.fixed_mask_);
     fixed_v_.upload(s.fixed_velocity_);
-    lead_pending_ = false;                        // the host's state is the state
+    step_pending_ = false;                        // the host's state is the state
     if (integrates_ && !s.fixed_node_.empty()) {  // each node's place in the prescribed lists
       std::vector<int> of(s.x.size(), -1);
       for (std::size_t i = 0; i < s.fixed_node_.size(); ++i) of[s.fixed_node_[i]] = int(i);
@@ -452,11 +452,11 @@ class DeviceLoopImpl final : public DeviceLoop {
     // that step's pass computes the elements at the state the last evaluation left, adds the
     // forces contact, platens and pressure put there, and moves its nodes (fused_pass, kStep).
     // Where it was completed since (complete_forces), the step is a pass of its own.
-    const bool stepping = lead_pending_ && elements_pending_;
-    if (lead_pending_ && !stepping) {
-      lead_pending_ = false;
-      integrate_nodes(lead_dt_, nullptr, 0);
-      new_powers(lead_contact_, lead_pressure_, gravity_);
+    const bool stepping = step_pending_ && elements_pending_;
+    if (step_pending_ && !stepping) {
+      step_pending_ = false;
+      integrate_nodes(step_dt_, nullptr, 0);
+      new_powers(step_contact_, step_pressure_, gravity_);
       t0 = lap(t0, t_.integrate);
     }
     {  // One launch: the last evaluation's scalars kept at kPrev, then the slots cleared.
@@ -748,7 +748,7 @@ class DeviceLoopImpl final : public DeviceLoop {
     }
   }
 
-  void discard_pending() override { forces_pending_ = advance_pending_ = lead_pending_ = elements_pending_ = false; }
+  void discard_pending() override { forces_pending_ = advance_pending_ = step_pending_ = elements_pending_ = false; }
 
  private:
   /// The Solver's bookkeeping of a force evaluation from its sums (b: slots [0, kBad)).
@@ -778,9 +778,9 @@ class DeviceLoopImpl final : public DeviceLoop {
   bool advance(Solver& s, real dt, AdvanceSums& out) override {
     ++t_.steps;
     if (integrates_) {                   // the next force evaluation's pass moves the nodes
-      if (lead_pending_) materialize();  // (a step already pending, no evaluation since: never in Solver::step)
-      lead_dt_ = dt;
-      lead_pending_ = advance_pending_ = true;
+      if (step_pending_) materialize();  // (a step already pending, no evaluation since: never in Solver::step)
+      step_dt_ = dt;
+      step_pending_ = advance_pending_ = true;
       return false;
     }
     auto t0 = now();
@@ -865,10 +865,10 @@ class DeviceLoopImpl final : public DeviceLoop {
   /// rank).
   void materialize() {
     complete_forces();
-    if (!lead_pending_) return;
-    lead_pending_ = false;
-    integrate_nodes(lead_dt_, nullptr, 0);
-    new_powers(lead_contact_, lead_pressure_, gravity_);
+    if (!step_pending_) return;
+    step_pending_ = false;
+    integrate_nodes(step_dt_, nullptr, 0);
+    new_powers(step_contact_, step_pressure_, gravity_);
   }
 
   /// Where the fused pass integrates: the element part of the last evaluation, left to the next
@@ -1175,7 +1175,7 @@ class DeviceLoopImpl final : public DeviceLoop {
     Vec3* x_new = kMode == kStep ? x2_.data() : nullptr;
     Vec3* v_new = kMode == kStep ? v2_.data() : nullptr;
     const device_pass::NodeStep mover{mass_.data(), fixed_of_.size() ? fixed_of_.data() : nullptr, fixed_mask_.data(),
-                                      fixed_v_.data(), lead_dt_};
+                                      fixed_v_.data(), step_dt_};
     const real* mass = mass_.data();
     const int* tn = tet_nodes_.data();
     const int* torder = tet_order_.data();
@@ -1295,7 +1295,7 @@ class DeviceLoopImpl final : public DeviceLoop {
     if constexpr (kMode == kStep) {
       std::swap(x_, x2_);
       std::swap(v_, v2_);
-      lead_pending_ = elements_pending_ = false;
+      step_pending_ = elements_pending_ = false;
     }
   }
 
@@ -1894,8 +1894,8 @@ class DeviceLoopImpl final : public DeviceLoop {
   DeviceArray<std::uint8_t> ce6_sides_;
   DeviceArray<Ce6Damage> dmg_next_;
   DeviceArray<Ce6Anchors> slip_next_;
-  // Where the fused pass integrates (integrates_): the step advance() left to it (lead_pending_,
-  // lead_dt_); the last evaluation's element part left to that pass (elements_pending_); the
+  // Where the fused pass integrates (integrates_): the step advance() left to it (step_pending_,
+  // step_dt_); the last evaluation's element part left to that pass (elements_pending_); the
   // second copies of x and v it writes (swapped after it); each node's place in the prescribed
   // lists (empty without prescribed nodes), and what materialize() needs. The forces that
   // contact, platens and pressure put on a node wait for the pass in arrays of their own:
@@ -1903,10 +1903,10 @@ class DeviceLoopImpl final : public DeviceLoop {
   // contact_sum_), in the platen nodes (platen_of_; platen_force_) and in the pressure's node
   // list (lateral_of_; lat_force_ by lat_ptr_), read only for the tets flagged in ext_tet_
   // (bit 0: a node in the gather list, bit 1: on a platen or a lateral face; ext_static_).
-  bool lead_pending_ = false, lead_contact_ = false, lead_pressure_ = false, elements_pending_ = false;
+  bool step_pending_ = false, step_contact_ = false, step_pressure_ = false, elements_pending_ = false;
   const Solver* solver_ = nullptr;  // the last upload's
   long ext_nodes_ = 0;              // nodes of the tets ext_static_ flags (the traffic model)
-  real lead_dt_ = 0;
+  real step_dt_ = 0;
   DeviceArray<Vec3> x2_, v2_, contact_sum_, platen_force_;
   DeviceArray<int> fixed_of_, gather_of_, platen_of_, lateral_of_;
   DeviceArray<std::uint8_t> ext_tet_, ext_static_;

@@ -194,24 +194,25 @@ TEST(DebugBackend, AStepLeftToTheFusedPassIsDoneWhenTheStateIsRead) {
     EnvSetting s("FDEM_DEVICE_SCHEDULE", schedule);
     return backend_solver(backend_fracture_scene("debug"));
   };
-  auto lead = make("auto"), plain = make("fused");
-  for (int i = 0; i < 2000; ++i) lead->step(), plain->step();
-  ASSERT_TRUE(lead->device_loop()->integrates());
+  auto stepping = make("auto"), plain = make("fused");
+  for (int i = 0; i < 2000; ++i) stepping->step(), plain->step();
+  ASSERT_TRUE(stepping->device_loop()->integrates());
   ASSERT_FALSE(plain->device_loop()->integrates());
   AdvanceSums a, b;
-  EXPECT_FALSE(lead->device_loop()->advance(*lead, lead->dt(), a));
+  EXPECT_FALSE(stepping->device_loop()->advance(*stepping, stepping->dt(), a));
   EXPECT_FALSE(plain->device_loop()->advance(*plain, plain->dt(), b));
-  lead->device_loop()->download(*lead);
+  stepping->device_loop()->download(*stepping);
   plain->device_loop()->download(*plain);
-  EXPECT_TRUE(same_bits(lead->x, plain->x)) << "max relative difference " << max_rel_diff(lead->x, plain->x, 1e-9);
-  EXPECT_TRUE(same_bits(lead->v, plain->v));
-  EXPECT_TRUE(same_bits(lead->f, plain->f));
+  EXPECT_TRUE(same_bits(stepping->x, plain->x))
+      << "max relative difference " << max_rel_diff(stepping->x, plain->x, 1e-9);
+  EXPECT_TRUE(same_bits(stepping->v, plain->v));
+  EXPECT_TRUE(same_bits(stepping->f, plain->f));
   // The step's bookkeeping (the works of contact and pressure over it, with the velocities after
   // it) comes with the next force evaluation, as on a step of the solver.
-  lead->device_loop()->compute_forces(*lead);
+  stepping->device_loop()->compute_forces(*stepping);
   plain->device_loop()->compute_forces(*plain);
-  for (int i = 0; i < 10; ++i) lead->step(), plain->step();
-  const Monitors ml = lead->measure(), mp = plain->measure();
+  for (int i = 0; i < 10; ++i) stepping->step(), plain->step();
+  const Monitors ml = stepping->measure(), mp = plain->measure();
   EXPECT_GT(std::fabs(ml.external_work), 0);
   EXPECT_NEAR(ml.external_work, mp.external_work, 1e-12 * std::fabs(mp.external_work));
   EXPECT_NEAR(ml.contact, mp.contact, 1e-12 * std::fabs(mp.contact) + 1e-18);
