@@ -26,9 +26,13 @@
 //
 // Usage: bench_device [--backend cuda|debug] [--tets 10000,100000,700000[,max]] [--steps N]
 //                     [--mass-scaling m] [--contact adaptive|full|none] [--schedule auto,fused,colour]
+//                     [--blocks-per-sm 1,2]
 // --schedule: the element passes, each a row per size (FDEM_DEVICE_SCHEDULE): auto (TET4 and CE6
 // fused in one pass where the mesh allows, the integration in it where the run allows: the
 // default), fused (that pass without the integration) and/or colour (colour by colour).
+// --blocks-per-sm: the resident blocks per multiprocessor the fused pass's kernels are compiled
+// for (FDEM_CUDA_BLOCKS_PER_SM; default 1), each a row per fused schedule and size: 2 halves the
+// registers per thread (spilling the rest) for twice the threads in flight (the CUDA backend only).
 // Default backend: cuda where a GPU is visible, else debug (the same loop on the host).
 // Prints Markdown on stdout. A benchmark, not a test: it checks nothing.
 #include <malloc.h>
@@ -40,6 +44,7 @@
 #include <cstring>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/device_memory.hpp"
@@ -113,7 +118,7 @@ Fit largest_fit(Backend b, const std::vector<Row>& rows, double device_free, dou
 int main(int argc, char** argv) {
   std::string backend = cuda_device_count() > 0 ? "cuda" : "debug", contact = "adaptive";
   std::vector<long> sizes{10000, 100000, 700000};
-  std::vector<std::string> schedules{"auto"};
+  std::vector<std::string> schedules{"auto"}, blocks_per_sm{"1"};
   int steps = 200;
   double mass_scaling = 1;
   for (int i = 1; i + 1 < argc; i += 2) {
@@ -130,6 +135,8 @@ int main(int argc, char** argv) {
       contact = v;
     else if (a == "--schedule")
       schedules = parse_names(v);
+    else if (a == "--blocks-per-sm")
+      blocks_per_sm = parse_names(v);
     else {
       std::fprintf(stderr, "unknown option %s\n", a.c_str());
       return 2;
@@ -152,6 +159,16 @@ int main(int argc, char** argv) {
   const char* fmad = "off (the CPU backend's bits)";
 #endif
   if (b == Backend::cuda) std::printf("nvcc fused multiply-adds: %s\n\n", fmad);
+
+  // (schedule, blocks per SM) of a row; the colour passes and the debug backend's host code are
+  // the same whatever the blocks, so they get one row.
+  std::vector<std::pair<std::string, std::string>> variants;
+  for (const std::string& schedule : schedules)
+    for (const std::string& blocks : blocks_per_sm)
+      if ((schedule != "colour" && b == Backend::cuda) || blocks == blocks_per_sm.front())
+        variants.emplace_back(schedule, blocks);
+  if (b != Backend::cuda && blocks_per_sm.size() > 1)
+    std::fprintf(stderr, "bench_device: --blocks-per-sm changes the CUDA kernels only: one row per schedule here\n");
 
   std::vector<Row> rows;
   for (long target : sizes) {
@@ -179,7 +196,7 @@ int main(int argc, char** argv) {
     s.solver.backend = backend;
     s.solver.max_energy_error = 0;
     s.output.progress_interval = 0;
-    for (const std::string& schedule : schedules) {
+    for (const auto& [schedule, blocks] : variants) {
       // The host's peak resident memory over what is resident before this row's model (the last
       // row's freed heap given back first, so that reusing it does not hide this one's growth);
       // the device's peak from what is in use now. Each row builds its own model.
@@ -190,6 +207,7 @@ int main(int argc, char** argv) {
       const double resident0 = double(device::host_resident());
       device::reset_peak_bytes();
       setenv("FDEM_DEVICE_SCHEDULE", schedule.c_str(), 1);  // read when the Solver makes its device loop
+      setenv("FDEM_CUDA_BLOCKS_PER_SM", blocks.c_str(), 1);
       const auto t_setup = Clock::now();
       Solver solver(s, build_model(structured_box_mesh({0.057, 0.057, 0.129}, n, n, nz), s));
       const double setup_s = since(t_setup);
@@ -199,6 +217,7 @@ int main(int argc, char** argv) {
       device::synchronize(b);
       Row r;
       r.schedule = dev->integrates() ? "fused+step" : dev->fused() ? "fused" : "colour";
+      if (dev->blocks_per_sm() > 1) r.schedule += ", " + std::to_string(dev->blocks_per_sm()) + " blocks/SM";
       r.tets = long(solver.model().tet_nodes.size());
       r.ce6 = long(solver.model().ce6_nodes.size());
       r.nodes = long(solver.model().X.size());
@@ -243,6 +262,7 @@ int main(int argc, char** argv) {
                    r.tets, r.schedule.c_str(), r.step_us, r.floor_us, r.mem_mb);
     }
     unsetenv("FDEM_DEVICE_SCHEDULE");
+    unsetenv("FDEM_CUDA_BLOCKS_PER_SM");
   }
 
   std::printf(

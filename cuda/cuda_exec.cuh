@@ -59,8 +59,13 @@ __device__ inline void block_sum(real (&part)[N][kBlock], const real (&acc)[N]) 
 // counter; it wraps to 0 for the next launch) adds them in block order into out[N]. The
 // order of every addition is fixed by n alone, so sums are the same bit for bit from run to
 // run (an atomicAdd per block would add in the order the blocks finish).
-template <int N, class Body>
-__global__ void __launch_bounds__(kBlock) sum_kernel(int n, Body body, real* out, real* partials, unsigned* ticket) {
+// kBlocksPerSm > 1: the blocks a multiprocessor should hold at once (__launch_bounds__), so ptxas
+// keeps the registers per thread under 65536 / (kBlocksPerSm kBlock) and spills the rest; the order
+// of the sums is the same. 1 leaves the minimum unset (0): stated as 1 it let ptxas take more
+// registers (the stepping pass 236 instead of 202, CUDA 13.0), for nothing a block needs.
+template <int N, int kBlocksPerSm, class Body>
+__global__ void __launch_bounds__(kBlock, kBlocksPerSm > 1 ? kBlocksPerSm : 0)
+    sum_kernel(int n, Body body, real* out, real* partials, unsigned* ticket) {
   __shared__ real part[N][kBlock];
   __shared__ bool last;
   real acc[N];
@@ -158,13 +163,13 @@ struct CudaExec {
     device::count_copy(true, N * sizeof(real));
     return out;
   }
-  template <int N, class Body>
+  template <int N, int kBlocksPerSm = 1, class Body>
   static void sum_to(int n, Body body, real* out) {
     static_assert(N <= 16, "at most 16 sums per pass");
     if (n <= 0) return;
     const cuda_detail::DeviceScratch& scratch = cuda_detail::device_scratch();
     device::count_launches(1);
-    cuda_detail::sum_kernel<N>
+    cuda_detail::sum_kernel<N, kBlocksPerSm>
         <<<cuda_detail::reduction_blocks(n), cuda_detail::kBlock>>>(n, body, out, scratch.partials, scratch.ticket);
     check_launch();
   }

@@ -156,7 +156,7 @@ if wanted tests; then
   step backend_tests 120 "$TESTS/test_backends" --gtest_filter='-*Cli*'
 fi
 if wanted bench; then
-  step bench 300 "$BENCH/bench_device" --tets 10000,100000,700000,2000000 --steps 200 --schedule auto,fused,colour
+  step bench 300 "$BENCH/bench_device" --tets 10000,100000,700000,2000000 --steps 200 --schedule auto,fused,colour --blocks-per-sm 1,2
   [[ -f "$OUT/bench.log" ]] && cp "$OUT/bench.log" "$OUT/bench_device.md"
 fi
 # The 1-vs-2-rank device checks with both device backends (the ranks share the GPU).

@@ -5,7 +5,10 @@
 //   Exec::sum<N>(n, body)      body(i, acc) adds to acc[0..N); returns the N sums on the host
 //   Exec::sum_to<N>(n, body, out)  the same, added to out[0..N) in device memory, without a
 //                              copy to the host (passes launched one after another, e.g. colour
-//                              by colour, then read once)
+//                              by colour, then read once); sum_to<N, B> compiles the CUDA kernel
+//                              for B resident blocks per multiprocessor (__launch_bounds__: fewer
+//                              registers, spilled where they do not fit), the same sums; the host
+//                              ignores B
 //   Exec::max<N>(n, body)      body(i, acc) raises acc[0..N) (acc[k] = max(acc[k], value));
 //                              starts from -inf; returns the N maxima on the host
 //   Exec::scan(n, in, out)     exclusive prefix sum of n longs; returns the total on the host
@@ -101,7 +104,7 @@ struct HostExec {
     device::count_launches(2);  // the start values, the reduction
     return sum_here<N>(n, body);
   }
-  template <int N, class Body>
+  template <int N, int kBlocksPerSm = 1, class Body>
   static void sum_to(int n, Body body, real* out) {
     if (n > 0) device::count_launches(1);
     const std::array<real, N> r = sum_here<N>(n, body);

@@ -35,6 +35,17 @@ DeviceSchedule device_schedule() {
                    "run allows), fused (that pass without the integration) or colour, or unset it");
 }
 
+int device_blocks_per_sm() {
+  const char* e = std::getenv("FDEM_CUDA_BLOCKS_PER_SM");
+  const std::string v = e ? e : "";
+  if (v.empty() || v == "1") return 1;
+  if (v == "2") return 2;
+  throw InputError("FDEM_CUDA_BLOCKS_PER_SM=" + v +
+                   ": not a choice of the fused pass's resident blocks per multiprocessor. Fix: "
+                   "FDEM_CUDA_BLOCKS_PER_SM=1 (the default: every register the kernel wants, one block of 256 "
+                   "threads per multiprocessor) or 2 (half the registers, the rest spilled), or unset it");
+}
+
 bool plan_fused_pass(const Model& m, FusedPlan& plan) {
   const auto& tets = m.tet_colours.order;
   const auto& ce6s = m.ce6_colours.order;
@@ -76,6 +87,7 @@ std::unique_ptr<DeviceLoop> make_device_loop(Backend b, const Solver& s) {
   auto fused_plan = [&s] {
     FusedPlan plan;  // empty: the colour passes
     const DeviceSchedule schedule = device_schedule();
+    const int blocks = device_blocks_per_sm();  // checked whatever the schedule
     if (schedule == DeviceSchedule::colour || !plan_fused_pass(s.model(), plan)) return FusedPlan{};
     // The pass integrates too on one rank, where it moves every node: each in a tet.
     std::vector<char> in_tet(s.model().X.size(), 0);
@@ -83,6 +95,7 @@ std::unique_ptr<DeviceLoop> make_device_loop(Backend b, const Solver& s) {
       for (int n : q) in_tet[n] = 1;
     plan.integrate = schedule == DeviceSchedule::automatic && !s.decomposition().distributed() &&
                      std::find(in_tet.begin(), in_tet.end(), 0) == in_tet.end();
+    plan.blocks_per_sm = blocks;
     return plan;
   };
   switch (b) {

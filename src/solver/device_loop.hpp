@@ -56,6 +56,11 @@ class DeviceLoop {
   /// nodes by the step advance() left pending. No force array and no integration pass; a read of
   /// the state in between completes the evaluation first (the same bits).
   virtual bool integrates() const = 0;
+  /// The resident blocks of 256 threads per multiprocessor the CUDA kernels of the fused pass are
+  /// compiled for (FDEM_CUDA_BLOCKS_PER_SM, device_blocks_per_sm): 1, or 2 (half the registers
+  /// per thread, the rest spilled to local memory). The same results; the debug backend runs the
+  /// same host code either way.
+  virtual int blocks_per_sm() const = 0;
   /// The whole state and the model's constants, host to device.
   virtual void upload(const Solver& s) = 0;
   /// The evolving state, device to host (x, v, f, CE6 state, platen anchors, pressure forces,
@@ -107,6 +112,7 @@ struct FusedPlan {
   std::vector<int> list;
   std::vector<std::uint8_t> sides;
   bool integrate = false;  // the pass integrates too (DeviceLoop::integrates)
+  int blocks_per_sm = 1;   // DeviceLoop::blocks_per_sm
 };
 /// Fills `plan` and returns true when the model allows the fused pass: every node in at most
 /// one computed tet (split nodes: a CE6 on every internal face of the rank's elements), each
@@ -119,6 +125,11 @@ bool plan_fused_pass(const Model& m, FusedPlan& plan);
 /// naming it.
 enum class DeviceSchedule { automatic, fused, colour };
 DeviceSchedule device_schedule();
+/// FDEM_CUDA_BLOCKS_PER_SM: 1 (or unset, the default) or 2, the resident blocks per
+/// multiprocessor the fused pass's kernels are compiled for (DeviceLoop::blocks_per_sm), for
+/// measuring what occupancy buys against what spilling costs. Another value throws InputError
+/// naming it.
+int device_blocks_per_sm();
 
 /// The device loop of backend b (debug or cuda) for solver s. Throws InputError when the
 /// CUDA backend was not built or no GPU is visible.

@@ -135,6 +135,7 @@ class DeviceLoopImpl final : public DeviceLoop {
         direct_mpi_(direct_mpi),
         fused_(!plan.list.empty()),
         integrates_(fused_ && plan.integrate),
+        blocks_(fused_ ? plan.blocks_per_sm : 1),
         plan_(std::move(plan)) {
     auto set = [&](auto&... a) { (a.set_backend(b), ...); };
     set(tet_nodes_, tet_order_, ce6_nodes_, ce6_slot_, platen_nodes_, fixed_node_, fixed_mask_, lat_faces_, lat_ptr_,
@@ -157,6 +158,7 @@ class DeviceLoopImpl final : public DeviceLoop {
   Backend backend() const override { return b_; }
   bool fused() const override { return fused_; }
   bool integrates() const override { return integrates_; }
+  int blocks_per_sm() const override { return blocks_; }
   bool halo_passes_device_buffers() const override { return direct_mpi_; }
   void set_timing(bool on) override { timing_ = on; }
   const DeviceTimes& times() const override { return t_; }
@@ -1212,84 +1214,84 @@ class DeviceLoopImpl final : public DeviceLoop {
                       kBreaks == kVisc + 4 && kBad == kVisc + 5 && kKinetic2 == kVisc + 6 && kGravityNew == kVisc + 7,
                   "the fused pass sums into consecutive slots");
     constexpr int base = kOwn ? 1 : 0;
-    Exec::template sum_to<kMode == kStep ? 9
-                          : kOwn         ? 6
-                                         : 5>(
-        nk,
-        [=] FDEM_LAMBDA(int k, real* acc) {
-          const int t = torder[k];
-          const int* q = tn + 4 * t;
-          Vec3 xe[4], ve[4], fe[4], start[4];
-          for (int i = 0; i < 4; ++i) {
-            const int n = q[i];
-            xe[i] = x[n], ve[i] = v[n];
-            if (kOwn) {  // the force starts with gravity (compute_forces' gravity pass), or at zero
-              start[i] = gravity ? mass[n] * g : Vec3{0, 0, 0};
-              if (gravity) acc[0] += dot(start[i], ve[i]);  // (one rank: every node owned)
-            }
+    constexpr int kN = kMode == kStep ? 9 : kOwn ? 6 : 5;
+    const auto body = [=] FDEM_LAMBDA(int k, real* acc) {
+      const int t = torder[k];
+      const int* q = tn + 4 * t;
+      Vec3 xe[4], ve[4], fe[4], start[4];
+      for (int i = 0; i < 4; ++i) {
+        const int n = q[i];
+        xe[i] = x[n], ve[i] = v[n];
+        if (kOwn) {  // the force starts with gravity (compute_forces' gravity pass), or at zero
+          start[i] = gravity ? mass[n] * g : Vec3{0, 0, 0};
+          if (gravity) acc[0] += dot(start[i], ve[i]);  // (one rank: every node owned)
+        }
+      }
+      device_pass::tet4_element(xe, ve, Xinv[t], V0[t], lambda, mu, eta[t], own_t[t], acc + base, fe);
+      if (kOwn)
+        for (int i = 0; i < 4; ++i) fe[i] = start[i] + fe[i];
+      else
+        device_pass::tet4_start(f, q, assigns ? assigns[t] : 0, fe);
+      for (int j = 0; j < 4; ++j) {
+        const int code = list[4 * k + j];
+        if (code < 0) break;
+        const int c = code >> 2, side = code >> 1 & 1;
+        const bool writer = code & 1;
+        Ce6Damage d = dr[c];
+        if (!ce6_carries_force(p, d)) {  // broken, its faces left to contact: its state is
+          // frozen, so once the other copy holds the break too the two are the same
+          if (writer && dw[c].mode != d.mode) dw[c] = d, sw[c] = sr[c];
+          continue;
+        }
+        Ce6Anchors an{};
+        if (ce6_max_damage(d) > 0) an = sr[c];  // damaged or broken: anchors kept
+        const int* cq = cn + 6 * c;
+        Vec3 xc[6], vc[6], fc[6];
+        for (int i = 0; i < 6; ++i) xc[i] = x[cq[i]], vc[i] = v[cq[i]];
+        device_pass::ce6_element(p, xc, vc, h[c], d, an.a, writer, own_c[c], acc + base + 2, broke + c, fc);
+        for (int i = 0; i < 3; ++i) {  // constant indices only: the arrays stay in registers
+          const int n = side ? cq[3 + i] : cq[i];
+          const Vec3 add = side ? fc[3 + i] : fc[i];
+          for (int a = 0; a < 4; ++a)
+            if (q[a] == n) fe[a] += add;
+        }
+        if (writer && ce6_max_damage(d) > 0) dw[c] = d, sw[c] = an;
+      }
+      if (kOwn && ext[t]) {  // contact's sum, the platen's force, the pressure's faces
+        for (int i = 0; i < 4; ++i) {
+          const int n = q[i];
+          if (ext[t] & 1) {
+            const int gi = gof[n];
+            if (gi >= 0) fe[i] += csum[gi];
           }
-          device_pass::tet4_element(xe, ve, Xinv[t], V0[t], lambda, mu, eta[t], own_t[t], acc + base, fe);
-          if (kOwn)
-            for (int i = 0; i < 4; ++i) fe[i] = start[i] + fe[i];
-          else
-            device_pass::tet4_start(f, q, assigns ? assigns[t] : 0, fe);
-          for (int j = 0; j < 4; ++j) {
-            const int code = list[4 * k + j];
-            if (code < 0) break;
-            const int c = code >> 2, side = code >> 1 & 1;
-            const bool writer = code & 1;
-            Ce6Damage d = dr[c];
-            if (!ce6_carries_force(p, d)) {  // broken, its faces left to contact: its state is
-              // frozen, so once the other copy holds the break too the two are the same
-              if (writer && dw[c].mode != d.mode) dw[c] = d, sw[c] = sr[c];
-              continue;
-            }
-            Ce6Anchors an{};
-            if (ce6_max_damage(d) > 0) an = sr[c];  // damaged or broken: anchors kept
-            const int* cq = cn + 6 * c;
-            Vec3 xc[6], vc[6], fc[6];
-            for (int i = 0; i < 6; ++i) xc[i] = x[cq[i]], vc[i] = v[cq[i]];
-            device_pass::ce6_element(p, xc, vc, h[c], d, an.a, writer, own_c[c], acc + base + 2, broke + c, fc);
-            for (int i = 0; i < 3; ++i) {  // constant indices only: the arrays stay in registers
-              const int n = side ? cq[3 + i] : cq[i];
-              const Vec3 add = side ? fc[3 + i] : fc[i];
-              for (int a = 0; a < 4; ++a)
-                if (q[a] == n) fe[a] += add;
-            }
-            if (writer && ce6_max_damage(d) > 0) dw[c] = d, sw[c] = an;
+          if (ext[t] & 2) {
+            const int pi = pof[n];
+            if (pi >= 0) fe[i] += pforce[pi];
+            const int li = lof[n];
+            if (li >= 0)
+              for (int jj = lp[li]; jj < lp[li + 1]; ++jj) fe[i] += lforce[lfa[jj]];
           }
-          if (kOwn && ext[t]) {  // contact's sum, the platen's force, the pressure's faces
-            for (int i = 0; i < 4; ++i) {
-              const int n = q[i];
-              if (ext[t] & 1) {
-                const int gi = gof[n];
-                if (gi >= 0) fe[i] += csum[gi];
-              }
-              if (ext[t] & 2) {
-                const int pi = pof[n];
-                if (pi >= 0) fe[i] += pforce[pi];
-                const int li = lof[n];
-                if (li >= 0)
-                  for (int jj = lp[li]; jj < lp[li + 1]; ++jj) fe[i] += lforce[lfa[jj]];
-              }
-            }
-          }
-          if (kMode == kStep) {  // advance()'s sums: m v.v before the prescription, gravity's power after
-            for (int i = 0; i < 4; ++i) {
-              const int n = q[i];
-              Vec3 xn = x[n], vn = v[n];  // read again (from cache): fewer registers held over the CE6s
-              mover.move(n, xn, vn, fe[i]);
-              acc[6] += !finite_value(vn.x + vn.y + vn.z);
-              acc[7] += mass[n] * dot(vn, vn);
-              mover.prescribe(n, xn, vn);
-              x_new[n] = xn, v_new[n] = vn;
-              if (gravity) acc[8] += mass[n] * dot(g, vn);
-            }
-          } else {
-            for (int i = 0; i < 4; ++i) f[q[i]] = fe[i];
-          }
-        },
-        sums + kVisc - base);
+        }
+      }
+      if (kMode == kStep) {  // advance()'s sums: m v.v before the prescription, gravity's power after
+        for (int i = 0; i < 4; ++i) {
+          const int n = q[i];
+          Vec3 xn = x[n], vn = v[n];  // read again (from cache): fewer registers held over the CE6s
+          mover.move(n, xn, vn, fe[i]);
+          acc[6] += !finite_value(vn.x + vn.y + vn.z);
+          acc[7] += mass[n] * dot(vn, vn);
+          mover.prescribe(n, xn, vn);
+          x_new[n] = xn, v_new[n] = vn;
+          if (gravity) acc[8] += mass[n] * dot(g, vn);
+        }
+      } else {
+        for (int i = 0; i < 4; ++i) f[q[i]] = fe[i];
+      }
+    };
+    if (blocks_ == 2)  // (the CUDA kernel compiled for two resident blocks: DeviceLoop::blocks_per_sm)
+      Exec::template sum_to<kN, 2>(nk, body, sums + kVisc - base);
+    else
+      Exec::template sum_to<kN>(nk, body, sums + kVisc - base);
     std::swap(dmg_, dmg_next_);
     std::swap(slip_, slip_next_);
     if constexpr (kMode == kStep) {
@@ -1889,6 +1891,7 @@ class DeviceLoopImpl final : public DeviceLoop {
   // writes while reading dmg_ and slip_ (swapped after it).
   bool fused_ = false;
   bool integrates_ = false;  // the fused pass integrates too (FusedPlan::integrate)
+  int blocks_ = 1;           // resident blocks per multiprocessor of the fused pass's kernels
   FusedPlan plan_;           // until the first upload
   DeviceArray<int> fused_ce6_;
   DeviceArray<std::uint8_t> ce6_sides_;

@@ -10,6 +10,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <memory>
 
 #include "backend_support.hpp"
 
@@ -118,6 +119,32 @@ TEST(CudaBackend, TwoRunsThroughFractureAreTheSameBitForBit) {
   EXPECT_EQ(ma.external_work, mb.external_work);
   EXPECT_EQ(ma.kinetic, mb.kinetic);
   EXPECT_EQ(ma.contacts, mb.contacts);
+}
+
+TEST(CudaBackend, TwoBlocksPerSmGivesTheSameBitsThroughFracture) {
+  // FDEM_CUDA_BLOCKS_PER_SM=2: the fused pass's kernels with half the registers (ptxas spills the
+  // rest); the same arithmetic and the same grid, so the same bits as the default build's kernels.
+  need_gpu();
+  if (IsSkipped()) return;
+  auto one = backend_solver(backend_fracture_scene("cuda"));
+  std::unique_ptr<Solver> two;
+  {
+    EnvSetting blocks("FDEM_CUDA_BLOCKS_PER_SM", "2");
+    two = backend_solver(backend_fracture_scene("cuda"));
+  }
+  ASSERT_EQ(one->device_loop()->blocks_per_sm(), 1);
+  ASSERT_EQ(two->device_loop()->blocks_per_sm(), 2);
+  ASSERT_TRUE(two->device_loop()->integrates());
+  const FractureResult a = run_fracture(*one, 4000), b = run_fracture(*two, 4000);
+  one->sync_host();
+  two->sync_host();
+  EXPECT_GT(a.broken, 20);
+  EXPECT_EQ(a.peak, b.peak);
+  EXPECT_EQ(a.broken, b.broken);
+  ASSERT_EQ(one->x.size(), two->x.size());
+  EXPECT_EQ(std::memcmp(one->x.data(), two->x.data(), one->x.size() * sizeof(Vec3)), 0);
+  EXPECT_EQ(std::memcmp(one->f.data(), two->f.data(), one->f.size() * sizeof(Vec3)), 0);
+  EXPECT_EQ(one->measure().external_work, two->measure().external_work);
 }
 
 TEST(CudaBackend, TheDebugBackendCountsTheCopiesTheCudaBackendMakes) {

@@ -425,6 +425,46 @@ TEST(DebugBackend, AnUnknownIterationOrderIsAClearInputError) {
   EXPECT_FALSE(fs::exists(dir.path / "out" / "monitors.csv"));
 }
 
+TEST(DebugBackend, TwoBlocksPerSmReachesTheFusedPassAndKeepsTheCpuBits) {
+  // FDEM_CUDA_BLOCKS_PER_SM=2 compiles the fused pass's CUDA kernels for two resident blocks; on
+  // the host the same pass runs through the other branch of its launch: the same bits as the CPU.
+  EnvSetting blocks("FDEM_CUDA_BLOCKS_PER_SM", "2");
+  for (const char* schedule : {"auto", "fused", "colour"}) {
+    EnvSetting s("FDEM_DEVICE_SCHEDULE", schedule);
+    auto cpu = backend_solver(backend_elastic_scene("cpu"));
+    auto dbg = backend_solver(backend_elastic_scene("debug"));
+    EXPECT_EQ(dbg->device_loop()->blocks_per_sm(), std::string(schedule) == "colour" ? 1 : 2) << schedule;
+    for (int i = 0; i < 500; ++i) cpu->step(), dbg->step();
+    dbg->sync_host();
+    EXPECT_TRUE(same_bits(cpu->x, dbg->x)) << schedule;
+    EXPECT_TRUE(same_bits(cpu->f, dbg->f)) << schedule;
+    const Monitors a = cpu->measure(), b = dbg->measure();
+    EXPECT_EQ(a.axial_stress, b.axial_stress) << schedule;
+    EXPECT_GT(a.viscous, 0) << schedule;  // the pass's own sums
+    EXPECT_NEAR(a.viscous, b.viscous, 1e-10 * a.viscous) << schedule;
+    EXPECT_NEAR(a.kinetic, b.kinetic, 1e-10 * a.kinetic) << schedule;
+  }
+}
+
+TEST(DebugBackend, AnUnknownBlocksPerSmIsAClearInputError) {
+  EnvSetting blocks("FDEM_CUDA_BLOCKS_PER_SM", "4");
+  try {
+    backend_solver(backend_elastic_scene("debug"));
+    ADD_FAILURE() << "FDEM_CUDA_BLOCKS_PER_SM=4 was accepted";
+  } catch (const InputError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("FDEM_CUDA_BLOCKS_PER_SM=4"), std::string::npos) << what;
+    EXPECT_NE(what.find("Fix: FDEM_CUDA_BLOCKS_PER_SM=1"), std::string::npos) << what;
+  }
+  using namespace cli_test;
+  TempDir dir("blocks_per_sm");
+  const Outcome o = run_cmd("FDEM_CUDA_BLOCKS_PER_SM=4 " + kEnv + quote(kExe) + " run " + quote(kNoGmshScene.string()) +
+                            " -q --backend debug -o " + quote((dir.path / "out").string()));
+  EXPECT_EQ(o.code, 2) << o.text;
+  EXPECT_TRUE(has(o.text, "FDEM_CUDA_BLOCKS_PER_SM=4")) << o.text;
+  EXPECT_FALSE(fs::exists(dir.path / "out" / "monitors.csv"));
+}
+
 TEST(DebugBackend, AnUnknownDeviceScheduleIsAClearInputError) {
   {
     EnvSetting schedule("FDEM_DEVICE_SCHEDULE", "fastest");
