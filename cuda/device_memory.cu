@@ -1,6 +1,7 @@
 // The CUDA side of core/device_memory.cpp: allocation, copies and device queries.
 #include <cuda_runtime.h>
 
+#include <cstring>
 #include <string>
 
 #include "core/device_memory.hpp"
@@ -71,6 +72,36 @@ void to_device(void* dst, const void* src, std::size_t bytes) {
 
 void to_host(void* dst, const void* src, std::size_t bytes) {
   cuda_check(cudaMemcpy(dst, src, bytes, cudaMemcpyDeviceToHost), "copy to the host");
+}
+
+namespace {
+// The staging of device::read_start: pinned host memory (a copy from pageable memory would wait
+// for the device before returning) and the event after the copy. Per host thread, kept for the
+// process's life (never freed: at exit the CUDA runtime may be torn down first).
+struct Staging {
+  void* pinned = nullptr;
+  std::size_t capacity = 0;
+  cudaEvent_t done = nullptr;
+};
+thread_local Staging staging;
+}  // namespace
+
+void read_start(const void* src, std::size_t bytes) {
+  Staging& s = staging;
+  if (bytes > s.capacity) {
+    if (s.pinned) cuda_check(cudaFreeHost(s.pinned), "cudaFreeHost");
+    s.pinned = nullptr, s.capacity = 0;
+    cuda_check(cudaMallocHost(&s.pinned, bytes), "cudaMallocHost (staging of a read)");
+    s.capacity = bytes;
+  }
+  if (!s.done) cuda_check(cudaEventCreateWithFlags(&s.done, cudaEventDisableTiming), "cudaEventCreate");
+  cuda_check(cudaMemcpyAsync(s.pinned, src, bytes, cudaMemcpyDeviceToHost, 0), "queued copy to the host");
+  cuda_check(cudaEventRecord(s.done, 0), "cudaEventRecord");
+}
+
+void read_finish(void* dst, std::size_t bytes) {
+  cuda_check(cudaEventSynchronize(staging.done), "waiting for a queued copy to the host");
+  std::memcpy(dst, staging.pinned, bytes);
 }
 
 void synchronize() {

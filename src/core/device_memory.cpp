@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -24,6 +25,8 @@ void* allocate(std::size_t bytes);
 void release(void* p) noexcept;
 void to_device(void* dst, const void* src, std::size_t bytes);
 void to_host(void* dst, const void* src, std::size_t bytes);
+void read_start(const void* src, std::size_t bytes);
+void read_finish(void* dst, std::size_t bytes);
 void synchronize();
 double copy_bandwidth(std::size_t bytes);
 std::size_t memory_free();
@@ -61,6 +64,12 @@ void to_device(void*, const void*, std::size_t) {
   refuse();
 }
 void to_host(void*, const void*, std::size_t) {
+  refuse();
+}
+void read_start(const void*, std::size_t) {
+  refuse();
+}
+void read_finish(void*, std::size_t) {
   refuse();
 }
 void synchronize() {}
@@ -176,6 +185,40 @@ void to_host(Backend b, void* dst, const void* src, std::size_t bytes) {
   } else {
     std::memcpy(dst, src, bytes);
   }
+}
+
+namespace {
+// The read in flight on this host thread (read_start to read_finish): its size, and the debug
+// backend's copy of the bytes.
+struct PendingRead {
+  std::size_t bytes = 0;
+  bool open = false;
+  std::vector<char> staged;
+};
+thread_local PendingRead pending_read;
+}  // namespace
+
+void read_start(Backend b, const void* src, std::size_t bytes) {
+  PendingRead& r = pending_read;  // (a read left unfinished by an exception is dropped)
+  count_copy(true, bytes);
+  if (b == Backend::cuda) {
+    cuda_impl::read_start(src, bytes);
+  } else {
+    r.staged.resize(bytes);
+    std::memcpy(r.staged.data(), src, bytes);
+  }
+  r.bytes = bytes, r.open = true;
+}
+
+void read_finish(Backend b, void* dst, std::size_t bytes) {
+  PendingRead& r = pending_read;
+  if (!r.open || r.bytes != bytes)
+    throw std::logic_error("device::read_finish: no read of " + std::to_string(bytes) + " bytes in flight");
+  r.open = false;
+  if (b == Backend::cuda)
+    cuda_impl::read_finish(dst, bytes);
+  else
+    std::memcpy(dst, r.staged.data(), bytes);
 }
 
 void synchronize(Backend b) {

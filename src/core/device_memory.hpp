@@ -41,6 +41,14 @@ void* allocate(Backend b, std::size_t bytes);
 void release(Backend b, void* p, std::size_t bytes) noexcept;
 void to_device(Backend b, void* dst, const void* src, std::size_t bytes);
 void to_host(Backend b, void* dst, const void* src, std::size_t bytes);
+/// A copy to the host that the host waits for later, so that device work queued after it runs
+/// while the host waits: read_start queues the copy of `bytes` from device memory `src` behind
+/// the work queued so far (CUDA: into pinned host memory, then an event); read_finish waits for
+/// it and puts the bytes at `dst`. One read at a time per host thread (a new read_start drops one
+/// left unfinished); `bytes` the same in both, else read_finish throws std::logic_error.
+/// Counted as one copy to the host. The debug backend copies at read_start.
+void read_start(Backend b, const void* src, std::size_t bytes);
+void read_finish(Backend b, void* dst, std::size_t bytes);
 /// Blocks until the backend's queued work is done (CUDA: cudaDeviceSynchronize; for timings).
 void synchronize(Backend b);
 /// Measured copy bandwidth of the backend's memory, GB/s (bytes read + written per second),

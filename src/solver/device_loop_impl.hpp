@@ -448,7 +448,6 @@ class DeviceLoopImpl final : public DeviceLoop {
     const real* mass = mass_.data();
     real* sums = sums_.data();
     const std::uint8_t* own_n = own_node_.data();
-    const std::uint8_t* own_t = own_tet_.data();
     auto t0 = now();
     // Where the fused pass integrates, the element part of an evaluation waits for the next step:
     // that step's pass computes the elements at the state the last evaluation left, adds the
@@ -502,15 +501,20 @@ class DeviceLoopImpl final : public DeviceLoop {
     } else {
       colour_forces(m, s.lambda_, s.mu_, sums, t0);
     }
-    const int* tn = tet_nodes_.data();
-    std::uint8_t* broke = broke_.data();
-    const Ce6Damage* st = dmg_.data();  // after the fused pass: the copy it wrote
-
     // The broad phase's watch: has a node of an active tet moved half the buffer? (A count.)
     const int nc = int(dmg_.size());
     ContactSet& cs = s.contacts;
     if (cs.enabled()) activate(cs, 0, true);
-    const std::array<real, kAll> a = read_sums<kAll>();
+    // The step's one copy to the host. Where the fused pass integrates (one rank), contact's
+    // pairs are queued behind it on the candidate list as it stands, so that the device works
+    // while the host waits and decides; a rebuild below discards them and runs them again (the
+    // friction springs are kept apart until then). Their forces wait for the next step's pass
+    // in arrays of their own, so their place among the launches does not change a sum.
+    std::array<real, kAll> a;
+    device::read_start(b_, sums_.data(), sizeof a);
+    const bool ahead = integrates_ && cs.enabled() && !cs.dirty_;
+    if (ahead) contact_pairs(s, t0);
+    device::read_finish(b_, a.data(), sizeof a);
     if (stepping) {  // the last evaluation's sums: its contact, platens and pressure (kPrev), its elements (the pass)
       std::array<real, kBad> b;
       for (int k = 0; k < kBad; ++k) b[k] = a[kPrev + k];
@@ -559,81 +563,23 @@ class DeviceLoopImpl final : public DeviceLoop {
     }
 
     // Tet-tet contact: the candidate list rebuilt on the device when flags changed or a node
-    // moved half the buffer; narrow phase, friction and the deterministic per-node sum.
+    // moved half the buffer; narrow phase, friction and the deterministic per-node sum (queued
+    // ahead above, or now).
     if (cs.enabled()) {
-      if (cs.dirty_ || a[kMoved] > 0) {
+      const bool rebuild = cs.dirty_ || a[kMoved] > 0;
+      if (rebuild) {
         if (integrates_) follow_gather(false);
         rebuild_pairs(s);
         if (integrates_) follow_gather(true);
         ++t_.rebuilds;
       }
       t0 = lap(t0, t_.broad);
-
-      const int np = int(pairs_.size());
-      const ContactPair* pairs = pairs_.data();
-      const int* slot = ce6_slot_.data();
-      ContactEval* ev = eval_.data();
-      Vec3* pf = pair_force_.data();
-      Vec3* spring = spring_.data();
-      const real P = cs.penalty_, mu_rock = cs.mu_, dt = s.dt_;
-      // One launch per pair: the narrow phase, friction, the pair's forces written once, and
-      // their power with the velocities now.
-      static_assert(kConDiss == kTouching + 1 && kConStored == kTouching + 2 && kConPower == kTouching + 3,
-                    "the contact pass's sums");
-      Exec::template sum_to<4>(
-          np,
-          [=] FDEM_LAMBDA(int k, real* acc) {
-            const ContactPair cp = pairs[k];
-            int na[4], nb[4];
-            for (int i = 0; i < 4; ++i) na[i] = tn[4 * cp.a + i], nb[i] = tn[4 * cp.b + i];
-            Vec3 fa[4], fb[4];  // the normal forces, then friction's added
-            // A joint broken in this evaluation (its flag still up) still holds its faces.
-            if (cp.joint >= 0 && (!ce6_broken(st[slot[cp.joint]]) || broke[slot[cp.joint]])) {
-              for (int i = 0; i < 4; ++i) fa[i] = fb[i] = Vec3{0, 0, 0};
-              ev[k] = ContactEval{{0, 0, 0}, {0, 0, 0}, 0};
-              spring[k] = Vec3{0, 0, 0};
-            } else {
-              Vec3 xa[4], xb[4];
-              for (int i = 0; i < 4; ++i) xa[i] = x[na[i]], xb[i] = x[nb[i]];
-              const ContactEval e = contact_tet_pair(xa, xb, P, fa, fb);
-              ev[k] = e;
-              if (!(e.weight > 0)) {
-                spring[k] = Vec3{0, 0, 0};
-              } else {
-                if (own_t[cp.a]) acc[0] += 1;
-                Vec3 va[4], vb[4], ga[4], gb[4];
-                for (int i = 0; i < 4; ++i) {
-                  va[i] = v[na[i]], vb[i] = v[nb[i]];
-                  ga[i] = gb[i] = Vec3{0, 0, 0};
-                }
-                const real k_t = contact_tangential_stiffness(xa, xb, P);
-                const real d = contact_friction(xa, xb, va, vb, e, mu_rock, k_t, dt, spring[k], ga, gb);
-                if (own_t[cp.a]) {
-                  acc[1] += d;
-                  acc[2] += 0.5 * k_t * dot(spring[k], spring[k]);
-                }
-                for (int i = 0; i < 4; ++i) fa[i] += ga[i], fb[i] += gb[i];
-              }
-            }
-            Vec3* fp = pf + 8 * k;
-            for (int i = 0; i < 4; ++i) fp[i] = fa[i], fp[4 + i] = fb[i];
-            device_pass::subtract_pair_power(fa, fb, na, nb, v, own_n, acc[3]);
-          },
-          sums + kTouching);
-      t0 = lap(t0, t_.narrow);
-      const int* gn = gather_node_.data();
-      const int* gp = gather_ptr_.data();
-      const int* gs = gather_slot_.data();
-      Vec3* held = integrates_ ? contact_sum_.data() : nullptr;  // (for the pass that steps)
-      Exec::forall(int(gather_node_.size()), [=] FDEM_LAMBDA(int k) {
-        Vec3 sum{0, 0, 0};
-        for (int j = gp[k]; j < gp[k + 1]; ++j) sum += pf[gs[j]];
-        if (held)
-          held[k] = sum;
-        else
-          f[gn[k]] += sum;
-      });
-      t0 = lap(t0, t_.contact_sum);
+      if (rebuild && ahead) {  // the pairs' sums queued ahead go
+        real* sums_now = sums_.data();
+        Exec::forall(kConPower + 1 - kTouching, [=] FDEM_LAMBDA(int k) { sums_now[kTouching + k] = 0; });
+      }
+      if (rebuild || !ahead) contact_pairs(s, t0);
+      std::swap(spring_, next_spring_);  // the springs of the pairs' last pass are now the state
       // The run's report reads the contact set's clocks (friction: in the narrow phase's pass).
       cs.times.broad = t_.broad;
       cs.times.narrow = t_.narrow + t_.contact_sum;
@@ -1810,6 +1756,93 @@ class DeviceLoopImpl final : public DeviceLoop {
       }
     }
     return r[0] > 0;
+  }
+
+  /// Contact on the candidate list: one launch per pair (the narrow phase, friction, the pair's
+  /// forces written once, and their power with the velocities now; its sums to kTouching to
+  /// kConPower), then the deterministic per-node sum into f, or where the fused pass integrates
+  /// into the held contact_sum_. The springs are read from spring_ and written to next_spring_,
+  /// which becomes the state when the caller swaps them: a pass queued ahead of a rebuild
+  /// (compute_forces) leaves the springs the rebuild carries over untouched.
+  void contact_pairs(const Solver& s, Clock::time_point& t0) {
+    const ContactSet& cs = s.contacts;
+    const int np = int(pairs_.size());
+    next_spring_.resize(np);
+    const ContactPair* pairs = pairs_.data();
+    const int* tn = tet_nodes_.data();
+    const int* slot = ce6_slot_.data();
+    const Ce6Damage* st = dmg_.data();  // after a fused pass: the copy it wrote
+    // Where the fused pass integrates, the break flags up now are an earlier evaluation's (its
+    // pass computes the elements of the last one): not read.
+    const std::uint8_t* fresh = integrates_ ? nullptr : broke_.data();
+    const std::uint8_t* own_t = own_tet_.data();
+    const std::uint8_t* own_n = own_node_.data();
+    const Vec3* x = x_.data();
+    const Vec3* v = v_.data();
+    ContactEval* ev = eval_.data();
+    Vec3* pf = pair_force_.data();
+    const Vec3* spring_in = spring_.data();
+    Vec3* spring_out = next_spring_.data();
+    const real P = cs.penalty_, mu_rock = cs.mu_, dt = s.dt_;
+    static_assert(kConDiss == kTouching + 1 && kConStored == kTouching + 2 && kConPower == kTouching + 3,
+                  "the contact pass's sums");
+    Exec::template sum_to<4>(
+        np,
+        [=] FDEM_LAMBDA(int k, real* acc) {
+          const ContactPair cp = pairs[k];
+          int na[4], nb[4];
+          for (int i = 0; i < 4; ++i) na[i] = tn[4 * cp.a + i], nb[i] = tn[4 * cp.b + i];
+          Vec3 fa[4], fb[4];  // the normal forces, then friction's added
+          // A joint broken in this evaluation (its flag still up) still holds its faces.
+          if (cp.joint >= 0 && (!ce6_broken(st[slot[cp.joint]]) || (fresh && fresh[slot[cp.joint]]))) {
+            for (int i = 0; i < 4; ++i) fa[i] = fb[i] = Vec3{0, 0, 0};
+            ev[k] = ContactEval{{0, 0, 0}, {0, 0, 0}, 0};
+            spring_out[k] = Vec3{0, 0, 0};
+          } else {
+            Vec3 xa[4], xb[4];
+            for (int i = 0; i < 4; ++i) xa[i] = x[na[i]], xb[i] = x[nb[i]];
+            const ContactEval e = contact_tet_pair(xa, xb, P, fa, fb);
+            ev[k] = e;
+            if (!(e.weight > 0)) {
+              spring_out[k] = Vec3{0, 0, 0};
+            } else {
+              if (own_t[cp.a]) acc[0] += 1;
+              Vec3 va[4], vb[4], ga[4], gb[4];
+              for (int i = 0; i < 4; ++i) {
+                va[i] = v[na[i]], vb[i] = v[nb[i]];
+                ga[i] = gb[i] = Vec3{0, 0, 0};
+              }
+              const real k_t = contact_tangential_stiffness(xa, xb, P);
+              Vec3 spring = spring_in[k];
+              const real d = contact_friction(xa, xb, va, vb, e, mu_rock, k_t, dt, spring, ga, gb);
+              spring_out[k] = spring;
+              if (own_t[cp.a]) {
+                acc[1] += d;
+                acc[2] += 0.5 * k_t * dot(spring, spring);
+              }
+              for (int i = 0; i < 4; ++i) fa[i] += ga[i], fb[i] += gb[i];
+            }
+          }
+          Vec3* fp = pf + 8 * k;
+          for (int i = 0; i < 4; ++i) fp[i] = fa[i], fp[4 + i] = fb[i];
+          device_pass::subtract_pair_power(fa, fb, na, nb, v, own_n, acc[3]);
+        },
+        sums_.data() + kTouching);
+    t0 = lap(t0, t_.narrow);
+    const int* gn = gather_node_.data();
+    const int* gp = gather_ptr_.data();
+    const int* gs = gather_slot_.data();
+    Vec3* f = f_.data();
+    Vec3* held = integrates_ ? contact_sum_.data() : nullptr;  // (for the pass that steps)
+    Exec::forall(int(gather_node_.size()), [=] FDEM_LAMBDA(int k) {
+      Vec3 sum{0, 0, 0};
+      for (int j = gp[k]; j < gp[k + 1]; ++j) sum += pf[gs[j]];
+      if (held)
+        held[k] = sum;
+      else
+        f[gn[k]] += sum;
+    });
+    t0 = lap(t0, t_.contact_sum);
   }
 
   /// The powers of the last contact pair forces (-sum f.v, ContactSet::power) and confining
