@@ -12,8 +12,10 @@
 # HDF5, yaml-cpp or GoogleTest, which its image may lack. Name the phase build to build there
 # instead (that needs those packages there).
 #
-# PHASEs run in this order, most wanted first (default: build tests bench ranks sanitizer, with
-# the bundle tests bench ranks sanitizer): build tests bench ranks sanitizer fmad. fmad builds a second tree with FDEM_CUDA_FMAD=ON (nvcc fuses multiply-adds; no
+# PHASEs run in this order, most wanted first (default: build tests bench ranks sanitizer contact,
+# with the bundle tests bench ranks sanitizer contact): build tests bench ranks sanitizer contact
+# fmad. contact times the step with every tet a contact candidate (bench_device --contact full,
+# 67 candidate pairs a tet: the narrow phase's cost per pair, a bound for the post-peak stage). fmad builds a second tree with FDEM_CUDA_FMAD=ON (nvcc fuses multiply-adds; no
 # longer the CPU backend's bits) and times it as bench does: what the bit-for-bit agreement costs.
 # The whole call has a budget of FDEM_GPU_BUDGET seconds (default 540, under the tool's 600 s a
 # call): each step runs under its own limit (below) cut to what is left of the budget, and a step
@@ -47,14 +49,14 @@ fi
 
 phases=("$@")
 if [[ ${#phases[@]} -eq 0 ]]; then
-  phases=(build tests bench ranks sanitizer)
-  [[ -f $DEPS/bundle.tar.xz ]] && phases=(tests bench ranks sanitizer)
+  phases=(build tests bench ranks sanitizer contact)
+  [[ -f $DEPS/bundle.tar.xz ]] && phases=(tests bench ranks sanitizer contact)
 fi
 for p in "${phases[@]}"; do
   case $p in
-    build | tests | sanitizer | ranks | bench | fmad) ;;
+    build | tests | sanitizer | ranks | bench | contact | fmad) ;;
     *)
-      echo "gpu_check.sh: unknown phase '$p'. Fix: one or more of build tests bench ranks sanitizer fmad, or --prepare" >&2
+      echo "gpu_check.sh: unknown phase '$p'. Fix: one or more of build tests bench ranks sanitizer contact fmad, or --prepare" >&2
       exit 2
       ;;
   esac
@@ -138,7 +140,7 @@ if wanted build; then
   step build 400 cmake --build build-gpu -j "$(nproc)" --target fdem test_cuda_backend test_backends test_ranks \
     bench_device || exit 1
 fi
-if wanted tests || wanted sanitizer || wanted ranks || wanted bench; then
+if wanted tests || wanted sanitizer || wanted ranks || wanted bench || wanted contact; then
   if [[ ! -x $TESTS/test_cuda_backend ]]; then
     echo "gpu_check.sh: $TESTS has no test programs. Fix: run the build phase first (in this call or a warm earlier one), or carry deps/ with its bundle (--prepare)" |
       tee -a "$OUT/summary.txt"
@@ -171,6 +173,10 @@ fi
 if wanted sanitizer && command -v compute-sanitizer > /dev/null; then
   FDEM_CUDA_SYNC=1 step sanitizer 180 compute-sanitizer --tool memcheck --error-exitcode 3 \
     "$TESTS/test_cuda_backend" --gtest_filter='*Elastic*:*Gravity*'
+fi
+if wanted contact; then
+  step contact 150 "$BENCH/bench_device" --tets 10000,100000 --steps 50 --contact full
+  [[ -f "$OUT/contact.log" ]] && cp "$OUT/contact.log" "$OUT/bench_contact_full.md"
 fi
 if wanted fmad; then
   step fmad_configure 120 cmake -S . -B build-gpu-fmad -DCMAKE_BUILD_TYPE=Release -DFDEM_ENABLE_CUDA=ON \
