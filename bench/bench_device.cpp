@@ -48,6 +48,7 @@
 #include <vector>
 
 #include "core/device_memory.hpp"
+#include "core/error.hpp"
 #include "core/forall.hpp"
 #include "model/structured.hpp"
 #include "solver/device_loop.hpp"
@@ -169,6 +170,16 @@ int main(int argc, char** argv) {
         variants.emplace_back(schedule, blocks);
   if (b != Backend::cuda && blocks_per_sm.size() > 1)
     std::fprintf(stderr, "bench_device: --blocks-per-sm changes the CUDA kernels only: one row per schedule here\n");
+  try {  // every value checked before a model is built
+    for (const std::string& schedule : schedules)
+      setenv("FDEM_DEVICE_SCHEDULE", schedule.c_str(), 1), device_schedule();
+    for (const std::string& blocks : blocks_per_sm)
+      setenv("FDEM_CUDA_BLOCKS_PER_SM", blocks.c_str(), 1), device_blocks_per_sm();
+  } catch (const InputError& e) {
+    std::fprintf(stderr, "bench_device: --schedule or --blocks-per-sm: %s\n", e.what());
+    MPI_Finalize();
+    return 2;
+  }
 
   std::vector<Row> rows;
   for (long target : sizes) {
@@ -212,12 +223,18 @@ int main(int argc, char** argv) {
       Solver solver(s, build_model(structured_box_mesh({0.057, 0.057, 0.129}, n, n, nz), s));
       const double setup_s = since(t_setup);
       DeviceLoop* dev = solver.device_loop();
+      if (b == Backend::cuda && dev->blocks_per_sm() != std::atoi(blocks.c_str())) {
+        std::fprintf(stderr, "bench_device: %s with %s blocks per SM: no fused pass on this mesh, row left out\n",
+                     schedule.c_str(), blocks.c_str());
+        continue;
+      }
       for (int i = 0; i < 20; ++i) solver.step();
       solver.sync_host();
       device::synchronize(b);
       Row r;
       r.schedule = dev->integrates() ? "fused+step" : dev->fused() ? "fused" : "colour";
-      if (dev->blocks_per_sm() > 1) r.schedule += ", " + std::to_string(dev->blocks_per_sm()) + " blocks/SM";
+      if (b == Backend::cuda && dev->blocks_per_sm() > 1)
+        r.schedule += ", " + std::to_string(dev->blocks_per_sm()) + " blocks/SM";
       r.tets = long(solver.model().tet_nodes.size());
       r.ce6 = long(solver.model().ce6_nodes.size());
       r.nodes = long(solver.model().X.size());

@@ -61,8 +61,9 @@ __device__ inline void block_sum(real (&part)[N][kBlock], const real (&acc)[N]) 
 // run (an atomicAdd per block would add in the order the blocks finish).
 // kBlocksPerSm > 1: the blocks a multiprocessor should hold at once (__launch_bounds__), so ptxas
 // keeps the registers per thread under 65536 / (kBlocksPerSm kBlock) and spills the rest; the order
-// of the sums is the same. 1 leaves the minimum unset (0): stated as 1 it let ptxas take more
-// registers (the stepping pass 236 instead of 202, CUDA 13.0), for nothing a block needs.
+// of the sums is the same. 1 leaves the minimum unset (0; nvcc 13.0 then writes no .minnctapersm
+// into the PTX, as for __launch_bounds__(kBlock)): stated as 1, it let ptxas take more registers
+// (the stepping pass 236 instead of 202), where one block fits either way.
 template <int N, int kBlocksPerSm, class Body>
 __global__ void __launch_bounds__(kBlock, kBlocksPerSm > 1 ? kBlocksPerSm : 0)
     sum_kernel(int n, Body body, real* out, real* partials, unsigned* ticket) {

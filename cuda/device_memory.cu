@@ -100,7 +100,8 @@ void read_start(const void* src, std::size_t bytes) {
 }
 
 void read_finish(void* dst, std::size_t bytes) {
-  cuda_check(cudaEventSynchronize(staging.done), "waiting for a queued copy to the host");
+  cuda_check(cudaEventSynchronize(staging.done),
+             "waiting for a queued copy to the host (or a kernel before it: FDEM_CUDA_SYNC=1 names which)");
   std::memcpy(dst, staging.pinned, bytes);
 }
 

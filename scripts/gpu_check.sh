@@ -158,8 +158,12 @@ if wanted tests; then
   step backend_tests 120 "$TESTS/test_backends" --gtest_filter='-*Cli*'
 fi
 if wanted bench; then
-  step bench 300 "$BENCH/bench_device" --tets 10000,100000,700000,2000000 --steps 200 --schedule auto,fused,colour --blocks-per-sm 1,2
+  step bench 300 "$BENCH/bench_device" --tets 10000,100000,700000,2000000 --steps 200 --schedule auto,fused,colour
   [[ -f "$OUT/bench.log" ]] && cp "$OUT/bench.log" "$OUT/bench_device.md"
+  # The fused pass's kernels for one and for two resident blocks per multiprocessor.
+  step bench_blocks 120 "$BENCH/bench_device" --tets 100000,700000 --steps 200 --schedule auto,fused \
+    --blocks-per-sm 1,2
+  [[ -f "$OUT/bench_blocks.log" ]] && cp "$OUT/bench_blocks.log" "$OUT/bench_blocks.md"
 fi
 # The 1-vs-2-rank device checks with both device backends (the ranks share the GPU).
 if wanted ranks; then

@@ -505,11 +505,15 @@ class DeviceLoopImpl final : public DeviceLoop {
     const int nc = int(dmg_.size());
     ContactSet& cs = s.contacts;
     if (cs.enabled()) activate(cs, 0, true);
+    t0 = lap(t0, t_.activation);
     // The step's one copy to the host. Where the fused pass integrates (one rank), contact's
     // pairs are queued behind it on the candidate list as it stands, so that the device works
     // while the host waits and decides; a rebuild below discards them and runs them again (the
-    // friction springs are kept apart until then). Their forces wait for the next step's pass
-    // in arrays of their own, so their place among the launches does not change a sum.
+    // friction springs are kept apart until then; the timing columns count both runs). Their
+    // forces wait for the next step's pass in arrays of their own, so their place among the
+    // launches does not change a sum. A run that stops in between (an inverted TET4, a velocity
+    // not finite) downloads those pairs' forces with the springs from before them: its
+    // diagnostic frame reads neither.
     std::array<real, kAll> a;
     device::read_start(b_, sums_.data(), sizeof a);
     const bool ahead = integrates_ && cs.enabled() && !cs.dirty_;
