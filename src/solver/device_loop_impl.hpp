@@ -153,6 +153,7 @@ class DeviceLoopImpl final : public DeviceLoop {
     set(halo_send_node_, halo_send_x_, halo_send_v_, halo_recv_node_, halo_recv_x_, halo_recv_v_, halo_flag_tet_,
         halo_send_, halo_recv_, flag_send_, flag_recv_);
     sums_.resize(kAll);
+    clear_sums(0, kAll);  // a slot a schedule never writes (kWatched) reads 0
   }
 
   Backend backend() const override { return b_; }
@@ -427,7 +428,8 @@ class DeviceLoopImpl final : public DeviceLoop {
     kLost,
     kConPowerNew,
     kPressurePowerNew,
-    kSums = 24,
+    kWatched,       // the broad phase's watch where the fused pass steps (with the new powers; else kMoved)
+    kSums = 24,     // (kWatched + 1 at most)
     kPrev = kSums,  // [kPrev, kPrev + kBad): the last evaluation's [0, kBad), kept for its step
     kAll = kPrev + kBad
   };
@@ -492,7 +494,9 @@ class DeviceLoopImpl final : public DeviceLoop {
       fused_pass<kStep>(m, s.lambda_, s.mu_, sums);
       t0 = lap(t0, t_.ce6);          // (the TET4 and integration columns stay empty)
       x = x_.data(), v = v_.data();  // swapped: the moved state; the powers of the last forces with it
-      new_powers(s.contacts.enabled(), scene.confinement.enabled, false);  // (gravity's: in the pass)
+      // (gravity's: in the pass), and in the same launch the broad phase's watch
+      contact_pressure_powers(s.contacts.enabled(), scene.confinement.enabled,
+                              s.contacts.enabled() ? &s.contacts : nullptr);
       t0 = lap(t0, t_.energy);
     } else if (integrates_) {
     } else if (fused_) {
@@ -504,7 +508,7 @@ class DeviceLoopImpl final : public DeviceLoop {
     // The broad phase's watch: has a node of an active tet moved half the buffer? (A count.)
     const int nc = int(dmg_.size());
     ContactSet& cs = s.contacts;
-    if (cs.enabled()) activate(cs, 0, true);
+    if (cs.enabled() && !stepping) activate(cs, 0, true);  // (stepping: with the new powers, above)
     t0 = lap(t0, t_.activation);
     // The step's one copy to the host. Where the fused pass integrates (one rank), contact's
     // pairs are queued behind it on the candidate list as it stands, so that the device works
@@ -570,7 +574,7 @@ class DeviceLoopImpl final : public DeviceLoop {
     // moved half the buffer; narrow phase, friction and the deterministic per-node sum (queued
     // ahead above, or now).
     if (cs.enabled()) {
-      const bool rebuild = cs.dirty_ || a[kMoved] > 0;
+      const bool rebuild = cs.dirty_ || a[kMoved] > 0 || a[kWatched] > 0;
       if (rebuild) {
         if (integrates_) follow_gather(false);
         rebuild_pairs(s);
@@ -1851,9 +1855,16 @@ class DeviceLoopImpl final : public DeviceLoop {
 
   /// The powers of the last contact pair forces (-sum f.v, ContactSet::power) and confining
   /// pressure forces with the velocities now, added to kConPowerNew and kPressurePowerNew in
-  /// one launch (the pairs, then the faces).
-  void contact_pressure_powers(bool contact, bool pressure) {
+  /// one launch (the pairs, then the faces); with `watch`, the broad phase's watch too (the
+  /// watched nodes after them: those that moved half of watch->buffer_ since the list was
+  /// built, counted into kWatched; where the fused pass steps, this saves the watch a launch).
+  void contact_pressure_powers(bool contact, bool pressure, const ContactSet* watch = nullptr) {
     const int np = contact ? int(pairs_.size()) : 0, nf = pressure ? int(lat_force_.size()) : 0;
+    const int nw = watch ? int(watch_nodes_.size()) : 0;
+    const int* wn = watch_nodes_.data();
+    const Vec3* wx = watch_x_.data();
+    const Vec3* x = x_.data();
+    const real lim2 = watch ? 0.25 * watch->buffer_ * watch->buffer_ : 0;
     const Vec3* v = v_.data();
     const int* tn = tet_nodes_.data();
     const ContactPair* pairs = pairs_.data();
@@ -1861,10 +1872,16 @@ class DeviceLoopImpl final : public DeviceLoop {
     const int* lf = lat_faces_.data();
     const Vec3* lforce = lat_force_.data();
     const std::uint8_t* own_n = own_node_.data();
-    static_assert(kPressurePowerNew == kConPowerNew + 1, "the new powers' slots");
-    Exec::template sum_to<2>(
-        np + nf,
+    static_assert(kPressurePowerNew == kConPowerNew + 1 && kWatched == kConPowerNew + 2, "the new powers' slots");
+    Exec::template sum_to<3>(
+        np + nf + nw,
         [=] FDEM_LAMBDA(int k, real* acc) {
+          if (k >= np + nf) {
+            const int i = k - np - nf;
+            const Vec3 d = x[wn[i]] - wx[i];
+            if (dot(d, d) > lim2) acc[2] += 1;
+            return;
+          }
           if (k >= np) {
             const int i = k - np;
             device_pass::add_face_power(lforce[i], lf + 3 * i, v, own_n, acc[1]);
