@@ -246,9 +246,8 @@ void replay(const Model& m, const Layout& L, Schedule sched, const std::vector<s
           continue;
         }
         c.access(xs.at(n), vec, false);  // read again (the pass keeps fewer registers)
-        c.access(vs.at(n), vec, false);
-        c.access(L.mass.at(n), 8, false);  // the node's new x and v into the other copy
-        c.access(xw.at(n), vec, true);
+        c.access(vs.at(n), vec, false);  // (the node's mass: rho V0 / 4, from the tet's V0)
+        c.access(xw.at(n), vec, true);   // the node's new x and v into the other copy
         c.access(vw.at(n), vec, true);
       }
     }

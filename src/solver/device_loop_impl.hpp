@@ -113,7 +113,8 @@ struct NodeStep {
   const int* fixed_mask;
   const Vec3* fixed_v;
   real dt;
-  FDEM_HD void move(int n, Vec3& x, Vec3& v, const Vec3& f) const { central_difference(x, v, f, 1 / mass[n], dt); }
+  FDEM_HD void move(int n, Vec3& x, Vec3& v, const Vec3& f) const { move_with(mass[n], x, v, f); }
+  FDEM_HD void move_with(real m, Vec3& x, Vec3& v, const Vec3& f) const { central_difference(x, v, f, 1 / m, dt); }
   FDEM_HD void prescribe(int n, Vec3& x, Vec3& v) const {
     const int i = fixed_of ? fixed_of[n] : -1;
     if (i < 0) return;
@@ -190,6 +191,17 @@ class DeviceLoopImpl final : public DeviceLoop {
       eta_.upload(m.tet_eta);
       ce6_h_.upload(in_slots(m.ce6_h));
       mass_.upload(m.mass);  // (1/m: divided where needed, no array read for it)
+      // Every node's mass a quarter of its one tet's, rho V0 / 4 (model/build.cpp), to the bit:
+      // then the fused pass computes it from V0, which it reads anyway, instead of reading it.
+      const real rho = s.scene_.solver.mass_scaling * s.scene_.material.density;
+      std::vector<int> tets_of(m.X.size(), 0);
+      mass_from_volume_ = true;
+      for (std::size_t t = 0; t < m.tet_nodes.size() && mass_from_volume_; ++t)
+        for (int n : m.tet_nodes[t]) {
+          mass_from_volume_ = mass_from_volume_ && ++tets_of[n] == 1 && m.mass[n] == rho * m.tet_V0[t] / 4;
+          if (!mass_from_volume_) break;
+        }
+      node_density_ = mass_from_volume_ ? rho : 0;
       platen_nodes_.upload(m.platen_nodes);
       platen_k_.upload(s.platen_k_);
       node_vertex_.upload(m.node_vertex);
@@ -1014,7 +1026,8 @@ class DeviceLoopImpl final : public DeviceLoop {
     const double ng = double(gather_node_.size());
     const double held = nt + double(ext_nodes_) * 3 * sizeof(int) + ng * (sizeof(int) + 2 * vec) +
                         double(platen_nodes_.size() + lat_face_.size()) * vec;
-    const double node = integrates_ ? nt * 4 * (4 * vec + sizeof(real) + (fixed_of_.size() ? sizeof(int) : 0)) + held
+    const double mass_read = mass_from_volume_ ? 0 : sizeof(real);  // (else from V0, read for TET4)
+    const double node = integrates_ ? nt * 4 * (4 * vec + mass_read + (fixed_of_.size() ? sizeof(int) : 0)) + held
                                     : start + nn * (5 * vec + sizeof(real));
     return tet + ce6 + con + node;
   }
@@ -1152,6 +1165,9 @@ class DeviceLoopImpl final : public DeviceLoop {
     const Ce6Params p = ce6p_;
     const bool gravity = gravity_;
     const Vec3 g = g_;
+    // kOwn: each node's mass rho V0 / 4 where every node's is (mass_from_volume_), else read.
+    const real rho = node_density_;
+    const bool from_volume = kOwn && mass_from_volume_;
     // The forces held for the pass (kOwn): per tet its flags, per node its places.
     const std::uint8_t* ext = kOwn ? ext_tet_.data() : nullptr;
     const int* gof = gather_of_.data();
@@ -1172,12 +1188,13 @@ class DeviceLoopImpl final : public DeviceLoop {
     const auto body = [=] FDEM_LAMBDA(int k, real* acc) {
       const int t = torder[k];
       const int* q = tn + 4 * t;
+      const real tet_mass = from_volume ? rho * V0[t] / 4 : 0;  // each node's (kOwn)
       Vec3 xe[4], ve[4], fe[4], start[4];
       for (int i = 0; i < 4; ++i) {
         const int n = q[i];
         xe[i] = x[n], ve[i] = v[n];
         if (kOwn) {  // the force starts with gravity (compute_forces' gravity pass), or at zero
-          start[i] = gravity ? mass[n] * g : Vec3{0, 0, 0};
+          start[i] = gravity ? (from_volume ? tet_mass : mass[n]) * g : Vec3{0, 0, 0};
           if (gravity) acc[0] += dot(start[i], ve[i]);  // (one rank: every node owned)
         }
       }
@@ -1231,12 +1248,13 @@ class DeviceLoopImpl final : public DeviceLoop {
         for (int i = 0; i < 4; ++i) {
           const int n = q[i];
           Vec3 xn = x[n], vn = v[n];  // read again (from cache): fewer registers held over the CE6s
-          mover.move(n, xn, vn, fe[i]);
+          const real mn = from_volume ? tet_mass : mass[n];
+          mover.move_with(mn, xn, vn, fe[i]);
           acc[6] += !finite_value(vn.x + vn.y + vn.z);
-          acc[7] += mass[n] * dot(vn, vn);
+          acc[7] += mn * dot(vn, vn);
           mover.prescribe(n, xn, vn);
           x_new[n] = xn, v_new[n] = vn;
-          if (gravity) acc[8] += mass[n] * dot(g, vn);
+          if (gravity) acc[8] += mn * dot(g, vn);
         }
       } else {
         for (int i = 0; i < 4; ++i) f[q[i]] = fe[i];
@@ -1944,9 +1962,11 @@ class DeviceLoopImpl final : public DeviceLoop {
   // computed sides of each CE6 (the traffic model), and the copies of the damage and anchors it
   // writes while reading dmg_ and slip_ (swapped after it).
   bool fused_ = false;
-  bool integrates_ = false;  // the fused pass integrates too (FusedPlan::integrate)
-  int blocks_ = 1;           // resident blocks per multiprocessor of the fused pass's kernels
-  FusedPlan plan_;           // until the first upload
+  bool integrates_ = false;        // the fused pass integrates too (FusedPlan::integrate)
+  bool mass_from_volume_ = false;  // every node's mass node_density_ V0 / 4 of its one tet, to the bit
+  real node_density_ = 0;          // kg/m^3 (mass scaling included)
+  int blocks_ = 1;                 // resident blocks per multiprocessor of the fused pass's kernels
+  FusedPlan plan_;                 // until the first upload
   DeviceArray<int> fused_ce6_;
   DeviceArray<std::uint8_t> ce6_sides_;
   DeviceArray<Ce6Damage> dmg_next_;
