@@ -24,15 +24,16 @@
 //    on the evaluations where a CE6 broke: none here.
 //  fused (FDEM_DEVICE_SCHEDULE=fused): one pass over the tets in index order: the TET4's arrays
 //    and its 4 nodes' x and v, then each CE6 on its faces in colour order (the tet's CE6 list;
-//    damage, node ids, h and own flag at the CE6's slot, the arrays being in colour order as
-//    above; the 6 nodes' x and v), every CE6 evaluated by both of its tets, each adding only to
-//    its own nodes; f written once, never read; then integration as above. (The second copy of
-//    the damage and anchors is written only for damaged CE6s: none here.)
+//    flags (own, damaged), node ids and h at the CE6's slot, the arrays being in colour order as
+//    above, the damage only where the flags say damaged: none here; the 6 nodes' x and v),
+//    every CE6 evaluated by both of its tets, each adding only to its own nodes; f written
+//    once, never read; then integration as above. (The second copy of the damage and anchors
+//    is written only for damaged CE6s: none here.)
 //  fused+step (the device loop's default on one rank where every node is one tet's,
 //    DeviceLoop::integrates): the fused pass, each tet also reading its flag of forces held for
-//    it (contact, platens, pressure: none read here) and then moving its own 4 nodes (m read;
-//    x and v written to the second copies, as the other tets still read the first ones, by
-//    turns from step to step): no force array, no integration pass.
+//    it (contact, platens, pressure: none read here) and then moving its own 4 nodes (m from
+//    the tet's V0, not read; x and v written to the second copies, as the other tets still
+//    read the first ones, by turns from step to step): no force array, no integration pass.
 // Not replayed (small before fracture): contact pairs, platens, the broad phase's watch list,
 // the reductions' sums. Cache size 0 counts every access as a miss: the per-reference count
 // at sector granularity, comparable with DeviceLoop::bytes_per_step.
@@ -233,8 +234,9 @@ void replay(const Model& m, const Layout& L, Schedule sched, const std::vector<s
       c.access(L.tet_ce6.at(t), 16, false);
       for (int e : tet_ce6[t]) {
         if (e < 0) continue;
-        ce6_arrays(slot[e]);
-        c.access(L.own_c.at(slot[e]), 1, false);
+        c.access(L.own_c.at(slot[e]), 1, false);  // the flags (own, damaged): intact, no damage read
+        c.access(L.ce6_nodes.at(slot[e]), 24, false);
+        c.access(L.h.at(slot[e]), 8, false);
         for (int n : m.ce6_nodes[e]) {  // the own side's 3 again (from L1 on a GPU)
           c.access(xs.at(n), vec, false);
           c.access(vs.at(n), vec, false);

@@ -149,7 +149,7 @@ class DeviceLoopImpl final : public DeviceLoop {
     set(tet_global_, flags_, offsets_, counts_, entry_offsets_, head_, head_offsets_, cell_start_, cell_counts_,
         cell_offsets_);
     set(ids_, tet_ce6_, ce6_tets_, boxes_, entries_, node_slots_, next_pairs_, next_spring_);
-    set(fused_ce6_, ce6_sides_, dmg_next_, slip_next_, x2_, v2_, fixed_of_);
+    set(fused_ce6_, ce6_sides_, dmg_next_, slip_next_, ce6_flag_, ce6_flag_next_, x2_, v2_, fixed_of_);
     set(contact_sum_, platen_force_, gather_of_, platen_of_, lateral_of_, ext_tet_, ext_static_);
     set(halo_send_node_, halo_send_x_, halo_send_v_, halo_recv_node_, halo_recv_x_, halo_recv_v_, halo_flag_tet_,
         halo_send_, halo_recv_, flag_send_, flag_recv_);
@@ -301,6 +301,16 @@ class DeviceLoopImpl final : public DeviceLoop {
       Ce6Damage* dn = dmg_next_.data();
       Ce6Anchors* an = slip_next_.data();
       Exec::forall(int(dmg_.size()), [=] FDEM_LAMBDA(int k) { dn[k] = d[k], an[k] = a[k]; });
+      // Per slot: bit 0 the own flag, bit 1 a damage state other than the intact one (to the
+      // bit), so that the pass reads the 32 bytes only there; both copies.
+      const Ce6Damage intact{};
+      std::vector<std::uint8_t> fl(ce6_perm_.size());
+      for (std::size_t k = 0; k < fl.size(); ++k) {
+        const Ce6Damage& dk = s.ce6[ce6_perm_[k]];
+        fl[k] = std::uint8_t((s.own_ce6_[ce6_perm_[k]] ? 1 : 0) | (std::memcmp(&dk, &intact, sizeof dk) ? 2 : 0));
+      }
+      ce6_flag_.upload(fl);
+      ce6_flag_next_.upload(fl);
     }
     broke_.upload(in_slots(s.ce6_broke_));
     anchor_.upload(s.platen_anchor);
@@ -546,6 +556,7 @@ class DeviceLoopImpl final : public DeviceLoop {
         std::swap(v_, v2_);
         std::swap(dmg_, dmg_next_);
         std::swap(slip_, slip_next_);
+        std::swap(ce6_flag_, ce6_flag_next_);
         download(s);
         s.report_inverted();
       }
@@ -992,20 +1003,22 @@ class DeviceLoopImpl final : public DeviceLoop {
     double ce6 = ce6_coloured_ * (6 * sizeof(int) + sizeof(real) + sizeof(Ce6Damage) + 1) + k[0] * 6 * 4 * vec +
                  k[1] * (sizeof(Ce6Damage) + 2 * sizeof(Ce6Anchors));
     if (fused_) {
-      // Fused, each side that computes the CE6: its damage read; where it carries force, the
-      // connectivity, h, own flag and 6 nodes' x and v read (its forces go to the tet's own
-      // nodes in registers: f is the TET4's write above), and where damaged the anchors read and,
-      // by the writer side, damage and anchors written; where not (broken, inert), the writer
-      // reads the other copy's damage.
+      // Fused, each side that computes the CE6: its flags read (own, damaged), and its damage
+      // where the flags say damaged or broken; where it carries force, the connectivity, h and
+      // 6 nodes' x and v read (its forces go to the tet's own nodes in registers: f is the
+      // TET4's write above), and where damaged the anchors read and, by the writer side,
+      // damage, anchors and flags written; where not (broken, inert), the writer reads the other
+      // copy's damage.
       const std::uint8_t* sides = ce6_sides_.data();
-      const auto e = Exec::template sum<3>(ce6_coloured_, [=] FDEM_LAMBDA(int i, real* acc) {
+      const auto e = Exec::template sum<4>(ce6_coloured_, [=] FDEM_LAMBDA(int i, real* acc) {
         const bool carries = ce6_carries_force(p, st[i]);
         acc[0] += sides[i];
         acc[1] += carries ? sides[i] : 0;
         acc[2] += carries && ce6_max_damage(st[i]) > 0 ? sides[i] : 0;
+        acc[3] += ce6_max_damage(st[i]) > 0 || st[i].mode != 0 ? sides[i] : 0;
       });
-      ce6 = e[0] * sizeof(Ce6Damage) + e[1] * (6 * sizeof(int) + sizeof(real) + 1 + 6 * 2 * vec) +
-            e[2] * sizeof(Ce6Anchors) + k[1] * (sizeof(Ce6Damage) + sizeof(Ce6Anchors)) +
+      ce6 = e[0] + e[3] * sizeof(Ce6Damage) + e[1] * (6 * sizeof(int) + sizeof(real) + 6 * 2 * vec) +
+            e[2] * sizeof(Ce6Anchors) + k[1] * (sizeof(Ce6Damage) + sizeof(Ce6Anchors) + 1) +
             (ce6_coloured_ - k[0]) * sizeof(Ce6Damage);
     }
     // Contact pairs: the pair, its evaluation written, its spring read and written, 8 node ids and
@@ -1153,7 +1166,6 @@ class DeviceLoopImpl final : public DeviceLoop {
     const real* eta = eta_.data();
     const std::uint8_t* assigns = gravity_ ? nullptr : tet_assigns_.data();
     const std::uint8_t* own_t = own_tet_.data();
-    const std::uint8_t* own_c = own_ce6_.data();
     const int* list = fused_ce6_.data();
     const int* cn = ce6_nodes_.data();
     const real* h = ce6_h_.data();
@@ -1161,6 +1173,8 @@ class DeviceLoopImpl final : public DeviceLoop {
     const Ce6Anchors* sr = slip_.data();
     Ce6Damage* dw = dmg_next_.data();
     Ce6Anchors* sw = slip_next_.data();
+    const std::uint8_t* flr = ce6_flag_.data();  // own, damaged (upload())
+    std::uint8_t* flw = ce6_flag_next_.data();
     std::uint8_t* broke = broke_.data();
     const Ce6Params p = ce6p_;
     const bool gravity = gravity_;
@@ -1208,10 +1222,11 @@ class DeviceLoopImpl final : public DeviceLoop {
         if (code < 0) break;
         const int c = code >> 2, side = code >> 1 & 1;
         const bool writer = code & 1;
-        Ce6Damage d = dr[c];
-        if (!ce6_carries_force(p, d)) {  // broken, its faces left to contact: its state is
+        const std::uint8_t fl = flr[c];
+        Ce6Damage d = fl & 2 ? dr[c] : Ce6Damage{};  // intact: its 32 bytes not read
+        if (!ce6_carries_force(p, d)) {              // broken, its faces left to contact: its state is
           // frozen, so once the other copy holds the break too the two are the same
-          if (writer && dw[c].mode != d.mode) dw[c] = d, sw[c] = sr[c];
+          if (writer && dw[c].mode != d.mode) dw[c] = d, sw[c] = sr[c], flw[c] = fl;
           continue;
         }
         Ce6Anchors an{};
@@ -1219,14 +1234,14 @@ class DeviceLoopImpl final : public DeviceLoop {
         const int* cq = cn + 6 * c;
         Vec3 xc[6], vc[6], fc[6];
         for (int i = 0; i < 6; ++i) xc[i] = x[cq[i]], vc[i] = v[cq[i]];
-        device_pass::ce6_element(p, xc, vc, h[c], d, an.a, writer, own_c[c], acc + base + 2, broke + c, fc);
+        device_pass::ce6_element(p, xc, vc, h[c], d, an.a, writer, fl & 1, acc + base + 2, broke + c, fc);
         for (int i = 0; i < 3; ++i) {  // constant indices only: the arrays stay in registers
           const int n = side ? cq[3 + i] : cq[i];
           const Vec3 add = side ? fc[3 + i] : fc[i];
           for (int a = 0; a < 4; ++a)
             if (q[a] == n) fe[a] += add;
         }
-        if (writer && ce6_max_damage(d) > 0) dw[c] = d, sw[c] = an;
+        if (writer && ce6_max_damage(d) > 0) dw[c] = d, sw[c] = an, flw[c] = std::uint8_t(fl | 2);
       }
       if (kOwn && ext[t]) {  // contact's sum, the platen's force, the pressure's faces
         for (int i = 0; i < 4; ++i) {
@@ -1266,6 +1281,7 @@ class DeviceLoopImpl final : public DeviceLoop {
       Exec::template sum_to<kN>(nk, body, sums + kVisc - base);
     std::swap(dmg_, dmg_next_);
     std::swap(slip_, slip_next_);
+    std::swap(ce6_flag_, ce6_flag_next_);
     if constexpr (kMode == kStep) {
       std::swap(x_, x2_);
       std::swap(v_, v2_);
@@ -1970,6 +1986,9 @@ class DeviceLoopImpl final : public DeviceLoop {
   DeviceArray<int> fused_ce6_;
   DeviceArray<std::uint8_t> ce6_sides_;
   DeviceArray<Ce6Damage> dmg_next_;
+  // Per CE6 slot, for the fused pass: bit 0 its own flag, bit 1 a damage state other than the
+  // intact one (the pass reads dmg_ only there); two copies, as the damage's.
+  DeviceArray<std::uint8_t> ce6_flag_, ce6_flag_next_;
   DeviceArray<Ce6Anchors> slip_next_;
   // Where the fused pass integrates (integrates_): the step advance() left to it (step_pending_,
   // step_dt_); the last evaluation's element part left to that pass (elements_pending_); the

@@ -375,9 +375,15 @@ TEST(DebugBackend, HostChangesAndCheckpointsReachTheDevice) {
   dbg->sync_host();
   for (Solver* s : {cpu.get(), dbg.get()}) {
     s->v[7] = s->v[7] + Vec3{0.01, 0, 0};
+    // A damage the CE6's opening does not give (the law keeps the larger): the device must
+    // read it from the upload, not take the CE6 as intact.
+    for (real& d : s->ce6[5].D) d = std::max(d, real(0.5));
     s->host_changed();
   }
   for (int i = 0; i < 1000; ++i) cpu->step(), dbg->step();
+  // Damaged CE6s go up with the state (the fused pass reads a CE6's damage only where the upload
+  // marked it damaged).
+  EXPECT_GT(dbg->measure().damaged, 0);
   CheckpointOut out;
   dbg->save(out);
   auto resumed = backend_solver(backend_fracture_scene("debug"));
@@ -390,6 +396,8 @@ TEST(DebugBackend, HostChangesAndCheckpointsReachTheDevice) {
   EXPECT_TRUE(same_bits(cpu->x, dbg->x));
   EXPECT_TRUE(same_bits(cpu->x, resumed->x));
   EXPECT_TRUE(same_bits(cpu->v, resumed->v));
+  EXPECT_GE(cpu->ce6[5].D[0], 0.5);
+  EXPECT_EQ(cpu->ce6[5].D[0], dbg->ce6[5].D[0]);
 }
 
 TEST(DebugBackend, CliRunGivesTheCpuFiles) {
