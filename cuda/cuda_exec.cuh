@@ -64,9 +64,10 @@ __device__ inline void block_sum(real (&part)[N][kBlock], const real (&acc)[N]) 
 // of the sums is the same. 1 leaves the minimum unset (0; nvcc 13.0 then writes no .minnctapersm
 // into the PTX, as for __launch_bounds__(kBlock)): stated as 1, it let ptxas take more registers
 // (the stepping pass 236 instead of 202), where one block fits either way.
-template <int N, int kBlocksPerSm, class Body>
+// before_add(): run by the last block's first thread just before it adds to out.
+template <int N, int kBlocksPerSm, class Body, class Before>
 __global__ void __launch_bounds__(kBlock, kBlocksPerSm > 1 ? kBlocksPerSm : 0)
-    sum_kernel(int n, Body body, real* out, real* partials, unsigned* ticket) {
+    sum_kernel(int n, Body body, real* out, real* partials, unsigned* ticket, Before before_add) {
   __shared__ real part[N][kBlock];
   __shared__ bool last;
   real acc[N];
@@ -85,8 +86,10 @@ __global__ void __launch_bounds__(kBlock, kBlocksPerSm > 1 ? kBlocksPerSm : 0)
   for (int b = threadIdx.x; b < int(gridDim.x); b += blockDim.x)
     for (int k = 0; k < N; ++k) acc[k] += __ldcg(&partials[b * N + k]);  // from L2, not a stale L1
   block_sum<N>(part, acc);
-  if (threadIdx.x == 0)
+  if (threadIdx.x == 0) {
+    before_add();
     for (int k = 0; k < N; ++k) out[k] += part[k][0];
+  }
 }
 
 __device__ inline void atomic_max(real* a, real v) {
@@ -166,12 +169,16 @@ struct CudaExec {
   }
   template <int N, int kBlocksPerSm = 1, class Body>
   static void sum_to(int n, Body body, real* out) {
+    if (n > 0) sum_to<N, kBlocksPerSm>(n, body, out, NoEpilogue{});
+  }
+  template <int N, int kBlocksPerSm = 1, class Body, class Before>
+  static void sum_to(int n, Body body, real* out, Before before_add) {
     static_assert(N <= 16, "at most 16 sums per pass");
-    if (n <= 0) return;
     const cuda_detail::DeviceScratch& scratch = cuda_detail::device_scratch();
     device::count_launches(1);
+    const int blocks = n > 0 ? cuda_detail::reduction_blocks(n) : 1;  // (n = 0: before_add still runs)
     cuda_detail::sum_kernel<N, kBlocksPerSm>
-        <<<cuda_detail::reduction_blocks(n), cuda_detail::kBlock>>>(n, body, out, scratch.partials, scratch.ticket);
+        <<<blocks, cuda_detail::kBlock>>>(n, body, out, scratch.partials, scratch.ticket, before_add);
     check_launch();
   }
   template <int N, class Body>

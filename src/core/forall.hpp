@@ -8,7 +8,11 @@
 //                              by colour, then read once); sum_to<N, B> compiles the CUDA kernel
 //                              for B resident blocks per multiprocessor (__launch_bounds__: fewer
 //                              registers, spilled where they do not fit), the same sums; the host
-//                              ignores B
+//                              ignores B. sum_to<N, B>(n, body, out, before_add): before_add()
+//                              runs once, after every iteration and just before the sums are
+//                              added to out (on a GPU by the reduction's last block, in the same
+//                              launch: device memory set up for the sums without a launch of its
+//                              own), also where n is 0
 //   Exec::max<N>(n, body)      body(i, acc) raises acc[0..N) (acc[k] = max(acc[k], value));
 //                              starts from -inf; returns the N maxima on the host
 //   Exec::scan(n, in, out)     exclusive prefix sum of n longs; returns the total on the host
@@ -86,6 +90,11 @@ inline HostPermutation next_host_permutation(int n) {
   return p;
 }
 
+/// The before_add of a sum_to that has none.
+struct NoEpilogue {
+  FDEM_HD void operator()() const {}
+};
+
 struct HostExec {
   static constexpr bool on_gpu = false;
   // Launches counted as CudaExec makes them (device::Traffic).
@@ -108,6 +117,13 @@ struct HostExec {
   static void sum_to(int n, Body body, real* out) {
     if (n > 0) device::count_launches(1);
     const std::array<real, N> r = sum_here<N>(n, body);
+    for (int k = 0; k < N; ++k) out[k] += r[k];
+  }
+  template <int N, int kBlocksPerSm = 1, class Body, class Before>
+  static void sum_to(int n, Body body, real* out, Before before_add) {
+    device::count_launches(1);
+    const std::array<real, N> r = sum_here<N>(n, body);
+    before_add();
     for (int k = 0; k < N; ++k) out[k] += r[k];
   }
   template <int N, class Body>

@@ -107,6 +107,20 @@ FDEM_HD void ce6_element(const Ce6Params& p, const Vec3 (&xe)[6], const Vec3 (&v
 }
 /// Where the fused pass integrates (DeviceLoop::integrates): a node's step by its force, the
 /// arithmetic of advance() (central difference, then a prescribed velocity).
+/// A force evaluation's start: the last one's scalars [0, kBad) kept at [kPrev, kPrev + kBad)
+/// (when `keep`), then slots [0, clear) zeroed (DeviceLoopImpl's Slot).
+struct KeepAndClear {
+  real* sums;
+  bool keep;
+  int clear;
+  static constexpr int kBad = 16, kPrev = 24;
+  FDEM_HD void operator()() const {
+    if (keep)
+      for (int k = 0; k < kBad; ++k) sums[kPrev + k] = sums[k];
+    for (int k = 0; k < clear; ++k) sums[k] = 0;
+  }
+};
+
 struct NodeStep {
   const real* mass;     // 1/m divided here: correctly rounded, so Solver::inv_mass_'s bits
   const int* fixed_of;  // per node: its place in the prescribed lists, or -1 (null: none)
@@ -455,6 +469,8 @@ class DeviceLoopImpl final : public DeviceLoop {
     kPrev = kSums,  // [kPrev, kPrev + kBad): the last evaluation's [0, kBad), kept for its step
     kAll = kPrev + kBad
   };
+  static_assert(device_pass::KeepAndClear::kBad == kBad && device_pass::KeepAndClear::kPrev == kPrev,
+                "KeepAndClear's slots");
 
   void compute_forces(Solver& s) override {
     // A step's integration not read yet (one rank): its sums come with this evaluation's first
@@ -484,13 +500,10 @@ class DeviceLoopImpl final : public DeviceLoop {
       new_powers(step_contact_, step_pressure_, gravity_);
       t0 = lap(t0, t_.integrate);
     }
-    {  // One launch: the last evaluation's scalars kept at kPrev, then the slots cleared.
-      const int clear = stepping ? kSums : kBad;
-      Exec::forall(clear, [=] FDEM_LAMBDA(int k) {
-        if (prev && k < kBad) sums[kPrev + k] = sums[k];
-        sums[k] = 0;
-      });
-    }
+    // The last evaluation's scalars kept at kPrev, then the slots cleared: one launch, or where
+    // the fused pass steps, in its launch (before it adds its sums).
+    const device_pass::KeepAndClear keep_and_clear{sums, prev, stepping ? kSums : kBad};
+    if (!stepping) Exec::forall(1, [=] FDEM_LAMBDA(int) { keep_and_clear(); });
 
     // Gravity starts the sum; without it the TET4 pass assigns each node's first force (the
     // nodes it does not reach are zeroed here), so f is not written twice. (A fused pass that
@@ -513,7 +526,7 @@ class DeviceLoopImpl final : public DeviceLoop {
     // TET4 and CE6: fused in one pass, or colour by colour (plan_fused_pass); where the fused
     // pass integrates, the last evaluation's, with the step.
     if (stepping) {
-      fused_pass<kStep>(m, s.lambda_, s.mu_, sums);
+      fused_pass<kStep>(m, s.lambda_, s.mu_, sums, keep_and_clear);
       t0 = lap(t0, t_.ce6);          // (the TET4 and integration columns stay empty)
       x = x_.data(), v = v_.data();  // swapped: the moved state; the powers of the last forces with it
       // (gravity's: in the pass), and in the same launch the broad phase's watch
@@ -1147,8 +1160,9 @@ class DeviceLoopImpl final : public DeviceLoop {
   ///   left pending, into the second copies of x and v (the other tets still read the first),
   ///   with the integration's sums; then x and v swap. No force array is written or read.
   ///   kComplete: the same without the step: f gets each node's whole force.
-  template <int kMode>
-  void fused_pass(const Model& m, real lambda, real mu, real* sums) {
+  ///   before_add: run once before the pass's sums are added (in the same launch; sum_to).
+  template <int kMode, class Before = NoEpilogue>
+  void fused_pass(const Model& m, real lambda, real mu, real* sums, Before before_add = {}) {
     constexpr bool kOwn = kMode != kForces;  // the pass starts and ends each node's force
     const int nk = int(m.tet_colours.order.size());
     const Vec3* x = x_.data();
@@ -1276,9 +1290,9 @@ class DeviceLoopImpl final : public DeviceLoop {
       }
     };
     if (blocks_ == 2)  // (the CUDA kernel compiled for two resident blocks: DeviceLoop::blocks_per_sm)
-      Exec::template sum_to<kN, 2>(nk, body, sums + kVisc - base);
+      Exec::template sum_to<kN, 2>(nk, body, sums + kVisc - base, before_add);
     else
-      Exec::template sum_to<kN>(nk, body, sums + kVisc - base);
+      Exec::template sum_to<kN>(nk, body, sums + kVisc - base, before_add);
     std::swap(dmg_, dmg_next_);
     std::swap(slip_, slip_next_);
     std::swap(ce6_flag_, ce6_flag_next_);
