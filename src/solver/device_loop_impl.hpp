@@ -107,6 +107,13 @@ FDEM_HD void ce6_element(const Ce6Params& p, const Vec3 (&xe)[6], const Vec3 (&v
 }
 /// Where the fused pass integrates (DeviceLoop::integrates): a node's step by its force, the
 /// arithmetic of advance() (central difference, then a prescribed velocity).
+/// The sum of the pair forces at gather node k (slots gs[gp[k]..gp[k+1]) of the pairs' forces pf).
+FDEM_HD Vec3 pair_forces_at(const int* gp, const int* gs, const Vec3* pf, int k) {
+  Vec3 sum{0, 0, 0};
+  for (int j = gp[k]; j < gp[k + 1]; ++j) sum += pf[gs[j]];
+  return sum;
+}
+
 /// A force evaluation's start: the last one's scalars [0, kBad) kept at [kPrev, kPrev + kBad)
 /// (when `keep`), then slots [0, clear) zeroed (DeviceLoopImpl's Slot).
 struct KeepAndClear {
@@ -556,7 +563,10 @@ class DeviceLoopImpl final : public DeviceLoop {
     std::array<real, kAll> a;
     device::read_start(b_, sums_.data(), sizeof a);
     const bool ahead = integrates_ && cs.enabled() && !cs.dirty_;
-    if (ahead) contact_pairs(s, t0);
+    // Where the fused pass steps and platens push, the per-node sum of the pairs' forces goes into
+    // the platens' launch (both write forces held for the pass: their order changes no sum).
+    const bool gather_with_platens = integrates_ && scene.platens.enabled;
+    if (ahead) contact_pairs(s, t0, !gather_with_platens);
     device::read_finish(b_, a.data(), sizeof a);
     if (stepping) {  // the last evaluation's sums: its contact, platens and pressure (kPrev), its elements (the pass)
       std::array<real, kBad> b;
@@ -622,7 +632,7 @@ class DeviceLoopImpl final : public DeviceLoop {
         real* sums_now = sums_.data();
         Exec::forall(kConPower + 1 - kTouching, [=] FDEM_LAMBDA(int k) { sums_now[kTouching + k] = 0; });
       }
-      if (rebuild || !ahead) contact_pairs(s, t0);
+      if (rebuild || !ahead) contact_pairs(s, t0, !gather_with_platens);
       std::swap(spring_, next_spring_);  // the springs of the pairs' last pass are now the state
       // The run's report reads the contact set's clocks (friction: in the narrow phase's pass).
       cs.times.broad = t_.broad;
@@ -641,9 +651,20 @@ class DeviceLoopImpl final : public DeviceLoop {
       Vec3* anchor = anchor_.data();
       Vec3* held = integrates_ ? platen_force_.data() : nullptr;  // (for the pass that steps)
       const real ztop = s.top_z0_ - s.top_offset, zbot = s.bottom_z0_, mu_p = scene.material.friction_platen;
+      // First, where it comes here (gather_with_platens), the pairs' per-node sum.
+      const int ng = gather_with_platens && cs.enabled() ? int(gather_node_.size()) : 0;
+      const int* gp = gather_ptr_.data();
+      const int* gs = gather_slot_.data();
+      const Vec3* pf = pair_force_.data();
+      Vec3* csum = contact_sum_.data();
       Exec::template sum_to<3>(
-          int(platen_nodes_.size()),
-          [=] FDEM_LAMBDA(int i, real* acc) {
+          ng + int(platen_nodes_.size()),
+          [=] FDEM_LAMBDA(int k, real* acc) {
+            if (k < ng) {
+              csum[k] = device_pass::pair_forces_at(gp, gs, pf, k);
+              return;
+            }
+            const int i = k - ng;
             const int n = pn[i];
             const bool near_top = x[n].z > 0.5 * (ztop + zbot);
             const Vec3 xr = x[n] - Vec3{0, 0, near_top ? ztop : zbot};
@@ -1816,11 +1837,11 @@ class DeviceLoopImpl final : public DeviceLoop {
 
   /// Contact on the candidate list: one launch per pair (the narrow phase, friction, the pair's
   /// forces written once, and their power with the velocities now; its sums to kTouching to
-  /// kConPower), then the deterministic per-node sum into f, or where the fused pass integrates
-  /// into the held contact_sum_. The springs are read from spring_ and written to next_spring_,
-  /// which becomes the state when the caller swaps them: a pass queued ahead of a rebuild
-  /// (compute_forces) leaves the springs the rebuild carries over untouched.
-  void contact_pairs(const Solver& s, Clock::time_point& t0) {
+  /// kConPower), then (`gather`) the deterministic per-node sum into f, or where the fused pass
+  /// integrates into the held contact_sum_ (there, with platens, in the platens' launch). The springs are read from
+  /// spring_ and written to next_spring_, which becomes the state when the caller swaps them: a pass queued ahead of a
+  /// rebuild (compute_forces) leaves the springs the rebuild carries over untouched.
+  void contact_pairs(const Solver& s, Clock::time_point& t0, bool gather) {
     const ContactSet& cs = s.contacts;
     const int np = int(pairs_.size());
     next_spring_.resize(np);
@@ -1885,14 +1906,14 @@ class DeviceLoopImpl final : public DeviceLoop {
         },
         sums_.data() + kTouching);
     t0 = lap(t0, t_.narrow);
+    if (!gather) return;
     const int* gn = gather_node_.data();
     const int* gp = gather_ptr_.data();
     const int* gs = gather_slot_.data();
     Vec3* f = f_.data();
     Vec3* held = integrates_ ? contact_sum_.data() : nullptr;  // (for the pass that steps)
     Exec::forall(int(gather_node_.size()), [=] FDEM_LAMBDA(int k) {
-      Vec3 sum{0, 0, 0};
-      for (int j = gp[k]; j < gp[k + 1]; ++j) sum += pf[gs[j]];
+      const Vec3 sum = device_pass::pair_forces_at(gp, gs, pf, k);
       if (held)
         held[k] = sum;
       else
