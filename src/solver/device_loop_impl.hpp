@@ -478,6 +478,7 @@ class DeviceLoopImpl final : public DeviceLoop {
   };
   static_assert(device_pass::KeepAndClear::kBad == kBad && device_pass::KeepAndClear::kPrev == kPrev,
                 "KeepAndClear's slots");
+  static_assert(kWatched < kSums, "an integration's slots end before kPrev");
 
   void compute_forces(Solver& s) override {
     // A step's integration not read yet (one rank): its sums come with this evaluation's first
@@ -536,7 +537,8 @@ class DeviceLoopImpl final : public DeviceLoop {
       fused_pass<kStep>(m, s.lambda_, s.mu_, sums, keep_and_clear);
       t0 = lap(t0, t_.ce6);          // (the TET4 and integration columns stay empty)
       x = x_.data(), v = v_.data();  // swapped: the moved state; the powers of the last forces with it
-      // (gravity's: in the pass), and in the same launch the broad phase's watch
+      // (gravity's: in the pass), and in the same launch the broad phase's watch (timed here, as
+      // energy, not as activation)
       contact_pressure_powers(s.contacts.enabled(), scene.confinement.enabled,
                               s.contacts.enabled() ? &s.contacts : nullptr);
       t0 = lap(t0, t_.energy);
@@ -1044,12 +1046,13 @@ class DeviceLoopImpl final : public DeviceLoop {
       // damage, anchors and flags written; where not (broken, inert), the writer reads the other
       // copy's damage.
       const std::uint8_t* sides = ce6_sides_.data();
+      const std::uint8_t* flags = ce6_flag_.data();
       const auto e = Exec::template sum<4>(ce6_coloured_, [=] FDEM_LAMBDA(int i, real* acc) {
         const bool carries = ce6_carries_force(p, st[i]);
         acc[0] += sides[i];
         acc[1] += carries ? sides[i] : 0;
         acc[2] += carries && ce6_max_damage(st[i]) > 0 ? sides[i] : 0;
-        acc[3] += ce6_max_damage(st[i]) > 0 || st[i].mode != 0 ? sides[i] : 0;
+        acc[3] += flags[i] & 2 ? sides[i] : 0;
       });
       ce6 = e[0] + e[3] * sizeof(Ce6Damage) + e[1] * (6 * sizeof(int) + sizeof(real) + 6 * 2 * vec) +
             e[2] * sizeof(Ce6Anchors) + k[1] * (sizeof(Ce6Damage) + sizeof(Ce6Anchors) + 1) +
