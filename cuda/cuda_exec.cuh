@@ -10,6 +10,7 @@
 #include <cstdlib>
 #include <exception>
 #include <string>
+#include <type_traits>
 
 #include "core/error.hpp"
 #include "core/forall.hpp"
@@ -169,11 +170,13 @@ struct CudaExec {
   }
   template <int N, int kBlocksPerSm = 1, class Body>
   static void sum_to(int n, Body body, real* out) {
-    if (n > 0) sum_to<N, kBlocksPerSm>(n, body, out, NoEpilogue{});
+    sum_to<N, kBlocksPerSm>(n, body, out, NoEpilogue{});
   }
   template <int N, int kBlocksPerSm = 1, class Body, class Before>
   static void sum_to(int n, Body body, real* out, Before before_add) {
     static_assert(N <= 16, "at most 16 sums per pass");
+    if constexpr (std::is_same_v<Before, NoEpilogue>)
+      if (n <= 0) return;  // (nothing to add and nothing to run before)
     const cuda_detail::DeviceScratch& scratch = cuda_detail::device_scratch();
     device::count_launches(1);
     const int blocks = n > 0 ? cuda_detail::reduction_blocks(n) : 1;  // (n = 0: before_add still runs)

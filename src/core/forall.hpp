@@ -34,6 +34,7 @@
 #include <numeric>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "core/config.hpp"
@@ -121,6 +122,8 @@ struct HostExec {
   }
   template <int N, int kBlocksPerSm = 1, class Body, class Before>
   static void sum_to(int n, Body body, real* out, Before before_add) {
+    if constexpr (std::is_same_v<Before, NoEpilogue>)
+      if (n <= 0) return;
     device::count_launches(1);
     const std::array<real, N> r = sum_here<N>(n, body);
     before_add();

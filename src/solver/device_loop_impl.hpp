@@ -105,8 +105,6 @@ FDEM_HD void ce6_element(const Ce6Params& p, const Vec3 (&xe)[6], const Vec3 (&v
   if (own && !was_broken) acc[0] += ev.power;
   if (!was_broken && ce6_broken(d)) *broke = 1, acc[2] += 1;
 }
-/// Where the fused pass integrates (DeviceLoop::integrates): a node's step by its force, the
-/// arithmetic of advance() (central difference, then a prescribed velocity).
 /// The sum of the pair forces at gather node k (slots gs[gp[k]..gp[k+1]) of the pairs' forces pf).
 FDEM_HD Vec3 pair_forces_at(const int* gp, const int* gs, const Vec3* pf, int k) {
   Vec3 sum{0, 0, 0};
@@ -128,6 +126,8 @@ struct KeepAndClear {
   }
 };
 
+/// Where the fused pass integrates (DeviceLoop::integrates): a node's step by its force, the
+/// arithmetic of advance() (central difference, then a prescribed velocity).
 struct NodeStep {
   const real* mass;     // 1/m divided here: correctly rounded, so Solver::inv_mass_'s bits
   const int* fixed_of;  // per node: its place in the prescribed lists, or -1 (null: none)
@@ -653,20 +653,21 @@ class DeviceLoopImpl final : public DeviceLoop {
       Vec3* anchor = anchor_.data();
       Vec3* held = integrates_ ? platen_force_.data() : nullptr;  // (for the pass that steps)
       const real ztop = s.top_z0_ - s.top_offset, zbot = s.bottom_z0_, mu_p = scene.material.friction_platen;
-      // First, where it comes here (gather_with_platens), the pairs' per-node sum.
+      // After the platen nodes, where it comes here (gather_with_platens), the pairs' per-node sum
+      // (after them, so that the order of the platens' sums does not change with the pairs').
+      const int npn = int(platen_nodes_.size());
       const int ng = gather_with_platens && cs.enabled() ? int(gather_node_.size()) : 0;
       const int* gp = gather_ptr_.data();
       const int* gs = gather_slot_.data();
       const Vec3* pf = pair_force_.data();
       Vec3* csum = contact_sum_.data();
       Exec::template sum_to<3>(
-          ng + int(platen_nodes_.size()),
-          [=] FDEM_LAMBDA(int k, real* acc) {
-            if (k < ng) {
-              csum[k] = device_pass::pair_forces_at(gp, gs, pf, k);
+          npn + ng,
+          [=] FDEM_LAMBDA(int i, real* acc) {
+            if (i >= npn) {
+              csum[i - npn] = device_pass::pair_forces_at(gp, gs, pf, i - npn);
               return;
             }
-            const int i = k - ng;
             const int n = pn[i];
             const bool near_top = x[n].z > 0.5 * (ztop + zbot);
             const Vec3 xr = x[n] - Vec3{0, 0, near_top ? ztop : zbot};

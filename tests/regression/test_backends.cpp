@@ -297,9 +297,10 @@ TEST(DebugBackend, OnlyAFewScalarsCrossToTheHostBetweenMonitorRows) {
     device::Traffic traffic;
     long steps = 0, rebuilds = 0, broken = 0;
   };
-  auto run = [](int cells, real velocity, int steps) {
+  auto run = [](int cells, real velocity, int steps, bool pressure = true) {
     Scene s = backend_fracture_scene("debug");
     s.platens.velocity = velocity;
+    s.confinement.enabled = pressure;
     Solver solver(s, build_model(structured_box_mesh({0.006, 0.006, 0.012}, cells, cells, 2 * cells), s));
     solver.step();  // the first step uploads the state
     device::reset_traffic();
@@ -326,9 +327,13 @@ TEST(DebugBackend, OnlyAFewScalarsCrossToTheHostBetweenMonitorRows) {
   // step), the powers of the last contact and pressure forces with the new velocities and the
   // broad phase's watch (one launch), the contact pairs (narrow phase, friction and their
   // power), their sum per node and the platens (one launch), and the pressure's faces (with
-  // their power). (Activation: on the steps that break a CE6.)
+  // their power). (Activation: on the steps that break a CE6.) Without the pressure, as in a
+  // UCS test, 4.
   EXPECT_EQ(small.traffic.launches, big.traffic.launches);
   EXPECT_EQ(small.traffic.launches, 5 * small.steps);
+  const Seen dry = run(3, 0.5, 200, false);
+  EXPECT_EQ(dry.rebuilds, 0);
+  EXPECT_EQ(dry.traffic.launches, 4 * dry.steps);
   // Through fracture, activation and broad-phase rebuilds on the device: still a few hundred
   // bytes per step, none larger than one block of sums.
   const Seen frac = run(3, 4.0, 4000);

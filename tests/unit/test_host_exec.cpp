@@ -149,3 +149,34 @@ TEST(HostExec, SortingEqualKeysIsAnErrorWhenScrambled) {
   std::vector<int> ties = {5, 3, 5, 1};
   EXPECT_THROW(HostExec::sort(ties.data(), long(ties.size()), [](int a, int b) { return a < b; }), std::logic_error);
 }
+
+TEST(HostExec, SumToRunsBeforeAddOnceJustBeforeTheSumsAreAddedEvenOverNoIndices) {
+  // (CudaExec: the reduction's last block, in the same launch.)
+  for (int n : {0, 5}) {
+    real out[2] = {7, 7};
+    int calls = 0;
+    device::reset_traffic();
+    HostExec::sum_to<2>(
+        n,
+        [](int i, real* acc) {
+          acc[0] += 1;
+          acc[1] += i;
+        },
+        out,
+        [&] {
+          ++calls;
+          out[0] = out[1] = 100;  // what the sums are added to
+        });
+    EXPECT_EQ(calls, 1) << n;
+    EXPECT_EQ(out[0], 100 + n) << n;
+    EXPECT_EQ(out[1], 100 + n * (n - 1) / 2) << n;
+    EXPECT_EQ(device::traffic().launches, 1) << n;
+  }
+  // Without it, no indices launch nothing.
+  device::reset_traffic();
+  real out[1] = {3};
+  HostExec::sum_to<1>(
+      0, [](int, real* acc) { acc[0] += 1; }, out);
+  EXPECT_EQ(out[0], 3);
+  EXPECT_EQ(device::traffic().launches, 0);
+}
