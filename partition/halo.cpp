@@ -195,8 +195,16 @@ std::size_t Halo::node_bytes_sent() const {
   return send_.size() * sizeof(Vec3);
 }
 
+namespace {
+long sums_over_ranks = 0;  // reductions made by sum_over_ranks (sums_over_ranks_made)
+}  // namespace
+
 void sum_over_ranks(MPI_Comm comm, double* values, int n) {
-  if (size_of(comm) > 1) MPI_Allreduce(MPI_IN_PLACE, values, n, MPI_DOUBLE, MPI_SUM, comm);
+  if (size_of(comm) > 1) MPI_Allreduce(MPI_IN_PLACE, values, n, MPI_DOUBLE, MPI_SUM, comm), ++sums_over_ranks;
+}
+
+long sums_over_ranks_made() {
+  return sums_over_ranks;
 }
 
 double sum_over_ranks(MPI_Comm comm, double value) {

@@ -88,6 +88,9 @@ bool device_buffers_to_mpi(bool on_gpu);
 
 /// Sums n values over the ranks of comm in place (nothing to do on one rank).
 void sum_over_ranks(MPI_Comm comm, double* values, int n);
+/// How many reductions sum_over_ranks has made in this process (each waits for every rank: a
+/// step's count is a cost on a cluster; tests/mpi).
+long sums_over_ranks_made();
 /// A value's sum and maximum over the ranks of comm.
 double sum_over_ranks(MPI_Comm comm, double value);
 double max_over_ranks(MPI_Comm comm, double value);

@@ -38,6 +38,11 @@ struct AdvanceSums {
   real gravity_power = 0;   // sum m g.v with the new velocities, W
   real far = 0;             // owned nodes a quarter of the contact reach from ContactSet::plan_x()
   real lost = 0;            // owned nodes half the contact reach from there
+  // Several ranks: what this rank adds to the step's one reduction besides the above
+  // (Solver::finish_step hands them back summed: DeviceLoop::take_reduced). n_more is 0 on one
+  // rank.
+  int n_more = 0;
+  std::array<real, 10> more{};
 };
 
 class DeviceLoop {
@@ -77,15 +82,23 @@ class DeviceLoop {
   /// Central difference with time step dt, prescribed velocities, and the powers with the new
   /// velocities; where the fused pass integrates (integrates()), left pending for the next
   /// compute_forces (or for the first read of the state before it). Several ranks: the sums
-  /// come to the host now, into `out`, and it returns true (their force evaluations bring their
-  /// own scalars, summed over the ranks). One rank: they stay on the device and it returns
-  /// false; the next compute_forces reads them in the copy that brings the broad phase's
-  /// decision and finishes the step there (Solver::finish_step), so a step copies to the host
-  /// once.
+  /// come to the host now, into `out`, in the same copy as the last force evaluation's scalars
+  /// (which waited on the device), and it returns true; the Solver sums both over the ranks in
+  /// one reduction (take_reduced). One rank: they stay on the device and it returns false; the
+  /// next compute_forces reads them in the copy that brings the broad phase's decision and
+  /// finishes the step there (Solver::finish_step), so a step copies to the host once.
   virtual bool advance(Solver& s, real dt, AdvanceSums& out) = 0;
+  /// Several ranks: AdvanceSums::more summed over the ranks, in Solver::finish_step's one
+  /// reduction of the step: the last force evaluation's whole-model sums (platen reactions,
+  /// powers, slip, touching pairs) to the Solver, and whether any rank raised an activation
+  /// flag (the next compute_forces merges the flags then).
+  virtual void take_reduced(Solver& s, const real* more) = 0;
   /// The last force evaluation's scalars to the Solver now (one copy), if they are still on the
   /// device: Solver::measure and Solver::sync_host call it, so that between steps the Solver's
-  /// platen reactions, powers and slip energies are those of the forces on the device.
+  /// platen reactions, powers and slip energies are those of the forces on the device. Several
+  /// ranks: they are summed over the ranks here (while they wait, which is from a force
+  /// evaluation to the next step's reduction), so every rank calls it at once, as they call
+  /// measure(), write output and checkpoints.
   virtual void settle(Solver& s) = 0;
   /// Forget what settle() would bring: the host copy was written (a checkpoint loaded, a
   /// prescription) and is the state now; the next step uploads it.

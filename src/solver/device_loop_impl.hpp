@@ -608,13 +608,13 @@ class DeviceLoopImpl final : public DeviceLoop {
     if (!integrates_) s.p_gravity_ = a[kGravity];  // (integrating: with the evaluation's sums)
     // Several ranks: a flag raised on any rank holding a tet reaches the others before the broad
     // phase looks at the flags. The ranks merge them together, and only when one of them raised a
-    // flag since the last merge (or took flags from its host): one number summed over the ranks
-    // instead of the flags' exchange and its three copies, on the steps (most) that raise none.
+    // flag since the last merge (or took flags from its host): one number in the step's reduction
+    // (take_reduced) instead of the flags' exchange and its three copies, on the steps (most)
+    // that raise none. A layout grown since (Solver::grow_contact_ghosts, on every rank at once)
+    // brings its host's flags with no reduction in between: every rank merges then.
     if (s.halo_ && cs.enabled()) {
-      real raised = (raised_ ? 1 : 0) + (flags_merged_ ? 0 : 1);
-      raised_ = false;
-      s.sum(&raised, 1);
-      if (raised > 0 && merge_flags(s)) cs.dirty_ = true;
+      if ((merge_wanted_ || !flags_merged_) && merge_flags(s)) cs.dirty_ = true;
+      merge_wanted_ = false;
       flags_merged_ = true;
     }
 
@@ -691,31 +691,20 @@ class DeviceLoopImpl final : public DeviceLoop {
     const bool follows = cf.enabled && s.hydrostatic_;
     if (cf.enabled && !follows) pressure_forces(s, x, v, f);
 
-    // Several ranks: the whole model's sums, as the CPU backend takes them (one reduction);
-    // the platen reactions go back to the device for the hydrostatic pressure.
-    const bool dist = s.dd_.distributed();
-    const int whole[] = {kTop, kBottom, kPlatenFric, kVisc, kCoh, kFric, kConDiss, kConStored, kTouching};
-    std::array<real, kBad> reduced{};
-    if (dist) {
-      reduced = read_sums<kBad>();
-      real vals[9];
-      for (int k = 0; k < 9; ++k) vals[k] = reduced[whole[k]];
-      s.sum(vals, 9);
-      for (int k = 0; k < 9; ++k) reduced[whole[k]] = vals[k];
-      if (follows)  // the pressure below follows them
-        device::to_device(b_, sums_.data() + kTop, &vals[0], 2 * sizeof(real));
+    // Several ranks, hydrostatic path: the platen reactions summed over the ranks go back to the
+    // device for the pressure below, which follows them (a reduction of their own, as on the CPU
+    // backend; the rest of the evaluation's sums wait for the step's).
+    if (follows && s.dd_.distributed()) {
+      device::to_host(b_, reactions_.data(), sums_.data() + kTop, sizeof reactions_);
+      s.sum(reactions_.data(), 2);
+      device::to_device(b_, sums_.data() + kTop, reactions_.data(), sizeof reactions_);
     }
     if (follows) pressure_forces(s, x, v, f);
-    // One rank: the scalars stay on the device until the next evaluation's first copy (or
-    // settle()); several ranks read them here, summed over the ranks.
-    if (dist) {  // on the hydrostatic path the pressure's power is the one sum added since the read
-      std::array<real, kBad> b = follows ? read_sums<kBad>() : reduced;
-      for (int k : whole) b[k] = reduced[k];
-      apply_force_sums(s, b.data());
-    } else {
-      forces_pending_ = true;
-      elements_pending_ = integrates_;
-    }
+    // The scalars stay on the device: one rank reads them with the next evaluation's first copy,
+    // several ranks with the integration's sums (advance()), and sum them over the ranks in the
+    // step's one reduction (take_reduced); or settle() before either.
+    forces_pending_ = true;
+    elements_pending_ = integrates_;
     lap(t0, t_.pressure);
   }
 
@@ -755,6 +744,14 @@ class DeviceLoopImpl final : public DeviceLoop {
 
   void settle(Solver& s) override {
     if (!forces_pending_) return;
+    if (s.dd_.distributed()) {  // (every rank at once: monitor rows, output, checks after a reduction)
+      waiting_ = read_sums<kBad>();
+      std::array<real, 10> more;
+      reduction_values(more.data());
+      s.sum(more.data(), int(more.size()));
+      take_reduced(s, more.data());
+      return;
+    }
     complete_forces();
     const std::array<real, kBad> b = read_sums<kBad>();
     apply_force_sums(s, b.data());
@@ -762,6 +759,18 @@ class DeviceLoopImpl final : public DeviceLoop {
       download(s);
       s.report_inverted();
     }
+  }
+
+  void take_reduced(Solver& s, const real* more) override {
+    if (forces_pending_) {  // the rank's own sums, the whole model's where the CPU backend sums them
+      std::array<real, kBad> b = waiting_;
+      for (int k = 0; k < int(kWhole.size()); ++k) b[kWhole[k]] = more[k];
+      if (s.scene_.confinement.enabled && s.hydrostatic_)  // summed already (compute_forces)
+        b[kTop] = reactions_[0], b[kBottom] = reactions_[1];
+      apply_force_sums(s, b.data());
+    }
+    raised_ = false;  // (counted in `more`)
+    merge_wanted_ = merge_wanted_ || more[kWhole.size()] > 0;
   }
 
   void discard_pending() override { forces_pending_ = advance_pending_ = step_pending_ = elements_pending_ = false; }
@@ -813,10 +822,29 @@ class DeviceLoopImpl final : public DeviceLoop {
       lap(t0, t_.energy);
       return false;
     }
-    const std::array<real, kSums> r = read_sums<kSums>();  // (several ranks apply the forces' own)
+    // Several ranks: the integration's sums and the last force evaluation's in one copy; the
+    // powers of that evaluation with which the works of the step begin (Solver::step_sums) are
+    // the rank's own.
+    const std::array<real, kSums> r = read_sums<kSums>();
     lap(t0, t_.energy);
     out = advance_sums(r.data());
+    if (forces_pending_) {
+      std::copy(r.begin(), r.begin() + kBad, waiting_.begin());
+      s.p_contact_ = r[kConPower];
+      if (s.scene_.confinement.enabled) s.p_pressure_ = r[kPressurePower];
+    }
+    out.n_more = int(out.more.size());
+    reduction_values(out.more.data());
     return true;
+  }
+
+  /// Several ranks: what this rank adds to the step's reduction (take_reduced): the waiting
+  /// evaluation's sums that the whole model sums (zero where none waits: the same on every
+  /// rank), and 1 where it activated tets since the last merge or took flags from its host.
+  void reduction_values(real* more) const {
+    static_assert(kWhole.size() + 1 == std::tuple_size_v<decltype(AdvanceSums::more)>, "the step's reduction");
+    for (int k = 0; k < int(kWhole.size()); ++k) more[k] = forces_pending_ ? waiting_[kWhole[k]] : 0;
+    more[kWhole.size()] = raised_ || (forces_pending_ && waiting_[kAdded] > 0) || !flags_merged_ ? 1 : 0;
   }
 
   /// Central difference of every node with time step dt into sums [kBad, kSums) (cleared first:
@@ -2000,6 +2028,15 @@ class DeviceLoopImpl final : public DeviceLoop {
   long shared_active_ = -1;      // active flags among the shared tets at the last merge
   bool flags_merged_ = false;    // false from an upload of the host's flags to the next merge
   bool raised_ = false;          // several ranks: this rank activated tets in the last evaluation
+  bool merge_wanted_ = false;    // several ranks: a rank raised a flag (the step's reduction said)
+  // Several ranks: the last force evaluation's sums on this rank, read with the integration's and
+  // waiting for the step's reduction (take_reduced); on the hydrostatic path, its platen
+  // reactions summed over the ranks (compute_forces).
+  std::array<real, kBad> waiting_{};
+  std::array<real, 2> reactions_{};
+  // The sums that the whole model sums, as the CPU backend takes them (Solver::compute_forces).
+  static constexpr std::array<int, 9> kWhole = {kTop,  kBottom,  kPlatenFric, kVisc,    kCoh,
+                                                kFric, kConDiss, kConStored,  kTouching};
   DeviceArray<ContactPair> next_pairs_;
   DeviceArray<Vec3> next_spring_;
   DeviceTimes t_;

@@ -627,6 +627,7 @@ Solver::StepSums Solver::step_sums(const AdvanceSums& a) const {
   const real dt = dt_;
   StepSums st;
   st.bad = a.bad, st.ke = a.kinetic2, st.far = a.far, st.lost = a.lost;
+  st.n_more = a.n_more, st.more = a.more;
   if (contacts.enabled()) st.w_con = 0.5 * dt * (p_contact_ + a.contact_power);
   if (scene_.confinement.enabled) st.w_pre = 0.5 * dt * (p_pressure_ + a.pressure_power);
   if (scene_.has_gravity()) st.w_grav = 0.5 * dt * (p_gravity_ + a.gravity_power);
@@ -635,13 +636,17 @@ Solver::StepSums Solver::step_sums(const AdvanceSums& a) const {
 
 bool Solver::finish_step(const StepSums& st) {
   const real dt = dt_, speed = step_speed_;
+  // One reduction over the ranks a step: with a device loop's values too (the force
+  // evaluation's, which it hands to the Solver now, before the energies below read them).
+  real sums[7 + std::tuple_size_v<decltype(st.more)>] = {st.bad, st.ke, st.w_con, st.w_pre, st.w_grav, st.far, st.lost};
+  std::copy(st.more.begin(), st.more.begin() + st.n_more, sums + 7);
+  sum(sums, 7 + st.n_more);
+  if (st.n_more > 0) dev_->take_reduced(*this, sums + 7);
   // Energies of the interval [t, t+dt] from the forces at t.
   w_external_ += force_top_ * (-speed * dt);
   w_viscous_ += p_viscous_ * dt;
   w_cohesive_ += p_cohesive_ * dt;
   w_friction_ += p_friction_ * dt;
-  real sums[] = {st.bad, st.ke, st.w_con, st.w_pre, st.w_grav, st.far, st.lost};
-  sum(sums, 7);
   if (sums[0] > 0 || sums[6] > 0) sync_host();
   check_finite(long(sums[0]));
   if (sums[6] > 0) {  // every rank stops: those with the node name it

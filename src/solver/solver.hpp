@@ -174,6 +174,8 @@ class Solver {
   /// quarter and half the contact reach from ContactSet::plan_x.
   struct StepSums {
     real bad = 0, ke = 0, w_con = 0, w_pre = 0, w_grav = 0, far = 0, lost = 0;
+    int n_more = 0;  // a device loop's values summed in the same reduction (AdvanceSums::more)
+    std::array<real, 10> more{};
   };
   /// A device integration's sums as StepSums (the works with the last force evaluation's powers).
   StepSums step_sums(const AdvanceSums& a) const;
