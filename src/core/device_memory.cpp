@@ -124,6 +124,17 @@ std::atomic<std::size_t> in_use{0}, peak{0};
 Traffic copies;
 }  // namespace
 
+namespace {
+// The read in flight on this host thread (read_start to read_finish): its size, and the debug
+// backend's copy of the bytes.
+struct PendingRead {
+  std::size_t bytes = 0;
+  bool open = false;
+  std::vector<char> staged;
+};
+thread_local PendingRead pending_read;
+}  // namespace
+
 const Traffic& traffic() {
   return copies;
 }
@@ -132,6 +143,7 @@ void reset_traffic() {
 }
 void count_launches(long n) {
   copies.launches += n;
+  if (pending_read.open) copies.launches_ahead += n;
 }
 void count_copy(bool to_host, std::size_t bytes) {
   if (to_host) {
@@ -186,17 +198,6 @@ void to_host(Backend b, void* dst, const void* src, std::size_t bytes) {
     std::memcpy(dst, src, bytes);
   }
 }
-
-namespace {
-// The read in flight on this host thread (read_start to read_finish): its size, and the debug
-// backend's copy of the bytes.
-struct PendingRead {
-  std::size_t bytes = 0;
-  bool open = false;
-  std::vector<char> staged;
-};
-thread_local PendingRead pending_read;
-}  // namespace
 
 void read_start(Backend b, const void* src, std::size_t bytes) {
   PendingRead& r = pending_read;  // (a read left unfinished by an exception is dropped)

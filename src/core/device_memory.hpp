@@ -83,6 +83,8 @@ struct Traffic {
   std::size_t host_bytes = 0, device_bytes = 0;  // bytes copied device to host, host to device
   std::size_t largest_to_host = 0, largest_to_device = 0;
   long launches = 0;
+  long launches_ahead = 0;  // of them, made while a read was in flight (read_start to read_finish):
+                            // device work queued behind the copy the host waits for
 };
 const Traffic& traffic();
 void reset_traffic();

@@ -90,8 +90,9 @@ class DeviceLoop {
   virtual bool advance(Solver& s, real dt, AdvanceSums& out) = 0;
   /// Several ranks: AdvanceSums::more summed over the ranks, in Solver::finish_step's one
   /// reduction of the step: the last force evaluation's whole-model sums (platen reactions,
-  /// powers, slip, touching pairs) to the Solver, and whether any rank raised an activation
-  /// flag (the next compute_forces merges the flags then).
+  /// powers, slip, touching pairs) to the Solver, and whether any rank activated tets in it or
+  /// took flags from its host since the last merge (the next compute_forces merges the flags
+  /// then).
   virtual void take_reduced(Solver& s, const real* more) = 0;
   /// The last force evaluation's scalars to the Solver now (one copy), if they are still on the
   /// device: Solver::measure and Solver::sync_host call it, so that between steps the Solver's

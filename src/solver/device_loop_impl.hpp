@@ -440,9 +440,10 @@ class DeviceLoopImpl final : public DeviceLoop {
   // with the integration's sums (slots kBad to kSums) and
   // the last force evaluation's scalars (platen reactions, powers, slip: slots below kBad, moved
   // to kPrev before the new evaluation clears them) in the same copy. Several ranks read them
-  // three times: after the CE6 pass, at the end of the forces (the sums over the ranks; once
-  // more after a hydrostatic confining pressure, for its power) and after the integration (the
-  // contact reach decides whether to gather ghosts before the next forces).
+  // twice: after the CE6 pass (the broad phase's decision), and after the integration with the
+  // force evaluation's scalars, which the step's one reduction sums over the ranks (the contact
+  // reach decides there whether to gather ghosts before the next forces); on the hydrostatic
+  // path the platen reactions too, which the pressure follows.
   // [0, kBad): a force evaluation's sums, [kBad, kSums): an integration's. Gravity's and the
   // element passes' come last of the first, and the integration's kinetic energy and gravity
   // power first of the second, so that a fused pass that integrates sums into one run of slots
@@ -554,21 +555,27 @@ class DeviceLoopImpl final : public DeviceLoop {
     ContactSet& cs = s.contacts;
     if (cs.enabled() && !stepping) activate(cs, 0, true);  // (stepping: with the new powers, above)
     t0 = lap(t0, t_.activation);
-    // The step's one copy to the host. Where the fused pass integrates (one rank), contact's
-    // pairs are queued behind it on the candidate list as it stands, so that the device works
-    // while the host waits and decides; a rebuild below discards them and runs them again (the
+    // The step's one copy to the host. Where the fused pass integrates (one rank), the rest of
+    // the evaluation is queued behind it, so that the device works while the host waits and
+    // decides: contact's pairs on the candidate list as it stands, then the platens and the
+    // confining pressure at the platen travel and the time the step leads to (those
+    // finish_step() sets below). A rebuild below discards the pairs and runs them again (the
     // friction springs are kept apart until then; the timing columns count both runs). Their
-    // forces wait for the next step's pass in arrays of their own, so their place among the
-    // launches does not change a sum. A run that stops in between (an inverted TET4, a velocity
-    // not finite) downloads those pairs' forces with the springs from before them: its
-    // diagnostic frame reads neither.
+    // forces, the platens' and the pressure's wait for the next step's pass in arrays of their
+    // own, so their place among the launches does not change a sum. A run that stops in between
+    // (an inverted TET4, a velocity not finite) downloads those pairs' forces with the springs
+    // from before them, and the platens' anchors and the pressure's forces of the evaluation
+    // queued: its diagnostic frame reads none of them.
     std::array<real, kAll> a;
     device::read_start(b_, sums_.data(), sizeof a);
     const bool ahead = integrates_ && cs.enabled() && !cs.dirty_;
-    // Where the fused pass steps and platens push, the per-node sum of the pairs' forces goes into
-    // the platens' launch (both write forces held for the pass: their order changes no sum).
-    const bool gather_with_platens = integrates_ && scene.platens.enabled;
+    // The per-node sum of the pairs' forces queued ahead goes into the platens' launch (both write
+    // forces held for the pass: their order changes no sum); after a rebuild, its own launch.
+    const bool gather_with_platens = ahead && scene.platens.enabled;
     if (ahead) contact_pairs(s, t0, !gather_with_platens);
+    if (integrates_)
+      platens_and_pressure(s, x, v, f, finish ? s.top_offset_after_step() : s.top_offset,
+                           finish ? s.time_after_step() : s.time_, gather_with_platens, t0);
     device::read_finish(b_, a.data(), sizeof a);
     if (stepping) {  // the last evaluation's sums: its contact, platens and pressure (kPrev), its elements (the pass)
       std::array<real, kBad> b;
@@ -634,7 +641,7 @@ class DeviceLoopImpl final : public DeviceLoop {
         real* sums_now = sums_.data();
         Exec::forall(kConPower + 1 - kTouching, [=] FDEM_LAMBDA(int k) { sums_now[kTouching + k] = 0; });
       }
-      if (rebuild || !ahead) contact_pairs(s, t0, !gather_with_platens);
+      if (rebuild || !ahead) contact_pairs(s, t0, true);
       std::swap(spring_, next_spring_);  // the springs of the pairs' last pass are now the state
       // The run's report reads the contact set's clocks (friction: in the narrow phase's pass).
       cs.times.broad = t_.broad;
@@ -645,18 +652,34 @@ class DeviceLoopImpl final : public DeviceLoop {
     // evaluation's contact. (Where the fused pass integrates: with the pass's breaks, above.)
     if (!integrates_ && a[kBreaks] > 0) activate(cs, nc, false);
     t0 = lap(t0, t_.activation);
+    if (!integrates_) platens_and_pressure(s, x, v, f, s.top_offset, s.time_, false, t0);
+    // The scalars stay on the device: one rank reads them with the next evaluation's first copy,
+    // several ranks with the integration's sums (advance()), and sum them over the ranks in the
+    // step's one reduction (take_reduced); or settle() before either.
+    forces_pending_ = true;
+    elements_pending_ = integrates_;
+  }
 
+  /// The platens' and the confining pressure's forces at the state in x and v, with the top
+  /// platen at top_offset (m) and the pressure's ramp at `time` (s): added to f, or where the
+  /// fused pass integrates, held for it. `gather`: the contact pairs' per-node sum in the
+  /// platens' launch (where the fused pass integrates). t0: the passes' clock.
+  void platens_and_pressure(Solver& s, const Vec3* x, const Vec3* v, Vec3* f, real top_offset, real time, bool gather,
+                            std::chrono::steady_clock::time_point& t0) {
+    const Scene& scene = s.scene_;
+    const ContactSet& cs = s.contacts;
+    real* sums = sums_.data();
     // Platens: each node against the nearer one.
     if (scene.platens.enabled) {
       const int* pn = platen_nodes_.data();
       const real* pk = platen_k_.data();
       Vec3* anchor = anchor_.data();
       Vec3* held = integrates_ ? platen_force_.data() : nullptr;  // (for the pass that steps)
-      const real ztop = s.top_z0_ - s.top_offset, zbot = s.bottom_z0_, mu_p = scene.material.friction_platen;
-      // After the platen nodes, where it comes here (gather_with_platens), the pairs' per-node sum
-      // (after them, so that the order of the platens' sums does not change with the pairs').
+      const real ztop = s.top_z0_ - top_offset, zbot = s.bottom_z0_, mu_p = scene.material.friction_platen;
+      // After the platen nodes, where it comes here (gather), the pairs' per-node sum (after them,
+      // so that the order of the platens' sums does not change with the pairs').
       const int npn = int(platen_nodes_.size());
-      const int ng = gather_with_platens && cs.enabled() ? int(gather_node_.size()) : 0;
+      const int ng = gather && cs.enabled() ? int(gather_node_.size()) : 0;
       const int* gp = gather_ptr_.data();
       const int* gs = gather_slot_.data();
       const Vec3* pf = pair_force_.data();
@@ -683,38 +706,27 @@ class DeviceLoopImpl final : public DeviceLoop {
     }
     t0 = lap(t0, t_.platens);
 
-    // Confining pressure (pressure_forces). A constant path's comes first, so that several ranks
-    // read its power with the rest below, one copy to the host; the hydrostatic path follows
-    // this evaluation's platen reactions, summed over the ranks there. Either way its forces
-    // add to f after the platens'.
+    // Confining pressure (pressure_forces), after the platens: on the hydrostatic path it follows
+    // this evaluation's platen reactions. Several ranks sum those over the ranks first and put
+    // them back on the device (a reduction of their own, as on the CPU backend; the rest of the
+    // evaluation's sums wait for the step's).
     const Confinement& cf = scene.confinement;
-    const bool follows = cf.enabled && s.hydrostatic_;
-    if (cf.enabled && !follows) pressure_forces(s, x, v, f);
-
-    // Several ranks, hydrostatic path: the platen reactions summed over the ranks go back to the
-    // device for the pressure below, which follows them (a reduction of their own, as on the CPU
-    // backend; the rest of the evaluation's sums wait for the step's).
-    if (follows && s.dd_.distributed()) {
+    if (cf.enabled && s.hydrostatic_ && s.dd_.distributed()) {
       device::to_host(b_, reactions_.data(), sums_.data() + kTop, sizeof reactions_);
       s.sum(reactions_.data(), 2);
       device::to_device(b_, sums_.data() + kTop, reactions_.data(), sizeof reactions_);
     }
-    if (follows) pressure_forces(s, x, v, f);
-    // The scalars stay on the device: one rank reads them with the next evaluation's first copy,
-    // several ranks with the integration's sums (advance()), and sum them over the ranks in the
-    // step's one reduction (take_reduced); or settle() before either.
-    forces_pending_ = true;
-    elements_pending_ = integrates_;
-    lap(t0, t_.pressure);
+    if (cf.enabled) pressure_forces(s, x, v, f, time);
+    t0 = lap(t0, t_.pressure);
   }
 
   /// Confining pressure, a follower load: -p a / 3 per node of each lateral face, added to f, and
   /// its power with v into kPressurePower. On the hydrostatic path p follows the platen
-  /// reactions in sums_ (kTop, kBottom).
-  void pressure_forces(const Solver& s, const Vec3* x, const Vec3* v, Vec3* f) {
+  /// reactions in sums_ (kTop, kBottom); on the constant one, its ramp at `time` (s).
+  void pressure_forces(const Solver& s, const Vec3* x, const Vec3* v, Vec3* f, real time) {
     const Confinement& cf = s.scene_.confinement;
     const bool hydrostatic = s.hydrostatic_;
-    const real p_set = hydrostatic ? cf.pressure : ramped_speed(s.time_, cf.pressure, s.confine_ramp_);
+    const real p_set = hydrostatic ? cf.pressure : ramped_speed(time, cf.pressure, s.confine_ramp_);
     const real area0 = s.model_.area0;
     real* sums = sums_.data();
     const int* lf = lat_faces_.data();
@@ -745,11 +757,14 @@ class DeviceLoopImpl final : public DeviceLoop {
   void settle(Solver& s) override {
     if (!forces_pending_) return;
     if (s.dd_.distributed()) {  // (every rank at once: monitor rows, output, checks after a reduction)
+      // (as many values as a step's reduction, zeros first: the same MPI reduction, so the
+      // same order of sums whether a monitor row comes between or not)
       waiting_ = read_sums<kBad>();
-      std::array<real, 10> more;
-      reduction_values(more.data());
-      s.sum(more.data(), int(more.size()));
-      take_reduced(s, more.data());
+      constexpr int k = Solver::StepSums::kValues;
+      std::array<real, k + std::tuple_size_v<decltype(AdvanceSums::more)>> all{};
+      reduction_values(all.data() + k);
+      s.sum(all.data(), int(all.size()));
+      take_reduced(s, all.data() + k);
       return;
     }
     complete_forces();
@@ -769,7 +784,6 @@ class DeviceLoopImpl final : public DeviceLoop {
         b[kTop] = reactions_[0], b[kBottom] = reactions_[1];
       apply_force_sums(s, b.data());
     }
-    raised_ = false;  // (counted in `more`)
     merge_wanted_ = merge_wanted_ || more[kWhole.size()] > 0;
   }
 
@@ -779,7 +793,7 @@ class DeviceLoopImpl final : public DeviceLoop {
   /// The Solver's bookkeeping of a force evaluation from its sums (b: slots [0, kBad)).
   void apply_force_sums(Solver& s, const real* b) {
     forces_pending_ = false;
-    if (b[kAdded] > 0) s.contacts.dirty_ = raised_ = true;  // for the next evaluation's contact
+    if (b[kAdded] > 0) s.contacts.dirty_ = true;  // for the next evaluation's contact
     const Confinement& cf = s.scene_.confinement;
     s.p_contact_ = b[kConPower];
     s.w_contact_slip_ += b[kConDiss];
@@ -844,7 +858,7 @@ class DeviceLoopImpl final : public DeviceLoop {
   void reduction_values(real* more) const {
     static_assert(kWhole.size() + 1 == std::tuple_size_v<decltype(AdvanceSums::more)>, "the step's reduction");
     for (int k = 0; k < int(kWhole.size()); ++k) more[k] = forces_pending_ ? waiting_[kWhole[k]] : 0;
-    more[kWhole.size()] = raised_ || (forces_pending_ && waiting_[kAdded] > 0) || !flags_merged_ ? 1 : 0;
+    more[kWhole.size()] = (forces_pending_ && waiting_[kAdded] > 0) || !flags_merged_ ? 1 : 0;
   }
 
   /// Central difference of every node with time step dt into sums [kBad, kSums) (cleared first:
@@ -2027,7 +2041,6 @@ class DeviceLoopImpl final : public DeviceLoop {
   std::vector<int> recv_range_;  // neighbour i's entries of the receive index lists: [i], [i+1]
   long shared_active_ = -1;      // active flags among the shared tets at the last merge
   bool flags_merged_ = false;    // false from an upload of the host's flags to the next merge
-  bool raised_ = false;          // several ranks: this rank activated tets in the last evaluation
   bool merge_wanted_ = false;    // several ranks: a rank raised a flag (the step's reduction said)
   // Several ranks: the last force evaluation's sums on this rank, read with the integration's and
   // waiting for the step's reduction (take_reduced); on the hydrostatic path, its platen

@@ -638,10 +638,12 @@ bool Solver::finish_step(const StepSums& st) {
   const real dt = dt_, speed = step_speed_;
   // One reduction over the ranks a step: with a device loop's values too (the force
   // evaluation's, which it hands to the Solver now, before the energies below read them).
-  real sums[7 + std::tuple_size_v<decltype(st.more)>] = {st.bad, st.ke, st.w_con, st.w_pre, st.w_grav, st.far, st.lost};
-  std::copy(st.more.begin(), st.more.begin() + st.n_more, sums + 7);
-  sum(sums, 7 + st.n_more);
-  if (st.n_more > 0) dev_->take_reduced(*this, sums + 7);
+  constexpr int k = StepSums::kValues;
+  real sums[k + std::tuple_size_v<decltype(st.more)>] = {st.bad, st.ke, st.w_con, st.w_pre, st.w_grav, st.far, st.lost};
+  static_assert(k == 7, "the values above");
+  std::copy(st.more.begin(), st.more.begin() + st.n_more, sums + k);
+  sum(sums, k + st.n_more);
+  if (st.n_more > 0) dev_->take_reduced(*this, sums + k);
   // Energies of the interval [t, t+dt] from the forces at t.
   w_external_ += force_top_ * (-speed * dt);
   w_viscous_ += p_viscous_ * dt;
@@ -660,8 +662,8 @@ bool Solver::finish_step(const StepSums& st) {
   w_external_ += sums[3] + sums[4];
   // After every work of this step is counted (pressure and gravity just above).
   check_runaway(0.5 * ke);
-  top_offset += speed * dt;
-  time_ += dt;
+  top_offset = top_offset_after_step();
+  time_ = time_after_step();
   ++step_;
   return sums[5] > 0;
 }

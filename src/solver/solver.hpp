@@ -108,7 +108,9 @@ class Solver {
   /// lives in device arrays during steps; x, v, f, ce6, platen_anchor and the contact flags and
   /// springs here are the host copy, brought up to date by sync_host() (measure(), save() and
   /// the output functions call it). Code that writes the host copy between steps calls
-  /// host_changed() so the next step uploads it.
+  /// host_changed() so the next step uploads it. Several ranks: sync_host() (and so prescribe(),
+  /// measure(), save() and output) sums the last force evaluation's scalars over the ranks while
+  /// they wait on the device, so every rank calls it at once.
   Backend backend() const { return backend_; }
   const DeviceLoop* device_loop() const { return dev_.get(); }
   DeviceLoop* device_loop() { return dev_.get(); }
@@ -174,7 +176,8 @@ class Solver {
   /// quarter and half the contact reach from ContactSet::plan_x.
   struct StepSums {
     real bad = 0, ke = 0, w_con = 0, w_pre = 0, w_grav = 0, far = 0, lost = 0;
-    int n_more = 0;  // a device loop's values summed in the same reduction (AdvanceSums::more)
+    static constexpr int kValues = 7;  // the values above, summed over the ranks
+    int n_more = 0;                    // a device loop's values summed after them (AdvanceSums::more)
     std::array<real, 10> more{};
   };
   /// A device integration's sums as StepSums (the works with the last force evaluation's powers).
@@ -184,6 +187,10 @@ class Solver {
   /// are to be gathered again. A device backend on one rank calls it from inside the next force
   /// evaluation (DeviceLoop::advance).
   bool finish_step(const StepSums& st);
+  /// The platen travel and the clock finish_step() leaves (a device loop queues the next force
+  /// evaluation's platens and pressure at them before the step is finished).
+  real top_offset_after_step() const { return top_offset + step_speed_ * dt_; }
+  real time_after_step() const { return time_ + dt_; }
   real step_speed_ = 0;
   StableStep stable_step_bound() const;
   void check_finite(long bad_nodes) const;

@@ -151,7 +151,8 @@ TEST(CudaBackend, TheDebugBackendCountsTheCopiesTheCudaBackendMakes) {
   // device::traffic() is the CUDA backend's count of its copies between host and device; the
   // debug backend counts the copies the CUDA backend would make, and the CI's traffic test
   // (test_backends: OnlyAFewScalarsCrossToTheHostBetweenMonitorRows) relies on that. The same
-  // steps and monitor rows on both: the same copies, bytes, largest copy and launches.
+  // steps and monitor rows on both: the same copies, bytes, largest copy and launches (and of
+  // those, the launches queued behind a copy the host waits for).
   need_gpu();
   if (IsSkipped()) return;
   auto run = [](const char* backend) {
@@ -173,4 +174,6 @@ TEST(CudaBackend, TheDebugBackendCountsTheCopiesTheCudaBackendMakes) {
   EXPECT_EQ(d.largest_to_host, c.largest_to_host);
   EXPECT_GT(c.launches, 300);
   EXPECT_EQ(d.launches, c.launches);
+  EXPECT_GT(c.launches_ahead, 0);
+  EXPECT_EQ(d.launches_ahead, c.launches_ahead);
 }

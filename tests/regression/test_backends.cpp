@@ -328,12 +328,15 @@ TEST(DebugBackend, OnlyAFewScalarsCrossToTheHostBetweenMonitorRows) {
   // broad phase's watch (one launch), the contact pairs (narrow phase, friction and their
   // power), their sum per node and the platens (one launch), and the pressure's faces (with
   // their power). (Activation: on the steps that break a CE6.) Without the pressure, as in a
-  // UCS test, 4.
+  // UCS test, 4. The last three (two without the pressure) are queued behind the step's copy,
+  // before the host waits for it: the device works while the host finishes the step.
   EXPECT_EQ(small.traffic.launches, big.traffic.launches);
   EXPECT_EQ(small.traffic.launches, 5 * small.steps);
+  EXPECT_EQ(small.traffic.launches_ahead, 3 * small.steps);
   const Seen dry = run(3, 0.5, 200, false);
   EXPECT_EQ(dry.rebuilds, 0);
   EXPECT_EQ(dry.traffic.launches, 4 * dry.steps);
+  EXPECT_EQ(dry.traffic.launches_ahead, 2 * dry.steps);
   // Through fracture, activation and broad-phase rebuilds on the device: still a few hundred
   // bytes per step, none larger than one block of sums.
   const Seen frac = run(3, 4.0, 4000);
