@@ -565,7 +565,8 @@ class DeviceLoopImpl final : public DeviceLoop {
     // own, so their place among the launches does not change a sum. A run that stops in between
     // (an inverted TET4, a velocity not finite) downloads those pairs' forces with the springs
     // from before them, and the platens' anchors and the pressure's forces of the evaluation
-    // queued: its diagnostic frame reads none of them.
+    // queued (with their held sums, contact_sum_ and platen_force_, left on the device): its
+    // diagnostic frame reads none of them.
     std::array<real, kAll> a;
     device::read_start(b_, sums_.data(), sizeof a);
     const bool ahead = integrates_ && cs.enabled() && !cs.dirty_;
@@ -1884,8 +1885,9 @@ class DeviceLoopImpl final : public DeviceLoop {
   /// Contact on the candidate list: one launch per pair (the narrow phase, friction, the pair's
   /// forces written once, and their power with the velocities now; its sums to kTouching to
   /// kConPower), then (`gather`) the deterministic per-node sum into f, or where the fused pass
-  /// integrates into the held contact_sum_ (there, with platens, in the platens' launch). The springs are read from
-  /// spring_ and written to next_spring_, which becomes the state when the caller swaps them: a pass queued ahead of a
+  /// integrates into the held contact_sum_ (there, for pairs queued ahead with platens, in the
+  /// platens' launch instead: compute_forces). The springs are read from spring_ and written to
+  /// next_spring_, which becomes the state when the caller swaps them: a pass queued ahead of a
   /// rebuild (compute_forces) leaves the springs the rebuild carries over untouched.
   void contact_pairs(const Solver& s, Clock::time_point& t0, bool gather) {
     const ContactSet& cs = s.contacts;

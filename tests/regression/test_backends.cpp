@@ -341,6 +341,10 @@ TEST(DebugBackend, OnlyAFewScalarsCrossToTheHostBetweenMonitorRows) {
   // bytes per step, none larger than one block of sums.
   const Seen frac = run(3, 4.0, 4000);
   EXPECT_GT(frac.broken, 20) << "the run should fracture";
+  // Queued ahead on every step through fracture too; the rebuilds' reruns and their gathers (a
+  // launch of their own then) come after the host's wait.
+  EXPECT_EQ(frac.traffic.launches_ahead, 3 * frac.steps);
+  EXPECT_GT(frac.traffic.launches, 5 * frac.steps + 2 * frac.rebuilds);
   EXPECT_GT(frac.rebuilds, 1);
   RecordProperty("bytes_to_host_per_step", std::to_string(double(frac.traffic.host_bytes) / frac.steps));
   RecordProperty("copies_to_host_per_step", std::to_string(double(frac.traffic.to_host) / frac.steps));
