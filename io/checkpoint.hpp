@@ -69,7 +69,8 @@ class CheckpointIn {
     get(n);
     if (n > (buf_.size() - pos_) / (sizeof(T) ? sizeof(T) : 1)) fail("an array longer than the file");
     values.resize(n);
-    std::memcpy(static_cast<void*>(values.data()), buf_.data() + pos_, n * sizeof(T));
+    if (n > 0)  // (an empty vector's data() may be null, which memcpy may not be given)
+      std::memcpy(static_cast<void*>(values.data()), buf_.data() + pos_, n * sizeof(T));
     pos_ += n * sizeof(T);
   }
   void get(std::string& s) {
