@@ -636,8 +636,9 @@ Solver::StepSums Solver::step_sums(const AdvanceSums& a) const {
 
 bool Solver::finish_step(const StepSums& st) {
   const real dt = dt_, speed = step_speed_;
-  // One reduction over the ranks a step: with a device loop's values too (the force
-  // evaluation's, which it hands to the Solver now, before the energies below read them).
+  // The step's reduction over the ranks; a device loop's values ride with it (its force
+  // evaluation's sums, which it hands to the Solver now, before the energies below read them:
+  // one reduction a step there, where the CPU backend makes a second in compute_forces).
   constexpr int k = StepSums::kValues;
   real sums[k + std::tuple_size_v<decltype(st.more)>] = {st.bad, st.ke, st.w_con, st.w_pre, st.w_grav, st.far, st.lost};
   static_assert(k == 7, "the values above");
