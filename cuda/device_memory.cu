@@ -55,7 +55,9 @@ void* allocate(std::size_t bytes) {
                      "). Fix: run on a machine with an NVIDIA GPU and its driver (check nvidia-smi and "
                      "CUDA_VISIBLE_DEVICES), or run with --backend cpu");
   void* p = nullptr;
-  const cudaError_t e = cudaMalloc(&p, bytes);
+  // Rounded up to 8 bytes: an atomic on the 4-byte word that holds a byte flag (raise_flag,
+  // core/forall.hpp) stays inside the allocation.
+  const cudaError_t e = cudaMalloc(&p, (bytes + 7) / 8 * 8);
   if (e != cudaSuccess)
     throw RunError("CUDA: cannot allocate " + std::to_string(bytes) + " bytes of device memory (" +
                    cudaGetErrorString(e) + "). Fix: a smaller model per GPU, or more ranks");

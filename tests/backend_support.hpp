@@ -4,9 +4,11 @@
 // against the CPU backend, where a GPU exists).
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdlib>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "model/structured.hpp"
 #include "support.hpp"
@@ -110,6 +112,18 @@ inline FractureResult run_fracture(Solver& s, int steps) {
     }
   }
   return r;
+}
+
+/// The activation flags a run should have (adaptive activation): those of a run of the same
+/// scene that has not started (the tets at the loaded ends), raised around every CE6 that `run`
+/// has broken (ContactSet::activate_ce6). `run` synchronised to the host (sync_host).
+inline std::vector<std::uint8_t> flags_from_breaks(const Solver& run) {
+  Scene scene = run.scene();
+  scene.solver.backend = "cpu";
+  std::unique_ptr<Solver> start = backend_solver(scene);
+  for (std::size_t c = 0; c < run.ce6.size(); ++c)
+    if (run.ce6[c].mode != 0) start->contacts.activate_ce6(start->model(), int(c));
+  return start->contacts.active();
 }
 
 }  // namespace fdem::test

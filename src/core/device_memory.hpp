@@ -4,7 +4,8 @@
 //   debug : the device time loop (solver/device_loop.hpp) on the host, with its "device" arrays
 //           in separate host buffers and the Solver's host copies poisoned (NaN) while the
 //           device holds the newer state, so a missing copy shows up without a GPU (as MFEM's
-//           debug device).
+//           debug device); its fresh allocations poisoned too (every byte 0xFF), so a pass that
+//           reads what nothing wrote fails as well.
 //   cuda  : the same device time loop as CUDA kernels (built where nvcc is found).
 #include <algorithm>
 #include <cstddef>

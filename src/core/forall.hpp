@@ -27,8 +27,18 @@
 // debug backend's results, and the tests that hold them bit for bit to the CPU backend's fail
 // without a GPU. Sums are still added in index order, so they do not change with the order.
 // FDEM_DEBUG_ORDER=forward (or set_host_order) runs iterations in index order instead.
+//
+// A race whose result does not depend on the order (two iterations adding to a slot that starts
+// at zero, two writing the same value) is not seen that way. Built with FDEM_HOST_RACE_THREADS=T
+// (scripts/sanitize.sh --thread, under ThreadSanitizer), HostExec runs each launch on T threads
+// of its own, started for the launch and joined after it, each iteration on a thread drawn by a
+// hash of its number and the launch's: any two iterations on different threads that touch the
+// same memory, one of them writing, are then reported by ThreadSanitizer, whether or not the
+// result changes (the threads' start and join order the launches, which OpenMP's pool does not
+// show it). Two given iterations share a thread in about 1 launch in T, another each time.
 #include <algorithm>
 #include <array>
+#include <cstdint>
 #include <cstdlib>
 #include <limits>
 #include <numeric>
@@ -36,6 +46,12 @@
 #include <string>
 #include <type_traits>
 #include <vector>
+#if defined(FDEM_HOST_RACE_THREADS)
+#include <thread>
+#endif
+#if defined(_OPENMP)
+#include <omp.h>
+#endif
 
 #include "core/config.hpp"
 #include "core/device_memory.hpp"
@@ -91,6 +107,74 @@ inline HostPermutation next_host_permutation(int n) {
   return p;
 }
 
+/// fn(k, t) for k in [0, n), t the worker's number in [0, host_workers()): OpenMP's threads
+/// (static schedule), or where built with FDEM_HOST_RACE_THREADS, that many threads started for
+/// this call and joined before it returns (k on the thread a hash of k and the call's number
+/// picks; called from one host thread).
+inline int host_workers() {
+#if defined(FDEM_HOST_RACE_THREADS)
+  static_assert(FDEM_HOST_RACE_THREADS >= 2, "FDEM_HOST_RACE_THREADS: 2 threads or more");
+  return FDEM_HOST_RACE_THREADS;
+#elif defined(_OPENMP)
+  return omp_get_max_threads();
+#else
+  return 1;
+#endif
+}
+template <class Fn>
+inline void host_parallel_for(int n, Fn fn) {
+#if defined(FDEM_HOST_RACE_THREADS)
+  constexpr int T = FDEM_HOST_RACE_THREADS;
+  static unsigned long long calls = 0;
+  const unsigned long long salt = ++calls * 0x9E3779B97F4A7C15ull;
+  auto share = [&](int t) {
+    for (int k = 0; k < n; ++k) {
+      unsigned long long h = (unsigned long long)(k) + salt;  // (splitmix64's finaliser)
+      h = (h ^ (h >> 30)) * 0xBF58476D1CE4E5B9ull;
+      h = (h ^ (h >> 27)) * 0x94D049BB133111EBull;
+      if (int((h ^ (h >> 31)) % T) == t) fn(k, t);
+    }
+  };
+  std::thread others[T - 1];
+  for (int t = 1; t < T; ++t) others[t - 1] = std::thread(share, t);
+  share(0);
+  for (std::thread& th : others) th.join();
+#elif defined(_OPENMP)
+#pragma omp parallel
+  {
+    const int t = omp_get_thread_num();
+#pragma omp for schedule(static) nowait
+    for (int k = 0; k < n; ++k) fn(k, t);
+  }
+#else
+  for (int k = 0; k < n; ++k) fn(k, 0);
+#endif
+}
+
+/// Sets the flag *p (0 or 1) to 1 and returns whether it was 0, as one atomic operation: the
+/// iterations of a launch that raise the same flag then neither race nor count it twice. On a
+/// GPU an atomicOr on the aligned 4-byte word that holds the byte (device allocations are
+/// rounded up to 8 bytes, cuda/device_memory.cu, so the word lies inside the allocation).
+FDEM_HD bool raise_flag(std::uint8_t* p) {
+#if defined(__CUDA_ARCH__)
+  const unsigned long long a = reinterpret_cast<unsigned long long>(p);
+  const unsigned shift = 8u * unsigned(a & 3u);
+  const unsigned old = atomicOr(reinterpret_cast<unsigned*>(a & ~3ull), 1u << shift);
+  return (old >> shift & 0xffu) == 0;
+#else
+  return __atomic_fetch_or(p, std::uint8_t(1), __ATOMIC_RELAXED) == 0;
+#endif
+}
+/// The same for a flag held in a long (the scans' input).
+FDEM_HD bool raise_flag(long* p) {
+  static_assert(sizeof(long) == sizeof(unsigned long long), "a long of 8 bytes");
+#if defined(__CUDA_ARCH__)
+  return atomicOr(reinterpret_cast<unsigned long long*>(p), 1ull) == 0;
+#else
+  return __atomic_fetch_or(p, 1L, __ATOMIC_RELAXED) == 0;
+#endif
+}
+
 /// The before_add of a sum_to that has none.
 struct NoEpilogue {
   FDEM_HD void operator()() const {}
@@ -103,8 +187,7 @@ struct HostExec {
   static void forall(int n, Body body) {
     if (n > 0) device::count_launches(1);
     const HostPermutation p = next_host_permutation(n);
-#pragma omp parallel for schedule(static)
-    for (int k = 0; k < n; ++k) body(p(k));
+    host_parallel_for(n, [&](int k, int) { body(p(k)); });
   }
   // The values a reduction returns cross to the host on a GPU: counted as such.
   template <int N, class Body>
@@ -137,15 +220,15 @@ struct HostExec {
     device::count_copy(true, N * sizeof(real));  // CudaExec's maxima (the start values are set there)
     device::count_launches(2);
     const HostPermutation p = next_host_permutation(n);
-#pragma omp parallel
-    {
-      real acc[N];
-      for (int k = 0; k < N; ++k) acc[k] = -std::numeric_limits<real>::infinity();
-#pragma omp for schedule(static) nowait
-      for (int k = 0; k < n; ++k) body(p(k), acc);
-#pragma omp critical(fdem_exec_max)
-      for (int k = 0; k < N; ++k) out[k] = std::max(out[k], acc[k]);
-    }
+    // Each worker's maxima apart (a cache line each), then taken in worker order (a maximum does
+    // not depend on it).
+    struct alignas(64) Part {
+      std::array<real, N> m;
+    };
+    std::vector<Part> part(std::size_t(host_workers()), Part{out});
+    host_parallel_for(n, [&](int k, int t) { body(p(k), part[std::size_t(t)].m.data()); });
+    for (const Part& w : part)
+      for (int k = 0; k < N; ++k) out[k] = std::max(out[k], w.m[k]);
     return out;
   }
   static long scan(long n, const long* in, long* out) {
@@ -178,6 +261,7 @@ struct HostExec {
   template <int N, class Body>
   static std::array<real, N> sum_here(int n, Body body) {
     std::array<real, N> out{};
+#if !defined(FDEM_HOST_RACE_THREADS)
     if (host_order() == HostOrder::forward) {
       real acc[N] = {};
 #pragma omp parallel for schedule(static) reduction(+ : acc[:N])
@@ -185,14 +269,15 @@ struct HostExec {
       for (int k = 0; k < N; ++k) out[k] = acc[k];
       return out;
     }
-    // Each iteration's terms kept apart, then added in index order.
+#endif
+    // Each iteration's terms kept apart, then added in index order (the race check: forward
+    // order too).
     const HostPermutation p = next_host_permutation(n);
     std::vector<std::array<real, N>> part(std::size_t(std::max(n, 0)), std::array<real, N>{});
-#pragma omp parallel for schedule(static)
-    for (int k = 0; k < n; ++k) {
+    host_parallel_for(n, [&](int k, int) {
       const int i = p(k);
       body(i, part[i].data());
-    }
+    });
     for (int i = 0; i < n; ++i)
       for (int k = 0; k < N; ++k) out[k] += part[i][k];
     return out;

@@ -1423,9 +1423,9 @@ class DeviceLoopImpl final : public DeviceLoop {
   /// break flag is up (every tet sharing a vertex of its face) joins the contact candidates and
   /// the flag goes down (kAdded counts the tets added, which marks the set dirty with the
   /// evaluation's sums); with `watch` and contact, the broad phase's watch (kMoved: nodes of active
-  /// tets that moved half the buffer since the list was built). Flags only rise, so concurrent
-  /// writes of 1 agree; two threads may both count a tet they both raised, so kAdded is exact
-  /// only as to whether it is above zero, which is all that is read of it.
+  /// tets that moved half the buffer since the list was built). Flags only rise, each with one
+  /// atomic operation (raise_flag), so a tet at the vertices of several breaking CE6s is raised
+  /// and counted once, whatever the iterations' order.
   void activate(const ContactSet& cs, int flags, bool watch) {
     const bool on = cs.enabled();
     const int nw = watch && on ? int(watch_nodes_.size()) : 0;
@@ -1453,8 +1453,8 @@ class DeviceLoopImpl final : public DeviceLoop {
           if (!on) return;
           for (int j = 0; j < 3; ++j) {
             const int vtx = nv[cn[6 * i + j]];
-            for (int k = vptr[vtx]; k < vptr[vtx + 1]; ++k)
-              if (!active[vtets[k]]) active[vtets[k]] = 1, acc[0] += 1;
+            for (int k = vptr[vtx]; k < vptr[vtx + 1]; ++k)  // (a tet two broken CE6s share: raised once)
+              if (raise_flag(active + vtets[k])) acc[0] += 1;
           }
         },
         sums_.data() + kAdded);
@@ -1735,7 +1735,7 @@ class DeviceLoopImpl final : public DeviceLoop {
     // Watch list: the nodes of the active tets (ascending) and their positions now.
     Exec::forall(nn, [=] FDEM_LAMBDA(int n) { fl[n] = 0; });
     Exec::forall(na, [=] FDEM_LAMBDA(int k) {
-      for (int i = 0; i < 4; ++i) fl[tn[4 * ids[k] + i]] = 1;
+      for (int i = 0; i < 4; ++i) raise_flag(fl + tn[4 * ids[k] + i]);  // (a node two active tets share)
     });
     const long nw = Exec::scan(nn, fl, of);
     watch_nodes_.resize(nw);
@@ -1864,7 +1864,7 @@ class DeviceLoopImpl final : public DeviceLoop {
     const std::uint8_t* in = flag_recv_.data();
     const std::uint8_t* mine = flag_send_.data();
     const std::array<real, 2> r = Exec::template sum<2>(nf, [=] FDEM_LAMBDA(int j, real* acc) {
-      if (in[j] == 1 && aw[ft[j]] != 1) aw[ft[j]] = 1, acc[0] += 1;
+      if (in[j] == 1 && raise_flag(aw + ft[j])) acc[0] += 1;  // (a tet listed for two ranks: raised once)
       acc[1] += in[j] == 1 || mine[j] == 1;
     });
     if (long(r[1]) != shared_active_) {  // flags only rise: an unchanged count is an unchanged set

@@ -13,6 +13,7 @@
 #include <memory>
 
 #include "backend_support.hpp"
+#include "gpu/cuda_flags.hpp"
 
 using namespace fdem;
 using namespace fdem::test;
@@ -79,6 +80,10 @@ TEST_P(CudaSchedule, FracturingBoxPeakWithin1PercentBrokenWithin5Percent) {
   EXPECT_NEAR(b.peak, a.peak, 0.01 * a.peak);
   EXPECT_LE(std::abs(b.broken - a.broken), std::max(1.0, 0.05 * a.broken));
   EXPECT_GT(gpu->measure().contacts, 0);
+  // The activation on the GPU (raise_flag: an atomicOr on the word holding the tet's flag):
+  // exactly the tets around its broken CE6s and at the loaded ends.
+  gpu->sync_host();
+  EXPECT_EQ(flags_from_breaks(*gpu), gpu->contacts.active());
   // Through fracture and contact the states should be the same bits too (the debug backend's
   // are): recorded here, asserted once a GPU has shown it.
   cpu->sync_host();
@@ -176,4 +181,23 @@ TEST(CudaBackend, TheDebugBackendCountsTheCopiesTheCudaBackendMakes) {
   EXPECT_EQ(d.launches, c.launches);
   EXPECT_GT(c.launches_ahead, 0);
   EXPECT_EQ(d.launches_ahead, c.launches_ahead);
+}
+
+TEST(CudaBackend, RaisedFlagsAreCountedOnceAndLeaveTheirNeighboursInTheWord) {
+  // raise_flag on the GPU: an atomicOr on the 4-byte word that holds the byte, so that the
+  // threads raising one tet's flag count it once (the activation, the flags merged over ranks).
+  // 41 flags: the last word only partly the array's; every flag raised by about 2,400 threads.
+  need_gpu();
+  if (IsSkipped()) return;
+  std::vector<std::uint8_t> flags(41, 0);
+  flags[3] = flags[4] = 1;  // raised before: one the rule leaves, one it would raise
+  std::vector<std::uint8_t> expected = flags;
+  long fresh = 0;
+  for (int j = 0; j < int(flags.size()); ++j)
+    if (raised_by_rule(j) && !expected[j]) expected[j] = 1, ++fresh;
+  EXPECT_EQ(raise_flags_on_cuda(flags, 100000), fresh);
+  EXPECT_EQ(flags, expected);
+  std::vector<long> longs(8, 0);  // (7 i mod 8 visits every flag)
+  raise_long_flags_on_cuda(longs, 1000);
+  EXPECT_EQ(longs, (std::vector<long>{0, 1, 1, 0, 1, 1, 0, 1}));
 }

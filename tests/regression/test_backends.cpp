@@ -105,6 +105,13 @@ TEST_P(DebugSchedule, FracturingBoxWithContactAndPressureMatchesCpu) {
   }
   EXPECT_GT(anchored, ra.broken) << "damaged CE6s that did not break keep anchors too";
   EXPECT_EQ(cpu->contacts.active(), dbg->contacts.active());
+  // Exactly the tets around the broken CE6s and at the loaded ends (the device raises each flag
+  // once, raise_flag, whichever broken CE6s share it).
+  const std::vector<std::uint8_t> expected = flags_from_breaks(*dbg);
+  EXPECT_EQ(expected, dbg->contacts.active());
+  EXPECT_GT(std::count(expected.begin(), expected.end(), 1),
+            backend_solver(backend_fracture_scene("cpu"))->contacts.active_count())
+      << "the breaks should activate tets beyond the loaded ends";
   // The candidate lists built on the device (broad phase, filters, order) are the host's.
   ASSERT_EQ(cpu->contacts.pair_count(), dbg->contacts.pair_count());
   for (long k = 0; k < cpu->contacts.pair_count(); ++k) {

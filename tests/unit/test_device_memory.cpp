@@ -1,9 +1,12 @@
 // core/device_memory.hpp's host memory figures, on which bench_device's "largest model that
 // fits" rests: the resident memory grows by what the process writes and falls when it is given
-// back, the peak restarts when asked, and the host reports memory available.
+// back, the peak restarts when asked, and the host reports memory available. And the debug
+// backend's device memory: poisoned when fresh, as a GPU's holds whatever was there.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstddef>
+#include <cstdint>
 #include <vector>
 
 #include "core/device_memory.hpp"
@@ -24,4 +27,25 @@ TEST(HostMemory, ResidentMemoryFollowsWhatIsWrittenAndThePeakRestarts) {
   EXPECT_LT(device::host_peak_resident(), during - n / 2);  // the peak starts again from now
   EXPECT_GT(device::memory_available(Backend::cpu), n);
   EXPECT_GT(device::memory_available(Backend::debug), 0u);
+}
+
+TEST(DebugDeviceMemory, FreshMemoryReadsNanMinusOneAnd255NotZero) {
+  // A pass that reads an element nothing wrote then gets a value that fails the bit-for-bit
+  // tests (a fresh host page would give zeros, which often pass).
+  DeviceArray<double> r(Backend::debug);
+  DeviceArray<int> i(Backend::debug);
+  DeviceArray<std::uint8_t> f(Backend::debug);
+  r.resize(1000), i.resize(7), f.resize(3);
+  std::vector<double> hr;
+  std::vector<int> hi;
+  std::vector<std::uint8_t> hf;
+  r.download(hr), i.download(hi), f.download(hf);
+  for (double v : hr) ASSERT_TRUE(std::isnan(v));
+  EXPECT_EQ(hi, std::vector<int>(7, -1));
+  EXPECT_EQ(hf, std::vector<std::uint8_t>(3, 255));
+  // Grown past its capacity: the new memory is poisoned too, the old contents are not kept.
+  r.upload(std::vector<double>(1000, 2.0));
+  r.resize(5000);
+  r.download(hr);
+  for (double v : hr) ASSERT_TRUE(std::isnan(v));
 }

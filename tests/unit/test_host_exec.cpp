@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
 #include <stdexcept>
 #include <vector>
 
@@ -179,4 +180,37 @@ TEST(HostExec, SumToRunsBeforeAddOnceJustBeforeTheSumsAreAddedEvenOverNoIndices)
       0, [](int, real* acc) { acc[0] += 1; }, out);
   EXPECT_EQ(out[0], 3);
   EXPECT_EQ(device::traffic().launches, 0);
+}
+
+TEST(HostExec, ARaisedFlagIsCountedOnceHoweverManyIterationsRaiseIt) {
+  // Many iterations of one launch raising the same few flags, on several threads: each flag that
+  // was 0 counts once, one already raised never (on a GPU, a plain "if (!f) f = 1, ++count"
+  // counts a flag as often as the threads that read it before the first write).
+#ifdef _OPENMP
+  const int threads = omp_get_max_threads();
+  omp_set_num_threads(4);
+#endif
+  std::vector<std::uint8_t> flags(41, 0);
+  flags[3] = flags[40] = 1;
+  std::uint8_t* f = flags.data();
+  const int n = 100000;
+  const auto raised = HostExec::sum<1>(n, [=](int i, real* acc) {
+    if (raise_flag(f + (i * 7) % 41)) acc[0] += 1;
+  });
+#ifdef _OPENMP
+  omp_set_num_threads(threads);
+#endif
+  EXPECT_EQ(raised[0], 39);
+  for (std::size_t k = 0; k < flags.size(); ++k) EXPECT_EQ(flags[k], 1) << "flag " << k;
+  // The byte is raised alone: its neighbours in the word keep their values.
+  std::uint8_t word[4] = {0, 0, 0, 0};
+  EXPECT_TRUE(raise_flag(word + 2));
+  EXPECT_FALSE(raise_flag(word + 2));
+  EXPECT_EQ(word[0] + word[1] + word[3], 0);
+  EXPECT_EQ(word[2], 1);
+  // And in a long (the scans' input).
+  std::vector<long> node(5, 0);
+  long* q = node.data();
+  HostExec::forall(1000, [=](int i) { raise_flag(q + 1 + i % 3); });
+  EXPECT_EQ(node, (std::vector<long>{0, 1, 1, 1, 0}));
 }
