@@ -91,6 +91,8 @@ thread_local Staging staging;
 void read_start(const void* src, std::size_t bytes) {
   Staging& s = staging;
   if (bytes > s.capacity) {
+    // A copy queued into the old buffer and never finished (a read dropped) must end first.
+    if (s.done) cuda_check(cudaEventSynchronize(s.done), "waiting for a queued copy to the host");
     if (s.pinned) cuda_check(cudaFreeHost(s.pinned), "cudaFreeHost");
     s.pinned = nullptr, s.capacity = 0;
     cuda_check(cudaMallocHost(&s.pinned, bytes), "cudaMallocHost (staging of a read)");
@@ -123,18 +125,21 @@ double copy_bandwidth(std::size_t bytes) {
   cuda_check(cudaMalloc(&b, bytes), "cudaMalloc (bandwidth)");
   cuda_check(cudaMemset(a, 1, bytes), "cudaMemset (bandwidth)");
   cudaEvent_t e0, e1;
-  cudaEventCreate(&e0);
-  cudaEventCreate(&e1);
+  cuda_check(cudaEventCreate(&e0), "cudaEventCreate (bandwidth)");
+  cuda_check(cudaEventCreate(&e1), "cudaEventCreate (bandwidth)");
   float best = 1e30f;
-  for (int rep = 0; rep < 10; ++rep) {
-    cudaEventRecord(e0);
-    cudaMemcpy(b, a, bytes, cudaMemcpyDeviceToDevice);
-    cudaEventRecord(e1);
-    cudaEventSynchronize(e1);
+  for (int rep = 0; rep < 10; ++rep) {  // the first a warm-up
+    cuda_check(cudaEventRecord(e0), "cudaEventRecord (bandwidth)");
+    cuda_check(cudaMemcpy(b, a, bytes, cudaMemcpyDeviceToDevice), "device-to-device copy (bandwidth)");
+    cuda_check(cudaEventRecord(e1), "cudaEventRecord (bandwidth)");
+    cuda_check(cudaEventSynchronize(e1), "cudaEventSynchronize (bandwidth)");
     float ms = 0;
-    cudaEventElapsedTime(&ms, e0, e1);
+    cuda_check(cudaEventElapsedTime(&ms, e0, e1), "cudaEventElapsedTime (bandwidth)");
     if (rep > 0 && ms < best) best = ms;
   }
+  if (!(best > 0 && best < 1e30f))
+    throw RunError("CUDA: the copy-bandwidth measurement timed " + std::to_string(best) + " ms for " +
+                   std::to_string(bytes) + " bytes");
   cudaEventDestroy(e0);
   cudaEventDestroy(e1);
   cudaFree(a);

@@ -2,7 +2,7 @@
 # Here, on the Debian machine (called by `gpu_check.sh --prepare`): build the GPU check's
 # programs with nvcc (sm_90 and PTX) into build-gpu/, and gather into deps/bundle/ what they need
 # to run on the GPU machine without building there or using any of its packages:
-#   bin/    fdem, test_cuda_backend, test_backends, test_ranks, bench_device (stripped);
+#   bin/    fdem, test_cuda_backend, test_ranks, bench_device (stripped);
 #   lib/    every shared library they load that is not the C library's own (glibc, libstdc++ and
 #           libgcc_s come with nvcc's host compiler there);
 #   mpi/    Debian's Open MPI (mpiexec, its libraries and plugins, PMIx), relocated there with
@@ -12,9 +12,10 @@
 # The device tool carries at most 64 MiB: the script prints the bundle's size. Debian 12's
 # libraries need the C library 2.36 or newer there (gpu_check.sh checks; Ubuntu 24.04 has 2.39).
 #
-#   bash scripts/gpu_bundle.sh --check   runs two of the bundle's checks here as they run there
-#   (one process, and two ranks through the bundle's mpiexec) and fails if a process loads a
-#   library from outside deps/bundle other than the C library's own.
+#   bash scripts/gpu_bundle.sh --check   runs three of the bundle's checks here as they run there
+#   (the GPU tests, which skip here but for the one without a GPU, in one process that never
+#   starts MPI; two ranks and the benchmark through the bundle's mpiexec) and fails if a process
+#   loads a library from outside deps/bundle other than the C library's own.
 set -euo pipefail
 shopt -s nullglob
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
@@ -37,9 +38,11 @@ if [[ "${1:-}" == "--check" ]]; then
       OMPI_MCA_mpi_yield_when_idle=1 LD_DEBUG=libs LD_DEBUG_OUTPUT="$log/ld" \
       LD_LIBRARY_PATH="$B/lib:$mpi/lib/x86_64-linux-gnu:$mpi/lib/x86_64-linux-gnu/pmix2/lib" "$@"
   }
-  run "$B/bin/test_backends" --gtest_filter='*OnlyAFew*' > "$log/one.txt" 2>&1 || { cat "$log/one.txt"; exit 1; }
+  run "$B/bin/test_cuda_backend" > "$log/one.txt" 2>&1 || { cat "$log/one.txt"; exit 1; }
   run "$mpi/bin/mpiexec" --oversubscribe -n 2 "$B/bin/test_ranks" --gtest_filter='*Device*' > "$log/two.txt" 2>&1 ||
     { cat "$log/two.txt"; exit 1; }
+  run "$mpi/bin/mpiexec" -n 1 "$B/bin/bench_device" --backend debug --tets 2000 --steps 2 > "$log/bench.txt" 2>&1 ||
+    { cat "$log/bench.txt"; exit 1; }
   # A library this machine has too (PMIx looks for its plugins where it was installed first) counts
   # when the bundle holds one of that name: on the GPU machine the bundle's is the one there is
   # (checked once with this machine's PMIx plugins moved away: all from the bundle, tests passed).
@@ -65,11 +68,10 @@ command -v nvcc > /dev/null || [[ -x /usr/local/cuda/bin/nvcc ]] || {
 }
 cmake -S . -B build-gpu -DCMAKE_BUILD_TYPE=Release -DFDEM_ENABLE_CUDA=ON -DFDEM_ENABLE_GMSH=OFF \
   -DFDEM_ENABLE_PETSC=OFF -DCMAKE_PREFIX_PATH="$DEPS/usr" -DCMAKE_CUDA_ARCHITECTURES="90-real;90-virtual" > /dev/null
-cmake --build build-gpu -j "$(nproc)" --target fdem test_cuda_backend test_backends test_ranks bench_device > /dev/null
+cmake --build build-gpu -j "$(nproc)" --target fdem test_cuda_backend test_ranks bench_device > /dev/null
 rm -rf "$B"
 mkdir -p "$B/bin" "$B/lib" "$B/mpi"
-progs=(build-gpu/fdem build-gpu/tests/test_cuda_backend build-gpu/tests/test_backends build-gpu/tests/test_ranks
-  build-gpu/bench/bench_device)
+progs=(build-gpu/fdem build-gpu/tests/test_cuda_backend build-gpu/tests/test_ranks build-gpu/bench/bench_device)
 for p in "${progs[@]}"; do
   cp "$p" "$B/bin/"
   strip --strip-unneeded "$B/bin/$(basename "$p")"

@@ -1,7 +1,12 @@
 #!/usr/bin/env bash
 # The GPU machine's checks in one call (the device tool: at most 10 minutes a call and 15 minutes
 # of device time a session, the machine's start included): build the CUDA backend, check it
-# against the CPU backend, time it. Everything it reports goes under $OUT (summary.txt first).
+# against the CPU backend, time it. What it reports goes under $OUT, in at most 6 files (the device
+# tool brings back 8): summary.txt (each step's exit code and seconds), machine.txt, logs.tar.gz
+# (every step's log, the GPU tests' XML; packed again after each step, so a call cut short still
+# brings back the logs so far) and the benchmark tables bench_device.md, bench_blocks.md and
+# bench_contact_full.md. The logs themselves are written outside $OUT (FDEM_GPU_LOGS, default a
+# new folder under /tmp; its name is in summary.txt).
 #
 #   bash scripts/gpu_check.sh --prepare      here, on the Debian machine: fill the ignored deps/
 #   bash scripts/gpu_check.sh [PHASE...]     there, with deps/ carried
@@ -12,11 +17,14 @@
 # HDF5, yaml-cpp or GoogleTest, which its image may lack. Name the phase build to build there
 # instead (that needs those packages there).
 #
-# PHASEs run in this order, most wanted first (default: build tests bench ranks sanitizer contact,
-# with the bundle tests bench ranks sanitizer contact): build tests bench ranks sanitizer contact
-# fmad. contact times the step with every tet a contact candidate (bench_device --contact full,
-# 67 candidate pairs a tet: the narrow phase's cost per pair, a bound for the post-peak stage). fmad builds a second tree with FDEM_CUDA_FMAD=ON (nvcc fuses multiply-adds; no
-# longer the CPU backend's bits) and times it as bench does: what the bit-for-bit agreement costs.
+# PHASEs run in this order, most wanted first (default: build tests ucs ranks bench sanitizer
+# contact, with the bundle all but build): build tests ucs ranks bench sanitizer contact fmad. ucs
+# runs the default scene (fdem run, outputs included) on the CPU and on the GPU from a rank file
+# --prepare writes (deps/ucs_small_1) and compares peak and broken CE6. contact times the step
+# with every tet a contact candidate (bench_device --contact full, 67 candidate pairs a tet: the
+# narrow phase's cost per pair, a bound for the post-peak stage).
+# fmad builds a second tree with FDEM_CUDA_FMAD=ON (nvcc fuses multiply-adds; no longer the CPU
+# backend's bits) and times it as bench does (bench_fmad.md): what the bit-for-bit agreement costs.
 # The whole call has a budget of FDEM_GPU_BUDGET seconds (default 540, under the tool's 600 s a
 # call): each step runs under its own limit (below) cut to what is left of the budget, and a step
 # with less than 20 s left is not started, so the call always ends with its summary written and
@@ -41,6 +49,14 @@ if [[ "${1:-}" == "--prepare" ]]; then
   for p in "$tmp"/*.deb; do dpkg -x "$p" "$DEPS"; done
   rm -rf "$tmp"
   bash scripts/gpu_bundle.sh
+  # The default UCS scene's model, partitioned for one rank: the phase ucs runs it there, where
+  # the programs are built without gmsh (the cylinder's mesh generator). build/fdem has gmsh.
+  rm -rf "$DEPS/ucs_small_1"
+  if [[ -x build/fdem ]] || { [[ -f build/CMakeCache.txt ]] && cmake --build build --target fdem > /dev/null; }; then
+    build/fdem partition scenes/ucs_small.yaml -n 1 -o "$DEPS/ucs_small_1" > /dev/null
+  else
+    echo "gpu_check.sh: no build/fdem here (bash scripts/build.sh makes it): the phase ucs will not run there" >&2
+  fi
   tar -C "$DEPS" -cJf "$DEPS/bundle.tar.xz" bundle
   rm -rf "$DEPS/bundle"  # only the archive travels
   echo "deps/ is ready ($(du -sh --exclude=bundle "$DEPS" | cut -f1) to carry): carry it with the run (device tool: carry [\"deps\"])"
@@ -49,14 +65,14 @@ fi
 
 phases=("$@")
 if [[ ${#phases[@]} -eq 0 ]]; then
-  phases=(build tests bench ranks sanitizer contact)
-  [[ -f $DEPS/bundle.tar.xz ]] && phases=(tests bench ranks sanitizer contact)
+  phases=(build tests ucs ranks bench sanitizer contact)
+  [[ -f $DEPS/bundle.tar.xz ]] && phases=(tests ucs ranks bench sanitizer contact)
 fi
 for p in "${phases[@]}"; do
   case $p in
-    build | tests | sanitizer | ranks | bench | contact | fmad) ;;
+    build | tests | ucs | ranks | bench | sanitizer | contact | fmad) ;;
     *)
-      echo "gpu_check.sh: unknown phase '$p'. Fix: one or more of build tests bench ranks sanitizer contact fmad, or --prepare" >&2
+      echo "gpu_check.sh: unknown phase '$p'. Fix: one or more of build tests ucs ranks bench sanitizer contact fmad, or --prepare" >&2
       exit 2
       ;;
   esac
@@ -75,11 +91,17 @@ if [[ ! -d "$DEPS/usr/include" ]]; then
 fi
 OUT=${OUT:-out/gpu_check}
 mkdir -p "$OUT"
+LOGS=${FDEM_GPU_LOGS:-$(mktemp -d /tmp/fdem_gpu_check.XXXXXX)}
+mkdir -p "$LOGS"
+echo "logs: $LOGS (packed into $OUT/logs.tar.gz)" >> "$OUT/summary.txt"
+pack_logs() {  # written beside, then moved: a call cut short leaves the last whole archive
+  tar -C "$LOGS" -czf "$LOGS.tar.gz" . 2>/dev/null && mv -f "$LOGS.tar.gz" "$OUT/logs.tar.gz"
+}
 export LD_LIBRARY_PATH="$DEPS/usr/lib/x86_64-linux-gnu${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_mpi_yield_when_idle=1
 # The programs: built here (phase build) in build-gpu/, or the bundle's, built on the Debian
 # machine, with its libraries and Open MPI (relocated by OPAL_PREFIX and PMIX_INSTALL_PREFIX).
-TESTS=build-gpu/tests BENCH=build-gpu/bench
+TESTS=build-gpu/tests BENCH=build-gpu/bench FDEM=build-gpu/fdem
 if ! wanted build && [[ -f $DEPS/bundle.tar.xz ]]; then
   # Built on Debian 12: its libraries need the C library 2.36 or newer (Ubuntu 24.04 has 2.39).
   glibc=$(getconf GNU_LIBC_VERSION | awk '{print $2}')
@@ -93,7 +115,7 @@ if ! wanted build && [[ -f $DEPS/bundle.tar.xz ]]; then
       tee -a "$OUT/summary.txt"
     exit 1
   fi
-  TESTS=$DEPS/bundle/bin BENCH=$DEPS/bundle/bin
+  TESTS=$DEPS/bundle/bin BENCH=$DEPS/bundle/bin FDEM=$DEPS/bundle/bin/fdem
   mpi=$DEPS/bundle/mpi/usr
   export PATH="$mpi/bin:$PATH" OPAL_PREFIX="$mpi" PMIX_INSTALL_PREFIX="$mpi/lib/x86_64-linux-gnu/pmix2" \
     PMIX_MCA_mca_base_component_path="$mpi/lib/x86_64-linux-gnu/pmix2/lib/pmix" HWLOC_PLUGINS_PATH="$DEPS/bundle/none"
@@ -115,7 +137,7 @@ fi
   echo "phases: ${phases[*]}"
 } >> "$OUT/machine.txt" 2>&1
 
-step() {  # step NAME SECONDS COMMAND...: run with a time limit, log to $OUT/NAME.log, record the exit code
+step() {  # step NAME SECONDS COMMAND...: run with a time limit, log to $LOGS/NAME.log, record the exit code
   local name=$1 limit=$2
   shift 2
   local left=$((BUDGET - SECONDS - 20))  # timeout's 10 s to kill, 10 s for the summary and the copy back
@@ -126,66 +148,122 @@ step() {  # step NAME SECONDS COMMAND...: run with a time limit, log to $OUT/NAM
   fi
   ((limit > left)) && limit=$left
   local t0=$SECONDS
-  timeout --kill-after=10 "$limit" "$@" > "$OUT/$name.log" 2>&1
+  timeout --kill-after=10 "$limit" "$@" > "$LOGS/$name.log" 2>&1
   local rc=$?
   local why=""
   [[ $rc -eq 124 || $rc -eq 137 ]] && why=" (stopped at its limit of $limit s)"
   echo "$name: exit $rc in $((SECONDS - t0)) s$why" | tee -a "$OUT/summary.txt"
+  pack_logs
   return $rc
 }
 
 if wanted build; then
   step configure 120 cmake -S . -B build-gpu -DCMAKE_BUILD_TYPE=Release -DFDEM_ENABLE_CUDA=ON -DFDEM_ENABLE_GMSH=OFF \
     -DFDEM_ENABLE_PETSC=OFF -DCMAKE_PREFIX_PATH="$DEPS/usr" -DCMAKE_CUDA_ARCHITECTURES="90-real;90-virtual" || exit 1
-  step build 400 cmake --build build-gpu -j "$(nproc)" --target fdem test_cuda_backend test_backends test_ranks \
-    bench_device || exit 1
+  step build 400 cmake --build build-gpu -j "$(nproc)" --target fdem test_cuda_backend test_ranks bench_device ||
+    exit 1
 fi
-if wanted tests || wanted sanitizer || wanted ranks || wanted bench || wanted contact; then
+if wanted tests || wanted ucs || wanted sanitizer || wanted ranks || wanted bench || wanted contact; then
   if [[ ! -x $TESTS/test_cuda_backend ]]; then
     echo "gpu_check.sh: $TESTS has no test programs. Fix: run the build phase first (in this call or a warm earlier one), or carry deps/ with its bundle (--prepare)" |
       tee -a "$OUT/summary.txt"
     exit 1
   fi
 fi
-# CPU = CUDA on one rank (tests/gpu) and the debug backend as everywhere.
+# CPU = CUDA on one rank (tests/gpu). (The debug backend's tests run on the CPU alone: CI's.)
 if wanted tests; then
-  step gpu_tests 180 "$TESTS/test_cuda_backend" --gtest_output="xml:$OUT/gpu_tests.xml"
+  step gpu_tests 180 "$TESTS/test_cuda_backend" --gtest_output="xml:$LOGS/gpu_tests.xml"
   # A GPU that nvidia-smi lists but the tests skipped (a driver older than the CUDA runtime, for
   # one) is a failure here, not a green run.
-  if nvidia-smi -L 2>/dev/null | grep -q GPU && grep -q 'SKIPPED' "$OUT/gpu_tests.log"; then
+  if nvidia-smi -L 2>/dev/null | grep -q GPU && grep -q 'SKIPPED' "$LOGS/gpu_tests.log"; then
     echo "gpu_tests: nvidia-smi lists a GPU but the tests skipped (see gpu_tests.log)" | tee -a "$OUT/summary.txt"
   fi
-  step backend_tests 120 "$TESTS/test_backends" --gtest_filter='-*Cli*'
 fi
-if wanted bench; then
-  step bench 300 "$BENCH/bench_device" --tets 10000,100000,700000,2000000 --steps 200 --schedule auto,fused,colour
-  [[ -f "$OUT/bench.log" ]] && cp "$OUT/bench.log" "$OUT/bench_device.md"
-  # The fused pass's kernels for one and for two resident blocks per multiprocessor.
-  step bench_blocks 120 "$BENCH/bench_device" --tets 100000,700000 --steps 200 --schedule auto,fused \
-    --blocks-per-sm 1,2
-  [[ -f "$OUT/bench_blocks.log" ]] && cp "$OUT/bench_blocks.log" "$OUT/bench_blocks.md"
+# The default scene end to end, fdem run with its outputs, on the CPU (all cores: --bind-to none,
+# or Open MPI binds the one rank to one core) and on the GPU from the same rank file
+# (deps/ucs_small_1, --prepare): the issue's fracturing criteria, peak within 1 % and broken CE6
+# within 5 %, and each run's wall time.
+ucs_value() {  # ucs_value SUMMARY_CSV COLUMN: the column of the summary's one row
+  awk -F, -v col="$2" 'NR == 1 { for (i = 1; i <= NF; ++i) if ($i == col) c = i } NR == 2 && c { print $c }' "$1"
+}
+if wanted ucs; then
+  if [[ ! -f $DEPS/ucs_small_1/rank_0.fdp ]]; then
+    echo "ucs: not run, deps/ucs_small_1 is missing (bash scripts/gpu_check.sh --prepare here, with build/fdem)" |
+      tee -a "$OUT/summary.txt"
+  else
+    runs=$(mktemp -d /tmp/fdem_gpu_ucs.XXXXXX)  # the fields (MB) stay out of the logs' archive
+    for b in cpu cuda; do
+      step "ucs_$b" 150 mpiexec --bind-to none -n 1 "$FDEM" run scenes/ucs_small.yaml --partitioned "$DEPS/ucs_small_1" \
+        --backend $b -o "$runs/$b" -q
+      mkdir -p "$LOGS/ucs_$b" && cp "$runs/$b"/*.csv "$LOGS/ucs_$b/" 2>/dev/null
+    done
+    pack_logs
+    a=$LOGS/ucs_cpu/summary.csv g=$LOGS/ucs_cuda/summary.csv
+    if [[ -f $a && -f $g ]]; then
+      awk -v pa="$(ucs_value "$a" peak_stress_Pa)" -v pg="$(ucs_value "$g" peak_stress_Pa)" \
+        -v ba="$(ucs_value "$a" broken_ce6)" -v bg="$(ucs_value "$g" broken_ce6)" \
+        -v wa="$(ucs_value "$a" wall_s)" -v wg="$(ucs_value "$g" wall_s)" -v n="$(ucs_value "$g" steps)" 'BEGIN {
+          dp = (pg - pa) / pa; db = ba > 0 ? (bg - ba) / ba : (bg == ba ? 0 : 1)
+          ok = (dp <= 0.01 && dp >= -0.01 && db <= 0.05 && db >= -0.05) ? "within" : "OUTSIDE"
+          printf "ucs: peak cpu %.6g Pa, cuda %.6g Pa (%+.3f %%); broken CE6 cpu %d, cuda %d (%+.2f %%): %s the criteria; wall cpu %.1f s, cuda %.1f s (%d steps)\n", pa, pg, 100 * dp, ba, bg, 100 * db, ok, wa, wg, n
+        }' | tee -a "$OUT/summary.txt"
+    else
+      echo "ucs: no comparison, a run wrote no summary.csv (see its log)" | tee -a "$OUT/summary.txt"
+    fi
+  fi
 fi
-# The 1-vs-2-rank device checks with both device backends (the ranks share the GPU).
+# The 1-vs-2-rank device checks with both device backends (the ranks share the GPU). The
+# bundle's Open MPI is not CUDA-aware, so the device-buffer halo (cuda+mpi) skips there.
 if wanted ranks; then
   for np in 1 2; do
     step "ranks_$np" 150 mpiexec --oversubscribe -n $np "$TESTS/test_ranks" \
       --gtest_filter='*Device*:*GpuAware*:*Fragments*'
   done
 fi
-# The elastic tests under compute-sanitizer (out-of-bounds and misaligned device accesses), where
-# the toolkit has it; the kernels are waited for after each launch (FDEM_CUDA_SYNC=1).
-if wanted sanitizer && command -v compute-sanitizer > /dev/null; then
-  FDEM_CUDA_SYNC=1 step sanitizer 180 compute-sanitizer --tool memcheck --error-exitcode 3 \
-    "$TESTS/test_cuda_backend" --gtest_filter='*Elastic*:*Gravity*'
+# bench_device starts MPI: through mpiexec, not as a singleton of the relocated Open MPI.
+bench() {  # bench NAME SECONDS TABLE ARGS...: a step whose log is also a table under $OUT
+  local name=$1 limit=$2 table=$3
+  shift 3
+  step "$name" "$limit" mpiexec --bind-to none -n 1 "$BENCH/bench_device" "$@"
+  [[ -f "$LOGS/$name.log" ]] && cp "$LOGS/$name.log" "$OUT/$table"
+}
+if wanted bench; then
+  bench bench 300 bench_device.md --tets 10000,100000,700000,2000000 --steps 200 --schedule auto,fused,colour
+  # The fused pass's kernels for one and for two resident blocks per multiprocessor.
+  bench bench_blocks 120 bench_blocks.md --tets 100000,700000 --steps 200 --schedule auto,fused --blocks-per-sm 1,2
+fi
+# Under compute-sanitizer, where the toolkit has it (on a machine whose runtime lets it see the
+# GPU); the kernels are waited for after each launch (FDEM_CUDA_SYNC=1). memcheck (the default
+# schedule's elastic and fracturing tests, contact included, and gravity with pressure): accesses
+# out of bounds or misaligned; initcheck: device memory read before
+# anything wrote it (the debug backend's poison, on the GPU); racecheck: two threads of a block on
+# one word of shared memory without a barrier between (the reductions' trees). The last two on
+# the test of 300 steps and 3 monitor rows (they are slower).
+if wanted sanitizer; then
+  sanitizer=$(command -v compute-sanitizer)
+  nvcc_dir=$(dirname "$(command -v nvcc || echo /usr/local/cuda/bin/nvcc)")
+  for d in "$nvcc_dir" /usr/local/cuda/bin; do
+    [[ -z $sanitizer && -x $d/compute-sanitizer ]] && sanitizer=$d/compute-sanitizer
+  done
+  if [[ -z $sanitizer ]]; then
+    echo "sanitizer: not run, compute-sanitizer not found (PATH, nvcc's folder, /usr/local/cuda/bin)" | tee -a "$OUT/summary.txt"
+  else
+    FDEM_CUDA_SYNC=1 step sanitizer 180 "$sanitizer" --tool memcheck --error-exitcode 3 \
+      "$TESTS/test_cuda_backend" --gtest_filter='*ElasticBox*/0:*Fracturing*/0:*Gravity*'
+    for tool in initcheck racecheck; do
+      FDEM_CUDA_SYNC=1 step "sanitizer_$tool" 90 "$sanitizer" --tool $tool --error-exitcode 3 \
+        "$TESTS/test_cuda_backend" --gtest_filter='*CountsTheCopies*'
+    done
+  fi
 fi
 if wanted contact; then
-  step contact 150 "$BENCH/bench_device" --tets 10000,100000 --steps 50 --contact full
-  [[ -f "$OUT/contact.log" ]] && cp "$OUT/contact.log" "$OUT/bench_contact_full.md"
+  bench contact 150 bench_contact_full.md --tets 10000,100000 --steps 50 --contact full
 fi
 if wanted fmad; then
   step fmad_configure 120 cmake -S . -B build-gpu-fmad -DCMAKE_BUILD_TYPE=Release -DFDEM_ENABLE_CUDA=ON \
     -DFDEM_CUDA_FMAD=ON -DFDEM_BUILD_TESTS=OFF -DFDEM_ENABLE_GMSH=OFF -DFDEM_ENABLE_PETSC=OFF \
     -DCMAKE_PREFIX_PATH="$DEPS/usr" -DCMAKE_CUDA_ARCHITECTURES="90-real;90-virtual" &&
     step fmad_build 400 cmake --build build-gpu-fmad -j "$(nproc)" --target bench_device &&
-    step fmad_bench 300 build-gpu-fmad/bench/bench_device --tets 10000,100000,700000,2000000 --steps 200
+    step fmad_bench 300 mpiexec --bind-to none -n 1 build-gpu-fmad/bench/bench_device --tets 10000,100000,700000,2000000 --steps 200
+  [[ -f "$LOGS/fmad_bench.log" ]] && cp "$LOGS/fmad_bench.log" "$OUT/bench_fmad.md"
 fi

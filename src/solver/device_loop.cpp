@@ -106,20 +106,28 @@ std::unique_ptr<DeviceLoop> make_device_loop(Backend b, const Solver& s) {
     }
     case Backend::cuda:
       if (cuda_built()) {
-        // All ranks decide together, so that none is left waiting in the split below.
+        // All ranks decide together, so that none is left waiting in the split below. A program
+        // that never started MPI (tests/gpu, a library user) is one process: no collective, which
+        // would abort it before MPI_Init.
+        int mpi = 0;
+        MPI_Initialized(&mpi);
         const int visible = cuda_device_count();
         int fewest = visible;
-        MPI_Allreduce(&visible, &fewest, 1, MPI_INT, MPI_MIN, s.comm());
+        if (mpi) MPI_Allreduce(&visible, &fewest, 1, MPI_INT, MPI_MIN, s.comm());
         if (fewest == 0)
           throw InputError("solver.backend cuda: no CUDA device is visible" +
                            (visible == 0 ? " (" + cuda_device_count_error() + ")" : std::string(" on another rank")) +
                            ". Fix: run on a machine with an NVIDIA GPU and its driver (check nvidia-smi and "
                            "CUDA_VISIBLE_DEVICES), or run with --backend cpu");
         // Ranks sharing a node take its GPUs in turn.
-        MPI_Comm node;
-        MPI_Comm_split_type(s.comm(), MPI_COMM_TYPE_SHARED, 0, MPI_INFO_NULL, &node);
-        select_cuda_device(rank_in(node));
-        MPI_Comm_free(&node);
+        int local_rank = 0;
+        if (mpi) {
+          MPI_Comm node;
+          MPI_Comm_split_type(s.comm(), MPI_COMM_TYPE_SHARED, 0, MPI_INFO_NULL, &node);
+          local_rank = rank_in(node);
+          MPI_Comm_free(&node);
+        }
+        select_cuda_device(local_rank);
       }
       return make_cuda_device_loop(direct_mpi, fused_plan());  // after the collective above
     case Backend::cpu:

@@ -7,12 +7,15 @@
 // differ in order (a tree of blocks on the device), and state that follows a sum (a
 // hydrostatic confining pressure) then differs by round-off.
 #include <gtest/gtest.h>
+#include <mpi.h>
 
 #include <cmath>
 #include <cstring>
 #include <memory>
+#include <string>
 
 #include "backend_support.hpp"
+#include "core/error.hpp"
 #include "gpu/cuda_flags.hpp"
 
 using namespace fdem;
@@ -181,6 +184,31 @@ TEST(CudaBackend, TheDebugBackendCountsTheCopiesTheCudaBackendMakes) {
   EXPECT_EQ(d.launches, c.launches);
   EXPECT_GT(c.launches_ahead, 0);
   EXPECT_EQ(d.launches_ahead, c.launches_ahead);
+}
+
+TEST(CudaBackend, AProgramThatNeverStartedMpiGetsTheDeviceOrTheReasonNotAnAbort) {
+  // This program never calls MPI_Init (gtest_main), like a library user's: choosing the device
+  // must not call MPI then (a collective before MPI_Init aborts the process, which would end
+  // every test after the first CUDA solver). Runs with or without a GPU.
+  int mpi = 1;
+  MPI_Initialized(&mpi);
+  ASSERT_EQ(mpi, 0) << "this test is about a program without MPI_Init";
+  if (cuda_device_count() > 0) {
+    auto gpu = backend_solver(backend_elastic_scene("cuda"));
+    auto cpu = backend_solver(backend_elastic_scene("cpu"));
+    EXPECT_EQ(gpu->backend(), Backend::cuda);
+    for (int i = 0; i < 10; ++i) gpu->step(), cpu->step();
+    gpu->sync_host();
+    EXPECT_EQ(std::memcmp(cpu->x.data(), gpu->x.data(), cpu->x.size() * sizeof(Vec3)), 0);
+  } else {
+    try {
+      backend_solver(backend_elastic_scene("cuda"));
+      ADD_FAILURE() << "the cuda backend started without a visible GPU";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("no CUDA device is visible"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("--backend cpu"), std::string::npos) << e.what();
+    }
+  }
 }
 
 TEST(CudaBackend, RaisedFlagsAreCountedOnceAndLeaveTheirNeighboursInTheWord) {
