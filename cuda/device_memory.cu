@@ -137,13 +137,13 @@ double copy_bandwidth(std::size_t bytes) {
     cuda_check(cudaEventElapsedTime(&ms, e0, e1), "cudaEventElapsedTime (bandwidth)");
     if (rep > 0 && ms < best) best = ms;
   }
-  if (!(best > 0 && best < 1e30f))
-    throw RunError("CUDA: the copy-bandwidth measurement timed " + std::to_string(best) + " ms for " +
-                   std::to_string(bytes) + " bytes");
   cudaEventDestroy(e0);
   cudaEventDestroy(e1);
   cudaFree(a);
   cudaFree(b);
+  if (!(best > 0 && best < 1e30f))
+    throw RunError("CUDA: the copy-bandwidth measurement timed " + std::to_string(best) + " ms for " +
+                   std::to_string(bytes) + " bytes");
   return 2.0 * double(bytes) / (double(best) * 1e-3) / 1e9;
 }
 

@@ -1,12 +1,14 @@
 #!/usr/bin/env bash
 # The GPU machine's checks in one call (the device tool: at most 10 minutes a call and 15 minutes
 # of device time a session, the machine's start included): build the CUDA backend, check it
-# against the CPU backend, time it. What it reports goes under $OUT, in at most 6 files (the device
-# tool brings back 8): summary.txt (each step's exit code and seconds), machine.txt, logs.tar.gz
-# (every step's log, the GPU tests' XML; packed again after each step, so a call cut short still
-# brings back the logs so far) and the benchmark tables bench_device.md, bench_blocks.md and
-# bench_contact_full.md. The logs themselves are written outside $OUT (FDEM_GPU_LOGS, default a
-# new folder under /tmp; its name is in summary.txt).
+# against the CPU backend, time it. What it reports goes under $OUT, in at most 7 files (the device
+# tool brings back 8): summary.txt (each step's exit code and seconds, then the verdict),
+# machine.txt, logs.tar.gz (every step's log, the GPU tests' XML; packed again after each step, so
+# a call cut short still brings back the logs so far) and the benchmark tables bench_device.md,
+# bench_blocks.md, bench_contact_full.md and (phase fmad) bench_fmad.md. The logs themselves are
+# written outside $OUT (FDEM_GPU_LOGS, default a new folder under /tmp; its name is in
+# summary.txt). Exit code 0 only if every step started, ended with 0, skipped no GPU test where
+# nvidia-smi lists a GPU, and the ucs comparison held; else 1 (2: bad arguments or no deps/).
 #
 #   bash scripts/gpu_check.sh --prepare      here, on the Debian machine: fill the ignored deps/
 #   bash scripts/gpu_check.sh [PHASE...]     there, with deps/ carried
@@ -29,8 +31,9 @@
 # call): each step runs under its own limit (below) cut to what is left of the budget, and a step
 # with less than 20 s left is not started, so the call always ends with its summary written and
 # the phases left over can go in a second call (build-gpu/ is kept while the machine is warm).
-# Measured on the 2-core dev VM without a GPU (2026-12-01; GPU tests skip): configure 3 s,
-# build 53 s, backend tests 14 s, ranks 33 s + 27 s.
+# Measured on the 2-core dev VM without a GPU (2026-12-02; GPU tests skip): the bundle's tests
+# ucs ranks in 3 min 27 s (ucs on the CPU 87 s, ranks 66 s + 49 s); 2026-12-01: configure 3 s,
+# build 53 s.
 #
 # The GPU machine (Ubuntu 24.04, CUDA 13, Open MPI 4.1.6, serial HDF5, yaml-cpp, GoogleTest,
 # Eigen) has no gmsh, METIS or CLI11 and no network: --prepare downloads the Debian packages of
@@ -52,10 +55,10 @@ if [[ "${1:-}" == "--prepare" ]]; then
   # The default UCS scene's model, partitioned for one rank: the phase ucs runs it there, where
   # the programs are built without gmsh (the cylinder's mesh generator). build/fdem has gmsh.
   rm -rf "$DEPS/ucs_small_1"
-  if [[ -x build/fdem ]] || { [[ -f build/CMakeCache.txt ]] && cmake --build build --target fdem > /dev/null; }; then
+  if [[ -f build/CMakeCache.txt ]] && cmake --build build --target fdem > /dev/null; then
     build/fdem partition scenes/ucs_small.yaml -n 1 -o "$DEPS/ucs_small_1" > /dev/null
   else
-    echo "gpu_check.sh: no build/fdem here (bash scripts/build.sh makes it): the phase ucs will not run there" >&2
+    echo "gpu_check.sh: no build/ here (bash scripts/build.sh makes it): the phase ucs will not run there" >&2
   fi
   tar -C "$DEPS" -cJf "$DEPS/bundle.tar.xz" bundle
   rm -rf "$DEPS/bundle"  # only the archive travels
@@ -91,14 +94,31 @@ if [[ ! -d "$DEPS/usr/include" ]]; then
 fi
 OUT=${OUT:-out/gpu_check}
 mkdir -p "$OUT"
-LOGS=${FDEM_GPU_LOGS:-$(mktemp -d /tmp/fdem_gpu_check.XXXXXX)}
-mkdir -p "$LOGS"
+LOGS=${FDEM_GPU_LOGS:-$(mktemp -d /tmp/fdem_gpu_check.XXXXXX)} || exit 1
+mkdir -p "$LOGS" || exit 1
 echo "logs: $LOGS (packed into $OUT/logs.tar.gz)" >> "$OUT/summary.txt"
-pack_logs() {  # written beside, then moved: a call cut short leaves the last whole archive
-  tar -C "$LOGS" -czf "$LOGS.tar.gz" . 2>/dev/null && mv -f "$LOGS.tar.gz" "$OUT/logs.tar.gz"
+failed=0  # the verdict (the exit code): a step that failed or did not start, a skip, a comparison
+pack_logs() {  # written beside in $OUT, then renamed: a call cut short leaves the last whole archive
+  if ! { tar -C "$LOGS" -czf "$OUT/.logs.tar.gz.part" . && mv -f "$OUT/.logs.tar.gz.part" "$OUT/logs.tar.gz"; }; then
+    echo "logs: packing failed (logs.tar.gz is older than this step)" >> "$OUT/summary.txt"
+  fi
 }
+# Where nvidia-smi lists a GPU, a test that skipped in a step's log is a failure; expected skips
+# (the halo through device buffers without a CUDA-aware MPI) are named in EXPECTED_SKIPS.
+skips() {  # skips NAME [EXPECTED_SKIPS regex]
+  nvidia-smi -L 2>/dev/null | grep GPU > /dev/null || return 0
+  local names
+  names=$(grep -o '\[  SKIPPED \] [^ ]*' "$LOGS/$1.log" 2>/dev/null | awk '$4 !~ /^[0-9]+$/ {print $4}' | sort -u |
+    grep -v -E "${2:-^$}" | tr '\n' ' ')
+  if [[ -n $names ]]; then
+    echo "$1: nvidia-smi lists a GPU but these tests skipped: $names(see $1.log)" | tee -a "$OUT/summary.txt"
+    failed=1
+  fi
+}
+OWN_PATH=$PATH OWN_LD=${LD_LIBRARY_PATH:-}  # the machine's own, for the phase fmad
 export LD_LIBRARY_PATH="$DEPS/usr/lib/x86_64-linux-gnu${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_mpi_yield_when_idle=1
+export GTEST_COLOR=no  # plain logs (through mpiexec GoogleTest would colour them)
 # The programs: built here (phase build) in build-gpu/, or the bundle's, built on the Debian
 # machine, with its libraries and Open MPI (relocated by OPAL_PREFIX and PMIX_INSTALL_PREFIX).
 TESTS=build-gpu/tests BENCH=build-gpu/bench FDEM=build-gpu/fdem
@@ -136,6 +156,11 @@ fi
   nvcc --version | tail -2
   echo "phases: ${phases[*]}"
 } >> "$OUT/machine.txt" 2>&1
+if ! nvidia-smi -L 2>/dev/null | grep GPU > /dev/null; then
+  echo "gpu: nvidia-smi lists no GPU, so the GPU tests skip: not a pass (the verdict says FAILED)" |
+    tee -a "$OUT/summary.txt"
+  failed=1
+fi
 
 step() {  # step NAME SECONDS COMMAND...: run with a time limit, log to $LOGS/NAME.log, record the exit code
   local name=$1 limit=$2
@@ -144,6 +169,7 @@ step() {  # step NAME SECONDS COMMAND...: run with a time limit, log to $LOGS/NA
   if ((left < 20)); then
     echo "$name: not started, $((BUDGET - SECONDS)) s of the ${BUDGET} s budget left (run its phase in another call)" |
       tee -a "$OUT/summary.txt"
+    failed=1
     return 125
   fi
   ((limit > left)) && limit=$left
@@ -153,6 +179,7 @@ step() {  # step NAME SECONDS COMMAND...: run with a time limit, log to $LOGS/NA
   local why=""
   [[ $rc -eq 124 || $rc -eq 137 ]] && why=" (stopped at its limit of $limit s)"
   echo "$name: exit $rc in $((SECONDS - t0)) s$why" | tee -a "$OUT/summary.txt"
+  ((rc == 0)) || failed=1
   pack_logs
   return $rc
 }
@@ -175,9 +202,7 @@ if wanted tests; then
   step gpu_tests 180 "$TESTS/test_cuda_backend" --gtest_output="xml:$LOGS/gpu_tests.xml"
   # A GPU that nvidia-smi lists but the tests skipped (a driver older than the CUDA runtime, for
   # one) is a failure here, not a green run.
-  if nvidia-smi -L 2>/dev/null | grep -q GPU && grep -q 'SKIPPED' "$LOGS/gpu_tests.log"; then
-    echo "gpu_tests: nvidia-smi lists a GPU but the tests skipped (see gpu_tests.log)" | tee -a "$OUT/summary.txt"
-  fi
+  skips gpu_tests
 fi
 # The default scene end to end, fdem run with its outputs, on the CPU (all cores: --bind-to none,
 # or Open MPI binds the one rank to one core) and on the GPU from the same rank file
@@ -188,10 +213,11 @@ ucs_value() {  # ucs_value SUMMARY_CSV COLUMN: the column of the summary's one r
 }
 if wanted ucs; then
   if [[ ! -f $DEPS/ucs_small_1/rank_0.fdp ]]; then
-    echo "ucs: not run, deps/ucs_small_1 is missing (bash scripts/gpu_check.sh --prepare here, with build/fdem)" |
+    echo "ucs: not run, deps/ucs_small_1 is missing (bash scripts/gpu_check.sh --prepare here, with build/)" |
       tee -a "$OUT/summary.txt"
+    failed=1
   else
-    runs=$(mktemp -d /tmp/fdem_gpu_ucs.XXXXXX)  # the fields (MB) stay out of the logs' archive
+    runs=$(mktemp -d /tmp/fdem_gpu_ucs.XXXXXX) || exit 1  # the fields (MB) stay out of the logs' archive
     for b in cpu cuda; do
       step "ucs_$b" 150 mpiexec --bind-to none -n 1 "$FDEM" run scenes/ucs_small.yaml --partitioned "$DEPS/ucs_small_1" \
         --backend $b -o "$runs/$b" -q
@@ -200,15 +226,18 @@ if wanted ucs; then
     pack_logs
     a=$LOGS/ucs_cpu/summary.csv g=$LOGS/ucs_cuda/summary.csv
     if [[ -f $a && -f $g ]]; then
-      awk -v pa="$(ucs_value "$a" peak_stress_Pa)" -v pg="$(ucs_value "$g" peak_stress_Pa)" \
+      line=$(awk -v pa="$(ucs_value "$a" peak_stress_Pa)" -v pg="$(ucs_value "$g" peak_stress_Pa)" \
         -v ba="$(ucs_value "$a" broken_ce6)" -v bg="$(ucs_value "$g" broken_ce6)" \
         -v wa="$(ucs_value "$a" wall_s)" -v wg="$(ucs_value "$g" wall_s)" -v n="$(ucs_value "$g" steps)" 'BEGIN {
           dp = (pg - pa) / pa; db = ba > 0 ? (bg - ba) / ba : (bg == ba ? 0 : 1)
           ok = (dp <= 0.01 && dp >= -0.01 && db <= 0.05 && db >= -0.05) ? "within" : "OUTSIDE"
           printf "ucs: peak cpu %.6g Pa, cuda %.6g Pa (%+.3f %%); broken CE6 cpu %d, cuda %d (%+.2f %%): %s the criteria; wall cpu %.1f s, cuda %.1f s (%d steps)\n", pa, pg, 100 * dp, ba, bg, 100 * db, ok, wa, wg, n
-        }' | tee -a "$OUT/summary.txt"
+        }')
+      echo "$line" | tee -a "$OUT/summary.txt"
+      [[ $line == *" within the criteria"* ]] || failed=1
     else
       echo "ucs: no comparison, a run wrote no summary.csv (see its log)" | tee -a "$OUT/summary.txt"
+      failed=1
     fi
   fi
 fi
@@ -218,6 +247,7 @@ if wanted ranks; then
   for np in 1 2; do
     step "ranks_$np" 150 mpiexec --oversubscribe -n $np "$TESTS/test_ranks" \
       --gtest_filter='*Device*:*GpuAware*:*Fragments*'
+    skips "ranks_$np" 'cuda_mpi'
   done
 fi
 # bench_device starts MPI: through mpiexec, not as a singleton of the relocated Open MPI.
@@ -247,23 +277,37 @@ if wanted sanitizer; then
   done
   if [[ -z $sanitizer ]]; then
     echo "sanitizer: not run, compute-sanitizer not found (PATH, nvcc's folder, /usr/local/cuda/bin)" | tee -a "$OUT/summary.txt"
+    failed=1
   else
     FDEM_CUDA_SYNC=1 step sanitizer 180 "$sanitizer" --tool memcheck --error-exitcode 3 \
       "$TESTS/test_cuda_backend" --gtest_filter='*ElasticBox*/0:*Fracturing*/0:*Gravity*'
+    skips sanitizer  # (the sanitizer's runtime not seeing the GPU: every test skips)
     for tool in initcheck racecheck; do
       FDEM_CUDA_SYNC=1 step "sanitizer_$tool" 90 "$sanitizer" --tool $tool --error-exitcode 3 \
         "$TESTS/test_cuda_backend" --gtest_filter='*CountsTheCopies*'
+      skips "sanitizer_$tool"
     done
   fi
 fi
 if wanted contact; then
   bench contact 150 bench_contact_full.md --tets 10000,100000 --steps 50 --contact full
 fi
+# fmad builds and runs against the machine's own packages and MPI, without the bundle's paths.
 if wanted fmad; then
-  step fmad_configure 120 cmake -S . -B build-gpu-fmad -DCMAKE_BUILD_TYPE=Release -DFDEM_ENABLE_CUDA=ON \
+  own=(env -u OPAL_PREFIX -u PMIX_INSTALL_PREFIX -u PMIX_MCA_mca_base_component_path -u HWLOC_PLUGINS_PATH
+    -u OMPI_MCA_pml -u OMPI_MCA_btl -u OMPI_MCA_btl_vader_single_copy_mechanism
+    PATH="$OWN_PATH" LD_LIBRARY_PATH="$DEPS/usr/lib/x86_64-linux-gnu${OWN_LD:+:$OWN_LD}")
+  step fmad_configure 120 "${own[@]}" cmake -S . -B build-gpu-fmad -DCMAKE_BUILD_TYPE=Release -DFDEM_ENABLE_CUDA=ON \
     -DFDEM_CUDA_FMAD=ON -DFDEM_BUILD_TESTS=OFF -DFDEM_ENABLE_GMSH=OFF -DFDEM_ENABLE_PETSC=OFF \
     -DCMAKE_PREFIX_PATH="$DEPS/usr" -DCMAKE_CUDA_ARCHITECTURES="90-real;90-virtual" &&
-    step fmad_build 400 cmake --build build-gpu-fmad -j "$(nproc)" --target bench_device &&
-    step fmad_bench 300 mpiexec --bind-to none -n 1 build-gpu-fmad/bench/bench_device --tets 10000,100000,700000,2000000 --steps 200
+    step fmad_build 400 "${own[@]}" cmake --build build-gpu-fmad -j "$(nproc)" --target bench_device &&
+    step fmad_bench 300 "${own[@]}" mpiexec --bind-to none -n 1 build-gpu-fmad/bench/bench_device \
+      --tets 10000,100000,700000,2000000 --steps 200
   [[ -f "$LOGS/fmad_bench.log" ]] && cp "$LOGS/fmad_bench.log" "$OUT/bench_fmad.md"
 fi
+if ((failed)); then
+  echo "verdict: FAILED or incomplete (see the lines above and logs.tar.gz)" | tee -a "$OUT/summary.txt"
+else
+  echo "verdict: every step passed" | tee -a "$OUT/summary.txt"
+fi
+exit "$failed"
