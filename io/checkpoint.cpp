@@ -31,13 +31,19 @@ void write_checkpoint(const std::string& path, const CheckpointOut& out) {
   write_file_atomically(path, text);
 }
 
-CheckpointIn read_checkpoint(const std::string& path) {
+CheckpointIn read_checkpoint(const std::string& path, CheckpointKind kind) {
+  const bool rank_file = kind == CheckpointKind::rank_file;
+  const std::string name = rank_file ? "rank file" : "checkpoint";
+  const std::string again = "write the rank files again with fdem partition";
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path + ": cannot open the checkpoint. Fix: give a checkpoint file or the run's folder");
+  if (!in)
+    throw InputError(path + ": cannot open the " + name + ". Fix: " +
+                     (rank_file ? "give --partitioned the folder fdem partition -o wrote (rank_<r>.fdp for every rank)"
+                                : "give a checkpoint file or the run's folder"));
   std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   auto bad = [&](const std::string& what) {
-    throw InputError(path + ": not a usable fdem checkpoint (" + what +
-                     "). Fix: restart from the other checkpoint in its folder (fdem keeps two)");
+    throw InputError(path + ": not a usable fdem " + name + " (" + what + "). Fix: " +
+                     (rank_file ? again : "restart from the other checkpoint in its folder (fdem keeps two)"));
   };
   if (text.size() < kHeader || std::memcmp(text.data(), kMagic, 8) != 0) bad("no FDEMCKPT header");
   std::uint32_t version = 0;
@@ -46,8 +52,9 @@ CheckpointIn read_checkpoint(const std::string& path) {
   std::memcpy(&size, &text[12], 8);
   std::memcpy(&sum, &text[20], 8);
   if (version != kCheckpointVersion)
-    throw InputError(path + ": checkpoint format version " + std::to_string(version) + ", this fdem reads version " +
-                     std::to_string(kCheckpointVersion) + ". Fix: continue with the fdem that wrote it");
+    throw InputError(path + ": " + name + " format version " + std::to_string(version) + ", this fdem reads version " +
+                     std::to_string(kCheckpointVersion) +
+                     ". Fix: " + (rank_file ? again + " of this fdem" : "continue with the fdem that wrote it"));
   if (size != text.size() - kHeader)
     bad("payload of " + std::to_string(text.size() - kHeader) + " bytes, the header says " + std::to_string(size) +
         ": truncated?");

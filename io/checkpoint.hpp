@@ -122,8 +122,12 @@ std::uint64_t fnv1a64(const void* data, std::size_t size, std::uint64_t seed = k
 
 /// Writes header and payload to path atomically; throws OutputError.
 void write_checkpoint(const std::string& path, const CheckpointOut& out);
+/// What a file in the checkpoint format holds (a run's checkpoint, or a rank file of fdem
+/// partition), so that its errors name it and give its own fix.
+enum class CheckpointKind { checkpoint, rank_file };
+
 /// Reads and verifies a checkpoint file; throws InputError naming the file, what is wrong with
 /// it and the fix.
-CheckpointIn read_checkpoint(const std::string& path);
+CheckpointIn read_checkpoint(const std::string& path, CheckpointKind kind = CheckpointKind::checkpoint);
 
 }  // namespace fdem

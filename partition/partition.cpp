@@ -488,7 +488,7 @@ void write_rank_file(const std::string& path, const RankModel& rm, std::uint64_t
 }
 
 RankModel read_rank_file(const std::string& path, std::uint64_t key) {
-  CheckpointIn in = read_checkpoint(path);
+  CheckpointIn in = read_checkpoint(path, CheckpointKind::rank_file);
   RankModel rm = get_rank_model(in, key);
   in.finish();
   return rm;

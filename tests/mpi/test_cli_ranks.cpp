@@ -124,6 +124,12 @@ TEST(CliRanks, RankFilesFromPartitionGiveTheSameRun) {
                          quote((tmp.path / "wrong").string()));
   EXPECT_EQ(c.code, 2) << c.text;
   EXPECT_TRUE(has(c.text, "rank_0.fdp") && has(c.text, "mpiexec -n 2")) << c.text;
+  // A folder without rank files: named as one, with fdem partition's fix (not a checkpoint's).
+  const Outcome m = fdem("run " + quote(kScene) + " --partitioned " + quote((tmp.path / "none").string()) + " -q -o " +
+                         quote((tmp.path / "m").string()));
+  EXPECT_EQ(m.code, 2) << m.text;
+  EXPECT_TRUE(has(m.text, "rank_0.fdp: cannot open the rank file") && has(m.text, "fdem partition -o")) << m.text;
+  EXPECT_FALSE(has(m.text, "checkpoint")) << m.text;
 }
 
 TEST(CliRanks, ABadInputOnOneRankEndsTheJobWithItsMessage) {
@@ -154,6 +160,8 @@ TEST(CliRanks, ABadInputOnOneRankEndsTheJobWithItsMessage) {
   EXPECT_NE(d.code, 0) << d.text;
   EXPECT_NE(d.code, 124) << d.text;
   EXPECT_TRUE(has(d.text, "rank 1: error:") && has(d.text, "rank_1.fdp")) << d.text;
+  EXPECT_TRUE(has(d.text, "not a usable fdem rank file") && has(d.text, "again with fdem partition")) << d.text;
+  EXPECT_FALSE(has(d.text, "other checkpoint")) << d.text;
 }
 
 TEST(CliRanks, ARankKilledMidRunEndsTheJob) {
