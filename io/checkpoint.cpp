@@ -54,7 +54,7 @@ CheckpointIn read_checkpoint(const std::string& path, CheckpointKind kind) {
   if (version != kCheckpointVersion)
     throw InputError(path + ": " + name + " format version " + std::to_string(version) + ", this fdem reads version " +
                      std::to_string(kCheckpointVersion) +
-                     ". Fix: " + (rank_file ? again + " of this fdem" : "continue with the fdem that wrote it"));
+                     ". Fix: " + (rank_file ? again + " (this version's)" : "continue with the fdem that wrote it"));
   if (size != text.size() - kHeader)
     bad("payload of " + std::to_string(text.size() - kHeader) + " bytes, the header says " + std::to_string(size) +
         ": truncated?");
