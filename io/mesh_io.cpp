@@ -26,6 +26,7 @@
 
 #include "core/error.hpp"
 #include "core/format.hpp"
+#include "io/atomic_file.hpp"
 
 namespace fdem {
 namespace {
@@ -878,8 +879,34 @@ Mesh generate_mesh(const MeshSpec& s) {
 #else
   throw InputError(what +
                    ": this fdem was built without gmsh, which generates meshes. Fix: give mesh.file (a .msh "
-                   "file meshed elsewhere), or build where gmsh is installed (apt-get install libgmsh-dev)");
+                   "file meshed elsewhere, or written by fdem check --write-mesh where gmsh is), or build where "
+                   "gmsh is installed (apt-get install libgmsh-dev)");
 #endif
+}
+
+void write_msh(const Mesh& mesh, const std::string& path) {
+  std::string text = "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n" + std::to_string(mesh.vertices.size()) + '\n';
+  text.reserve(text.size() + 64 * mesh.vertices.size() + 48 * mesh.tets.size() + 64);
+  char buf[32];
+  auto put = [&](auto v) {  // shortest round-trip text of an integer or a double
+    const auto r = std::to_chars(buf, buf + sizeof buf, v);
+    text.append(buf, r.ptr);
+  };
+  for (std::size_t i = 0; i < mesh.vertices.size(); ++i) {
+    const Vec3& x = mesh.vertices[i];
+    put(i + 1);
+    for (const real c : {x.x, x.y, x.z}) text += ' ', put(c);
+    text += '\n';
+  }
+  text += "$EndNodes\n$Elements\n" + std::to_string(mesh.tets.size()) + '\n';
+  for (std::size_t t = 0; t < mesh.tets.size(); ++t) {
+    put(t + 1);
+    text += " 4 2 1 1";  // a tetrahedron; physical and elementary tags 1
+    for (const int v : mesh.tets[t]) text += ' ', put(v + 1);
+    text += '\n';
+  }
+  text += "$EndElements\n";
+  write_file_atomically(path, text);
 }
 
 Mesh load_mesh(const MeshSpec& spec) {

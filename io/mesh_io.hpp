@@ -1,5 +1,5 @@
 #pragma once
-// Tetrahedral meshes in: gmsh .msh files (ASCII v2.2 and v4.1, hand-parsed) or meshes generated
+// Tetrahedral meshes in (and out): gmsh .msh files (ASCII v2.2 and v4.1, hand-parsed) or meshes generated
 // with the gmsh API (OpenCASCADE kernel). Every function throws fdem::InputError with a message
 // that names the file (and line), says what is wrong and how to fix it.
 #include <string>
@@ -32,6 +32,13 @@ Mesh read_msh(const std::string& path, real scale = 1);
 /// initialised and finalised inside the call (left initialised if it already was).
 /// Not thread-safe with other gmsh users; concurrent calls to generate_mesh are serialised.
 Mesh generate_mesh(const MeshSpec& spec);
+
+/// Write a mesh as a gmsh .msh file, ASCII version 2.2: the vertices as nodes 1..n (coordinates
+/// in m, each in the shortest form that reads back to the same double) and the tets as elements
+/// 1..m of type 4 in mesh order, so read_msh(path) gives the same mesh bit for bit. For running
+/// a generated mesh where gmsh is missing (mesh.file). Written whole or not at all
+/// (write_file_atomically); throws OutputError naming the file.
+void write_msh(const Mesh& mesh, const std::string& path);
 
 /// spec.file non-empty: read_msh(spec.file, spec.scale); otherwise generate_mesh(spec).
 Mesh load_mesh(const MeshSpec& spec);

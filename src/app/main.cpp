@@ -88,14 +88,29 @@ int world_size() {
   return fdem::size_of(MPI_COMM_WORLD);
 }
 
-/// The mesh and model of a scene, InputError naming the scene and the mesh.
-fdem::Model build_scene_model(const fdem::Scene& scene) {
+/// The mesh and model of a scene, InputError naming the scene and the mesh. `write_mesh`: also
+/// write the mesh there as a .msh file (fdem check --write-mesh), once the model is built.
+fdem::Model build_scene_model(const fdem::Scene& scene, const std::string& write_mesh = "") {
+  fdem::Mesh mesh;
+  fdem::Model model;
   try {
-    return fdem::build_model(fdem::load_mesh(scene.mesh), scene);
+    mesh = fdem::load_mesh(scene.mesh);
+    model = fdem::build_model(mesh, scene);
   } catch (const fdem::InputError& e) {
     // Name the scene too: the mesh message names the mesh file and the element.
     throw fdem::InputError(scene.file + ": mesh: " + e.what());
   }
+  if (!write_mesh.empty()) {
+    try {
+      fdem::write_msh(mesh, write_mesh);
+    } catch (const fdem::OutputError& e) {
+      throw fdem::OutputError(std::string(e.what()) +
+                              ". Fix: give --write-mesh a file in a folder that exists and can be written");
+    }
+    std::cout << "mesh written: " << write_mesh << " (" << mesh.vertices.size() << " vertices, " << mesh.tets.size()
+              << " tets, gmsh .msh 2.2, m; give it as mesh.file)\n";
+  }
+  return model;
 }
 
 /// The METIS partition of a scene's model for `size` ranks and its plan (contact reach: the
@@ -164,6 +179,10 @@ int run_main(int argc, char** argv) {
 
   auto* check = app.add_subcommand("check", "Validate a scene, build its model and report counts and the time step");
   check->add_option("scene", scene_path, "Scene file (YAML)")->required();
+  std::string write_mesh;
+  check->add_option("--write-mesh", write_mesh,
+                    "Also write the scene's mesh (generated or read) to this gmsh .msh file (ASCII 2.2, coordinates "
+                    "in m, the same mesh bit for bit when read back): give it as mesh.file where fdem has no gmsh");
 
   int parts = 0;
   auto* partition = app.add_subcommand(
@@ -299,7 +318,7 @@ int run_main(int argc, char** argv) {
     model = std::move(rm.model);
     dd = std::move(rm.dd);
   } else if (size == 1) {
-    model = build_scene_model(scene);
+    model = build_scene_model(scene, write_mesh);
   } else {
     // Rank 0 builds the model and partitions it with METIS; DMPlex distributes it (or rank 0
     // sends every rank its part): the other ranks never hold the whole model. (A failure on

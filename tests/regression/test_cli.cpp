@@ -86,6 +86,44 @@ TEST(CliExe, CheckReportsCountsAndStableStep) {
   EXPECT_TRUE(fs::is_empty(tmp.path));
 }
 
+// fdem check --write-mesh: the generated mesh as a .msh file, which a scene then reads as
+// mesh.file to the same model (counts, geometry and time step, as check reports them).
+TEST(CliExe, CheckWritesTheMeshThatAFileSceneBuildsTheSameModelFrom) {
+  TempDir tmp("write_mesh");
+  const fs::path msh = tmp.path / "box.msh";
+  const Outcome a =
+      fdem("check " + quote((kData / "cli" / "check_box.yaml").string()) + " --write-mesh " + quote(msh.string()));
+  ASSERT_EQ(a.code, 0) << a.text;
+  ASSERT_TRUE(fs::exists(msh)) << a.text;
+  EXPECT_TRUE(has(a.text, "mesh written: " + msh.string())) << a.text;
+  {
+    std::ofstream scene(tmp.path / "from_file.yaml");
+    scene << "name: from_file\nmesh: {file: box.msh}\nsolver:\n  end: {steps: 100}\n"
+          << "output: {progress_interval: 0, plot: false}\n";
+  }
+  const Outcome b = fdem("check " + quote((tmp.path / "from_file.yaml").string()));
+  ASSERT_EQ(b.code, 0) << b.text;
+  const std::size_t ia = a.text.find("  tets "), ib = b.text.find("  tets ");
+  ASSERT_NE(ia, std::string::npos) << a.text;
+  ASSERT_NE(ib, std::string::npos) << b.text;
+  EXPECT_EQ(a.text.substr(ia), b.text.substr(ib));  // every count, length and step, to the digits printed
+  long vertices = 0, tets = 0, file_tets = 0;
+  ASSERT_EQ(std::sscanf(a.text.c_str() + a.text.find("mesh written: "),
+                        ("mesh written: " + msh.string() + " (%ld vertices, %ld tets").c_str(), &vertices, &tets),
+            2)
+      << a.text;
+  ASSERT_EQ(std::sscanf(a.text.c_str() + ia, "  tets %ld", &file_tets), 1);
+  EXPECT_EQ(tets, file_tets);
+  EXPECT_GT(vertices, 8);
+  // A folder that does not exist: exit 4 (output), the file named, nothing written.
+  const fs::path bad = tmp.path / "missing" / "box.msh";
+  const Outcome c =
+      fdem("check " + quote((kData / "cli" / "check_box.yaml").string()) + " --write-mesh " + quote(bad.string()));
+  EXPECT_EQ(c.code, 4) << c.text;
+  EXPECT_TRUE(has(c.text, bad.string())) << c.text;
+  EXPECT_FALSE(fs::exists(tmp.path / "missing"));
+}
+
 TEST(CliExe, InvertedTetsInAMeshFileAreFine) {
   const Outcome o = fdem("check " + quote((kData / "cli" / "inverted_tets.yaml").string()));
   EXPECT_EQ(o.code, 0) << o.text;

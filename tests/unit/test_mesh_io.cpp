@@ -1,11 +1,16 @@
 // Mesh input: generated shapes (geometry, volume, determinism), the .msh reader (v2.2 and v4.1
 // of the same mesh, scale) and its error messages on bad files, and validate_mesh.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
 #include <functional>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -273,6 +278,67 @@ struct BadCase {
   const char* file;
   const char* expect;  // also in the message, besides the file name
 };
+
+// ---------------------------------------------------------------------------------------------
+// Writing .msh files (fdem check --write-mesh)
+
+/// The same mesh to the bit: every coordinate's 64 bits and every tet's vertex list.
+void expect_same_bits(const Mesh& a, const Mesh& b) {
+  ASSERT_EQ(a.vertices.size(), b.vertices.size());
+  ASSERT_EQ(a.tets.size(), b.tets.size());
+  EXPECT_EQ(std::memcmp(a.vertices.data(), b.vertices.data(), a.vertices.size() * sizeof(Vec3)), 0);
+  EXPECT_TRUE(a.tets == b.tets);
+}
+
+std::string temp_msh(const std::string& name) {
+  return (std::filesystem::temp_directory_path() / (name + "_" + std::to_string(::getpid()) + ".msh")).string();
+}
+
+TEST(WriteMsh, AGeneratedMeshReadsBackBitForBit) {
+  const Mesh m = generate_mesh(cylinder_spec());
+  const std::string path = temp_msh("fdem_write_cylinder");
+  write_msh(m, path);
+  std::ifstream in(path);
+  std::string l1, l2;
+  std::getline(in, l1), std::getline(in, l2);
+  EXPECT_EQ(l1, "$MeshFormat");
+  EXPECT_EQ(l2, "2.2 0 8");  // what gmsh reads too
+  const Mesh back = read_msh(path);
+  std::filesystem::remove(path);
+  expect_same_bits(m, back);
+  EXPECT_EQ(back.source, path);
+}
+
+TEST(WriteMsh, CoordinatesOfEveryMagnitudeReadBackBitForBit) {
+  // The unit cube of 6 tets with each corner moved by noise of full 53-bit mantissas, scaled to
+  // micrometres, metres and tens of kilometres and moved to negative coordinates: the shortest
+  // decimal text of each coordinate must read back to the same double.
+  const Mesh cube = read_msh(kDir + "cube6_v22.msh");
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> noise(-0.1, 0.1);
+  for (const double scale : {1.2345e-6, 1.0, 3.7e4}) {
+    Mesh m = cube;
+    for (Vec3& x : m.vertices) x = scale * Vec3{x.x + noise(rng), x.y + noise(rng), x.z + noise(rng)} - Vec3{1, 2, 3};
+    validate_mesh(m);
+    const std::string path = temp_msh("fdem_write_noise");
+    write_msh(m, path);
+    const Mesh back = read_msh(path);
+    std::filesystem::remove(path);
+    expect_same_bits(m, back);
+  }
+}
+
+TEST(WriteMsh, AFileThatCannotBeWrittenIsAnOutputErrorNamingIt) {
+  const Mesh m = read_msh(kDir + "cube6_v22.msh");
+  const std::string path = "/nonexistent_fdem_folder/mesh.msh";
+  try {
+    write_msh(m, path);
+    FAIL() << "no error";
+  } catch (const OutputError& e) {
+    EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(std::filesystem::exists(path + ".tmp"));
+}
 
 TEST(ReadMsh, BadFilesThrowInputErrorNamingTheFile) {
   const BadCase cases[] = {
