@@ -35,7 +35,8 @@ Mesh generate_mesh(const MeshSpec& spec);
 
 /// Write a mesh as a gmsh .msh file, ASCII version 2.2: the vertices as nodes 1..n (coordinates
 /// in m, each in the shortest form that reads back to the same double) and the tets as elements
-/// 1..m of type 4 in mesh order, so read_msh(path) gives the same mesh bit for bit. For running
+/// 1..m of type 4 in mesh order, so read_msh(path) gives the same mesh bit for bit where every
+/// vertex is a tet's, as in every mesh load_mesh gives (read_msh drops the others). For running
 /// a generated mesh where gmsh is missing (mesh.file). Written whole or not at all
 /// (write_file_atomically); throws OutputError naming the file.
 void write_msh(const Mesh& mesh, const std::string& path);

@@ -91,6 +91,15 @@ int world_size() {
 /// The mesh and model of a scene, InputError naming the scene and the mesh. `write_mesh`: also
 /// write the mesh there as a .msh file (fdem check --write-mesh), once the model is built.
 fdem::Model build_scene_model(const fdem::Scene& scene, const std::string& write_mesh = "") {
+  if (!write_mesh.empty()) {  // before minutes of meshing
+    const std::filesystem::path folder = std::filesystem::absolute(write_mesh).parent_path();
+    std::error_code ec;
+    if (!std::filesystem::is_directory(folder, ec) || std::filesystem::is_directory(write_mesh, ec))
+      throw fdem::OutputError(
+          "cannot write the mesh to " + write_mesh + ": " +
+          (std::filesystem::is_directory(write_mesh, ec) ? "it is a folder" : folder.string() + " is not a folder") +
+          ". Fix: give --write-mesh a file name in a folder that exists, e.g. mesh.msh");
+  }
   fdem::Mesh mesh;
   fdem::Model model;
   try {
@@ -104,8 +113,8 @@ fdem::Model build_scene_model(const fdem::Scene& scene, const std::string& write
     try {
       fdem::write_msh(mesh, write_mesh);
     } catch (const fdem::OutputError& e) {
-      throw fdem::OutputError(std::string(e.what()) +
-                              ". Fix: give --write-mesh a file in a folder that exists and can be written");
+      throw fdem::OutputError("cannot write the mesh to " + write_mesh + " (" + e.what() +
+                              "). Fix: give --write-mesh a file in a folder that can be written, with space");
     }
     std::cout << "mesh written: " << write_mesh << " (" << mesh.vertices.size() << " vertices, " << mesh.tets.size()
               << " tets, gmsh .msh 2.2, m; give it as mesh.file)\n";

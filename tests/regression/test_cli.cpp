@@ -115,13 +115,15 @@ TEST(CliExe, CheckWritesTheMeshThatAFileSceneBuildsTheSameModelFrom) {
   ASSERT_EQ(std::sscanf(a.text.c_str() + ia, "  tets %ld", &file_tets), 1);
   EXPECT_EQ(tets, file_tets);
   EXPECT_GT(vertices, 8);
-  // A folder that does not exist: exit 4 (output), the file named, nothing written.
+  // A folder that does not exist: exit 4 (output), the file named, nothing written, and no
+  // model built first (the check comes before the meshing).
   const fs::path bad = tmp.path / "missing" / "box.msh";
   const Outcome c =
       fdem("check " + quote((kData / "cli" / "check_box.yaml").string()) + " --write-mesh " + quote(bad.string()));
   EXPECT_EQ(c.code, 4) << c.text;
   EXPECT_TRUE(has(c.text, bad.string())) << c.text;
   EXPECT_FALSE(fs::exists(tmp.path / "missing"));
+  EXPECT_FALSE(has(c.text, "tets ")) << c.text;
 }
 
 TEST(CliExe, InvertedTetsInAMeshFileAreFine) {

@@ -311,20 +311,23 @@ TEST(WriteMsh, AGeneratedMeshReadsBackBitForBit) {
 
 TEST(WriteMsh, CoordinatesOfEveryMagnitudeReadBackBitForBit) {
   // The unit cube of 6 tets with each corner moved by noise of full 53-bit mantissas, scaled to
-  // micrometres, metres and tens of kilometres and moved to negative coordinates: the shortest
-  // decimal text of each coordinate must read back to the same double.
+  // micrometres, metres and tens of kilometres and moved partly to negative coordinates (one
+  // corner at -0 in x): the shortest decimal text of each coordinate (exponents too) must read
+  // back to the same double.
   const Mesh cube = read_msh(kDir + "cube6_v22.msh");
   std::mt19937_64 rng(7);
   std::uniform_real_distribution<double> noise(-0.1, 0.1);
   for (const double scale : {1.2345e-6, 1.0, 3.7e4}) {
     Mesh m = cube;
-    for (Vec3& x : m.vertices) x = scale * Vec3{x.x + noise(rng), x.y + noise(rng), x.z + noise(rng)} - Vec3{1, 2, 3};
+    for (Vec3& x : m.vertices) x = scale * (Vec3{x.x + noise(rng), x.y + noise(rng), x.z + noise(rng)} - Vec3{0, 2, 3});
+    m.vertices[0].x = -0.0;
     validate_mesh(m);
     const std::string path = temp_msh("fdem_write_noise");
     write_msh(m, path);
     const Mesh back = read_msh(path);
     std::filesystem::remove(path);
     expect_same_bits(m, back);
+    EXPECT_TRUE(std::signbit(back.vertices[0].x));
   }
 }
 
