@@ -8,7 +8,7 @@
 # bench_blocks.md, bench_contact_full.md and (phase fmad) bench_fmad.md. The logs themselves are
 # written outside $OUT (FDEM_GPU_LOGS, default a new folder under /tmp; its name is in
 # summary.txt). Exit code 0 only if every step started, ended with 0, skipped no GPU test where
-# nvidia-smi lists a GPU, and the ucs comparison held; else 1 (2: bad arguments or no deps/).
+# nvidia-smi lists a GPU, and the ucs and paper comparisons held; else 1 (2: bad arguments or no deps/).
 #
 #   bash scripts/gpu_check.sh --prepare      here, on the Debian machine: fill the ignored deps/
 #   bash scripts/gpu_check.sh [PHASE...]     there, with deps/ carried
@@ -19,8 +19,8 @@
 # HDF5, yaml-cpp or GoogleTest, which its image may lack. Name the phase build to build there
 # instead (that needs those packages there).
 #
-# PHASEs run in this order, most wanted first (default: build tests ucs ranks bench sanitizer
-# contact, with the bundle all but build): build tests ucs ranks bench sanitizer contact paper fmad. ucs
+# PHASEs run in this order, most wanted first (default: build tests ucs ranks bench paper sanitizer
+# contact, with the bundle all but build): build tests ucs ranks bench paper sanitizer contact fmad. ucs
 # runs the default scene (fdem run, outputs included) on the CPU and on the GPU from a rank file
 # --prepare writes (deps/ucs_small_1) and compares peak and broken CE6. contact times the step
 # with every tet a contact candidate (bench_device --contact full, 67 candidate pairs a tet: the
@@ -30,7 +30,7 @@
 # paper runs the paper-size UCS model (scenes/ucs_paper.yaml's mesh, which --prepare writes to
 # deps/ucs_paper.msh.xz, at m = 1) for 1,000 and 41,000 steps on the GPU and 1,000 on the CPU: its
 # step time, a lower bound of the wall time to the post-peak stage and CPU = GPU in the monitors
-# (about 2 to 3 minutes; below). fmad and paper are not in the default list: name them (a second call).
+# (about 2 to 3 minutes; below): the issue's goal, so before the sanitizer. fmad is on request only.
 # The whole call has a budget of FDEM_GPU_BUDGET seconds (default 540, under the tool's 600 s a
 # call): each step runs under its own limit (below) cut to what is left of the budget, and a step
 # with less than 20 s left is not started, so the call always ends with its summary written and
@@ -75,14 +75,14 @@ fi
 
 phases=("$@")
 if [[ ${#phases[@]} -eq 0 ]]; then
-  phases=(build tests ucs ranks bench sanitizer contact)
-  [[ -f $DEPS/bundle.tar.xz ]] && phases=(tests ucs ranks bench sanitizer contact)
+  phases=(build tests ucs ranks bench paper sanitizer contact)
+  [[ -f $DEPS/bundle.tar.xz ]] && phases=(tests ucs ranks bench paper sanitizer contact)
 fi
 for p in "${phases[@]}"; do
   case $p in
     build | tests | ucs | ranks | bench | sanitizer | contact | fmad | paper) ;;
     *)
-      echo "gpu_check.sh: unknown phase '$p'. Fix: one or more of build tests ucs ranks bench sanitizer contact fmad paper, or --prepare" >&2
+      echo "gpu_check.sh: unknown phase '$p'. Fix: one or more of build tests ucs ranks bench paper sanitizer contact fmad, or --prepare" >&2
       exit 2
       ;;
   esac
@@ -279,36 +279,6 @@ if wanted bench; then
   # The fused pass's kernels for one and for two resident blocks per multiprocessor.
   bench bench_blocks 120 bench_blocks.md --tets 100000,700000 --steps 200 --schedule auto,fused --blocks-per-sm 1,2
 fi
-# Under compute-sanitizer, where the toolkit has it (on a machine whose runtime lets it see the
-# GPU); the kernels are waited for after each launch (FDEM_CUDA_SYNC=1). memcheck (the default
-# schedule's elastic and fracturing tests, contact included, and gravity with pressure): accesses
-# out of bounds or misaligned; initcheck: device memory read before
-# anything wrote it (the debug backend's poison, on the GPU); racecheck: two threads of a block on
-# one word of shared memory without a barrier between (the reductions' trees). The last two on
-# the test of 300 steps and 3 monitor rows (they are slower).
-if wanted sanitizer; then
-  sanitizer=$(command -v compute-sanitizer)
-  nvcc_dir=$(dirname "$(command -v nvcc || echo /usr/local/cuda/bin/nvcc)")
-  for d in "$nvcc_dir" /usr/local/cuda/bin; do
-    [[ -z $sanitizer && -x $d/compute-sanitizer ]] && sanitizer=$d/compute-sanitizer
-  done
-  if [[ -z $sanitizer ]]; then
-    echo "sanitizer: not run, compute-sanitizer not found (PATH, nvcc's folder, /usr/local/cuda/bin)" | tee -a "$OUT/summary.txt"
-    failed=1
-  else
-    FDEM_CUDA_SYNC=1 step sanitizer 180 "$sanitizer" --tool memcheck --error-exitcode 3 \
-      "$TESTS/test_cuda_backend" --gtest_filter='*ElasticBox*/0:*Fracturing*/0:*Gravity*'
-    skips sanitizer  # (the sanitizer's runtime not seeing the GPU: every test skips)
-    for tool in initcheck racecheck; do
-      FDEM_CUDA_SYNC=1 step "sanitizer_$tool" 90 "$sanitizer" --tool $tool --error-exitcode 3 \
-        "$TESTS/test_cuda_backend" --gtest_filter='*CountsTheCopies*'
-      skips "sanitizer_$tool"
-    done
-  fi
-fi
-if wanted contact; then
-  bench contact 150 bench_contact_full.md --tets 10000,100000 --steps 50 --contact full
-fi
 # The paper's UCS model itself (scenes/ucs_paper.yaml's mesh, from deps/ucs_paper.msh.xz, at
 # m = 1 as the issue's goal): fdem run on the GPU for N1 and for N2 steps; the difference of the
 # two runs' loop times over N2 - N1 steps is the step time of the real run (contact, platens, a
@@ -378,6 +348,36 @@ if wanted paper; then
     fi
     rm -rf "$runs"
   fi
+fi
+# Under compute-sanitizer, where the toolkit has it (on a machine whose runtime lets it see the
+# GPU); the kernels are waited for after each launch (FDEM_CUDA_SYNC=1). memcheck (the default
+# schedule's elastic and fracturing tests, contact included, and gravity with pressure): accesses
+# out of bounds or misaligned; initcheck: device memory read before
+# anything wrote it (the debug backend's poison, on the GPU); racecheck: two threads of a block on
+# one word of shared memory without a barrier between (the reductions' trees). The last two on
+# the test of 300 steps and 3 monitor rows (they are slower).
+if wanted sanitizer; then
+  sanitizer=$(command -v compute-sanitizer)
+  nvcc_dir=$(dirname "$(command -v nvcc || echo /usr/local/cuda/bin/nvcc)")
+  for d in "$nvcc_dir" /usr/local/cuda/bin; do
+    [[ -z $sanitizer && -x $d/compute-sanitizer ]] && sanitizer=$d/compute-sanitizer
+  done
+  if [[ -z $sanitizer ]]; then
+    echo "sanitizer: not run, compute-sanitizer not found (PATH, nvcc's folder, /usr/local/cuda/bin)" | tee -a "$OUT/summary.txt"
+    failed=1
+  else
+    FDEM_CUDA_SYNC=1 step sanitizer 180 "$sanitizer" --tool memcheck --error-exitcode 3 \
+      "$TESTS/test_cuda_backend" --gtest_filter='*ElasticBox*/0:*Fracturing*/0:*Gravity*'
+    skips sanitizer  # (the sanitizer's runtime not seeing the GPU: every test skips)
+    for tool in initcheck racecheck; do
+      FDEM_CUDA_SYNC=1 step "sanitizer_$tool" 90 "$sanitizer" --tool $tool --error-exitcode 3 \
+        "$TESTS/test_cuda_backend" --gtest_filter='*CountsTheCopies*'
+      skips "sanitizer_$tool"
+    done
+  fi
+fi
+if wanted contact; then
+  bench contact 150 bench_contact_full.md --tets 10000,100000 --steps 50 --contact full
 fi
 # fmad builds and runs against the machine's own packages and MPI, without the bundle's paths.
 if wanted fmad; then
