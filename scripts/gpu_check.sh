@@ -317,7 +317,7 @@ if wanted paper; then
       done
       pack_logs
       a=$LOGS/paper_${pb}_$n1/summary.csv b=$LOGS/paper_${pb}_$n2/summary.csv c=$LOGS/paper_cpu_$n1/summary.csv
-      dt=$(sed -n 's/^  time step \([0-9.e+-]*\) s.*/\1/p' "$LOGS/paper_${pb}_$n2.log" | head -1)
+      dt=$(sed -n 's/^  time step \([0-9.e+-]*\) s.*/\1/p' "$LOGS/paper_${pb}_$n2.log" 2>/dev/null | head -1)
       if [[ -f $a && -f $b && -n $dt ]]; then
         line=$(awk -v w1="$(ucs_value "$a" wall_s)" -v w2="$(ucs_value "$b" wall_s)" -v s1="$(ucs_value "$a" steps)" \
           -v s2="$(ucs_value "$b" steps)" -v dt="$dt" -v b="$pb" 'BEGIN {
