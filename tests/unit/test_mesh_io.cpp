@@ -1,5 +1,6 @@
 // Mesh input: generated shapes (geometry, volume, determinism), the .msh reader (v2.2 and v4.1
-// of the same mesh, scale) and its error messages on bad files, and validate_mesh.
+// of the same mesh, scale) and its error messages on bad files, the .msh writer (read back bit for
+// bit), and validate_mesh.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
