@@ -30,7 +30,7 @@
 # paper runs the paper-size UCS model (scenes/ucs_paper.yaml's mesh, which --prepare writes to
 # deps/ucs_paper.msh.xz, at m = 1) for 400 and 40,400 steps on the GPU and 400 on the CPU: its
 # step time, a lower bound of the wall time to the post-peak stage and CPU = GPU in the monitors
-# (about 2 to 3 minutes; below): the issue's goal, so before the sanitizer. fmad is on request only.
+# (about 2 minutes; below): the issue's goal, so before the sanitizer. fmad is on request only.
 # The whole call has a budget of FDEM_GPU_BUDGET seconds (default 540, under the tool's 600 s a
 # call): each step runs under its own limit (below) cut to what is left of the budget, and a step
 # with less than 20 s left is not started, so the call always ends with its summary written and
@@ -65,7 +65,7 @@ if [[ "${1:-}" == "--prepare" ]]; then
     build/fdem check scenes/ucs_paper.yaml --write-mesh "$DEPS/ucs_paper.msh" > /dev/null
     xz -T0 -6 -f "$DEPS/ucs_paper.msh"
   else
-    echo "gpu_check.sh: no build/ here (bash scripts/build.sh makes it): the phase ucs will not run there" >&2
+    echo "gpu_check.sh: no build/ here (bash scripts/build.sh makes it): the phases ucs and paper will not run there" >&2
   fi
   tar -C "$DEPS" -cJf "$DEPS/bundle.tar.xz" bundle
   rm -rf "$DEPS/bundle"  # only the archive travels
@@ -316,7 +316,7 @@ if wanted paper; then
         mkdir -p "$LOGS/paper_$r" && cp "$runs/$r"/*.csv "$LOGS/paper_$r/" 2>/dev/null
       done
       pack_logs
-      a=$LOGS/paper_${pb}_$n1/summary.csv b=$LOGS/paper_${pb}_$n2/summary.csv c=$LOGS/paper_cpu_$n1/summary.csv
+      a=$LOGS/paper_${pb}_$n1/summary.csv b=$LOGS/paper_${pb}_$n2/summary.csv
       dt=$(sed -n 's/^  time step \([0-9.e+-]*\) s.*/\1/p' "$LOGS/paper_${pb}_$n2.log" 2>/dev/null | head -1)
       if [[ -f $a && -f $b && -n $dt ]]; then
         line=$(awk -v w1="$(ucs_value "$a" wall_s)" -v w2="$(ucs_value "$b" wall_s)" -v s1="$(ucs_value "$a" steps)" \
