@@ -212,7 +212,8 @@ int run_main(int argc, char** argv) {
   std::string sigma3;
   auto* triaxial = app.add_subcommand(
       "triaxial",
-      "Run a scene at several confining pressures (hydrostatic, then held), one after another, skipping finished "
+      "Run a scene at several confining pressures (along the scene's confinement.path, hydrostatic by default), one "
+      "after another, skipping finished "
       "ones; writes series.csv, series_curves.png, mohr_coulomb.csv and mohr_circles.png");
   triaxial->add_option("scene", scene_path, "Scene file (YAML)")->required();
   triaxial->add_option("--sigma3", sigma3, "Confining pressures in Pa, comma-separated, e.g. 0,2.5e6,5e6,10e6")
@@ -243,7 +244,9 @@ int run_main(int argc, char** argv) {
                     "Error budget, metric=limit[,...]: peak, strain_at_peak, curve_pre, curve_post, broken (at most, "
                     "e.g. 2%), jaccard (at least, e.g. 0.8)");
   for (auto* sub : {triaxial, series, study}) {
-    sub->add_option("-o,--output", output, "Series folder (default: the scene's output.folder)");
+    sub->add_option("-o,--output", output,
+                    sub == study ? "Study folder (default: <output.folder>/study of the scene)"
+                                 : "Series folder (default: the scene's output.folder)");
     sub->add_option("-t,--threads", threads, "OpenMP threads per run")->check(CLI::NonNegativeNumber);
     sub->add_flag("-q,--quiet", quiet, "No progress lines");
   }
