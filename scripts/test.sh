@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Quick start 2: build fdem and run every test (labels unit, regression, stability; gpu where a GPU exists).
+# Quick start 2: build fdem and run every test (labels unit, regression, stability, mpi; gpu where nvcc built them).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 bash "$root/scripts/build.sh"
