@@ -210,13 +210,58 @@ struct MshData {
   std::unordered_map<std::uint64_t, int, TagHash> node_index;  // tag -> index into coords
   std::vector<RawTet> tets;
   std::uint64_t other_elements = 0;  // elements of types other than 4
-  std::uint64_t quadratic_tets = 0;  // 10-node tets (type 11)
+  std::uint64_t other_volumes = 0;   // of them, volume elements (hexahedra, prisms, 10-node tets...)
+  std::uint64_t first_volume_tag = 0, first_volume_type = 0;
+  long first_volume_line = 0;
 };
 
 /// Number of nodes of the gmsh element types (index = type); 0 = unknown type.
 int nodes_of_type(std::uint64_t type) {
   static const int n[] = {0, 2, 3, 4, 4, 8, 6, 5, 3, 6, 9, 10, 27, 18, 14, 1, 8, 20, 15, 13};
   return type < sizeof(n) / sizeof(n[0]) ? n[type] : 0;
+}
+
+/// The gmsh volume element types other than the 4-node tet (4), by name; nullptr for the points,
+/// lines and surfaces a mesh file also holds (fdem passes over them).
+const char* other_volume_name(std::uint64_t type) {
+  switch (type) {
+    case 5:
+      return "an 8-node hexahedron";
+    case 6:
+      return "a 6-node prism";
+    case 7:
+      return "a 5-node pyramid";
+    case 11:
+      return "a 10-node tetrahedron";
+    case 12:
+      return "a 27-node hexahedron";
+    case 13:
+      return "an 18-node prism";
+    case 14:
+      return "a 14-node pyramid";
+    case 17:
+      return "a 20-node hexahedron";
+    case 18:
+      return "a 15-node prism";
+    case 19:
+      return "a 13-node pyramid";
+    default:
+      return nullptr;
+  }
+}
+
+/// An element that is not a 4-node tet: counted, and a volume element remembered (the mesh would
+/// lose its volume), or a type fdem does not know refused at its line.
+void other_element(Reader& r, MshData& d, std::uint64_t tag, std::uint64_t type) {
+  ++d.other_elements;
+  if (other_volume_name(type)) {
+    if (d.other_volumes++ == 0) d.first_volume_tag = tag, d.first_volume_type = type, d.first_volume_line = r.line_no();
+  } else if (nodes_of_type(type) == 0) {
+    r.fail("element tag " + std::to_string(tag) + " has type " + std::to_string(type) +
+               ", not one of the first-order or quadratic gmsh types 1 to 19 fdem reads (a higher-order or unknown "
+               "element)",
+           "mesh with first-order elements (Mesh.ElementOrder 1, or gmsh -3 -order 1) and export again");
+  }
 }
 
 void add_node(Reader& r, MshData& d, std::uint64_t tag, Vec3 x, long line) {
@@ -299,9 +344,8 @@ void elements_v2(Reader& r, MshData& d) {
              "fix the number of tags (the third value) or re-export the mesh");
     const int nn = nodes_of_type(type);
     if (type != 4) {
-      ++d.other_elements;
-      d.quadratic_tets += (type == 11);
-      if (nn > 0 && tok.size() != 3 + ntags + static_cast<std::uint64_t>(nn))
+      other_element(r, d, tag, type);
+      if (tok.size() != 3 + ntags + static_cast<std::uint64_t>(nn))
         r.fail("an element of type " + std::to_string(type) + " with " + std::to_string(ntags) + " tags needs " +
                    std::to_string(3 + ntags + nn) + " values, found " + std::to_string(tok.size()),
                "fix this line or re-export the mesh");
@@ -428,8 +472,7 @@ void elements_v4(Reader& r, MshData& d) {
                "the element count on line " + std::to_string(block_line) +
                    " may be wrong; correct it or re-export the mesh");
       if (type != 4) {
-        ++d.other_elements;
-        d.quadratic_tets += (type == 11);
+        other_element(r, d, r.u64(tok[0], "an element tag"), type);
         continue;
       }
       RawTet t{};
@@ -784,11 +827,16 @@ Mesh read_msh(const std::string& path, real scale) {
   }
   if (!have_nodes) r.fail("the file has no $Nodes section", "export the mesh (not only the geometry) from gmsh");
   if (!have_elements) r.fail("the file has no $Elements section", "export the mesh (not only the geometry) from gmsh");
+  // A volume element of another kind would be left out, and the model with it part of the body.
+  if (d.other_volumes)
+    r.fail_at(d.first_volume_line,
+              "element tag " + std::to_string(d.first_volume_tag) + " is " + other_volume_name(d.first_volume_type) +
+                  " (type " + std::to_string(d.first_volume_type) + "), one of " + std::to_string(d.other_volumes) +
+                  " volume elements besides the " + std::to_string(d.tets.size()) +
+                  " 4-node tetrahedra (type 4), the only kind fdem uses (the others would be left out of the model)",
+              "mesh the volume with first-order tetrahedra only (Mesh.ElementOrder 1, no recombination into "
+              "hexahedra or prisms) and export again");
   if (d.tets.empty()) {
-    if (d.quadratic_tets)
-      throw InputError(path + ": the file has " + std::to_string(d.quadratic_tets) +
-                       " 10-node tetrahedra (type 11) but no 4-node ones (type 4), the only kind fdem uses; mesh "
-                       "with first-order elements (Mesh.ElementOrder 1, or gmsh -3 -order 1) and export again");
     throw InputError(path + ": the file contains no 4-node tetrahedra (element type 4)" +
                      (d.other_elements ? ", only " + std::to_string(d.other_elements) +
                                              " elements of other types (points, lines, triangles...)"
