@@ -154,7 +154,8 @@ int run_main(int argc, char** argv) {
   auto* run = app.add_subcommand("run", "Run a scene: writes monitors.csv, stress_strain.png and fields.xdmf/.h5");
   run->add_option("scene", scene_path, "Scene file (YAML)")->required();
   run->add_option("-o,--output", output, "Output folder (overrides output.folder)");
-  run->add_option("-t,--threads", threads, "OpenMP threads (overrides solver.threads)")->check(CLI::NonNegativeNumber);
+  run->add_option("-t,--threads", threads, "OpenMP threads (overrides solver.threads)")
+      ->check(CLI::Range(0, fdem::SolverSettings::kMaxThreads));
   run->add_flag("-q,--quiet", quiet, "No progress lines");
   std::string activation;
   run->add_option("--contact", activation, "Contact activation (overrides contact.activation)")
@@ -247,7 +248,8 @@ int run_main(int argc, char** argv) {
     sub->add_option("-o,--output", output,
                     sub == study ? "Study folder (default: <output.folder>/study of the scene)"
                                  : "Series folder (default: the scene's output.folder)");
-    sub->add_option("-t,--threads", threads, "OpenMP threads per run")->check(CLI::NonNegativeNumber);
+    sub->add_option("-t,--threads", threads, "OpenMP threads per run")
+        ->check(CLI::Range(0, fdem::SolverSettings::kMaxThreads));
     sub->add_flag("-q,--quiet", quiet, "No progress lines");
   }
 

@@ -445,7 +445,7 @@ class Reader {
   void platens(const YAML::Node& n, Platens& pl) {
     const std::string p = "platens";
     if (!none_or_map(n, p, {"velocity", "ramp_time"}, pl.enabled)) return;
-    number(n, p, "velocity", Range{0, 10, true, false}, pl.velocity);
+    number(n, p, "velocity", Range{0, Platens::kMaxVelocity, true, false}, pl.velocity);
     number(n, p, "ramp_time", at_least(0), pl.ramp_time);
   }
 
@@ -453,7 +453,7 @@ class Reader {
     const std::string p = "confinement";
     if (!none_or_map(n, p, {"pressure", "path", "ramp_time"}, c.enabled)) return;
     if (!n["pressure"]) error(p + ".pressure", "missing", "give the confining stress sigma_3 in Pa, e.g. 5e6");
-    number(n, p, "pressure", Range{0, 1e10, true, false}, c.pressure);
+    number(n, p, "pressure", Range{0, Confinement::kMaxPressure, true, false}, c.pressure);
     choice(n, p, "path", {"hydrostatic", "constant"}, c.path);
     number(n, p, "ramp_time", at_least(0), c.ramp_time);
     if (c.path == "hydrostatic" && !platens_on)
@@ -474,11 +474,11 @@ class Reader {
                    {"time_step_safety", "time_step", "mass_scaling", "damping_scale", "threads", "max_energy_error",
                     "backend", "end"}))
       return;
-    number(n, p, "time_step_safety", Range{0, 10, true, false}, s.time_step_safety);
+    number(n, p, "time_step_safety", Range{0, SolverSettings::kMaxSafety, true, false}, s.time_step_safety);
     number(n, p, "time_step", at_least(0), s.time_step);
-    number(n, p, "mass_scaling", closed(1, 1e6), s.mass_scaling);
+    number(n, p, "mass_scaling", closed(1, SolverSettings::kMaxMassScaling), s.mass_scaling);
     number(n, p, "damping_scale", closed(0, 100), s.damping_scale);
-    number(n, p, "threads", count_at_least(0, 65536), s.threads);
+    number(n, p, "threads", count_at_least(0, SolverSettings::kMaxThreads), s.threads);
     choice(n, p, "backend", {"cpu", "cuda", "debug"}, s.backend);
     number(n, p, "max_energy_error", closed(0, 1e3), s.max_energy_error);
     const std::string need = "give at least one of axial_strain, post_peak_fraction, time, steps > 0";

@@ -68,17 +68,19 @@ struct FractureRegions {
 /// Two rigid planes normal to z: the bottom one fixed, the top one moving down.
 struct Platens {
   bool enabled = true;
-  real velocity = 0.02;  // m/s, approach speed (top platen moves at -velocity in z)
-  real ramp_time = 0;    // s, smooth velocity ramp; 0 = automatic (10 axial wave transit times)
+  real velocity = 0.02;                     // m/s, approach speed (top platen moves at -velocity in z)
+  real ramp_time = 0;                       // s, smooth velocity ramp; 0 = automatic (10 axial wave transit times)
+  static constexpr real kMaxVelocity = 10;  // m/s: platens.velocity and --vary platen_velocity
 };
 
 /// Confining pressure: a follower load p A n on the lateral surface faces (current area and
 /// normal each step), as in a triaxial cell.
 struct Confinement {
   bool enabled = false;
-  real pressure = 0;                 // Pa, the target confining stress sigma_3
-  std::string path = "hydrostatic";  // "hydrostatic": p = min(sigma_3, measured axial stress); "constant"
-  real ramp_time = 0;                // s, constant path: smooth rise to sigma_3; 0 = automatic (10 transits)
+  real pressure = 0;                          // Pa, the target confining stress sigma_3
+  std::string path = "hydrostatic";           // "hydrostatic": p = min(sigma_3, measured axial stress); "constant"
+  real ramp_time = 0;                         // s, constant path: smooth rise to sigma_3; 0 = automatic (10 transits)
+  static constexpr real kMaxPressure = 1e10;  // Pa: confinement.pressure and --sigma3 / --vary sigma3
 };
 
 /// Tet-tet contact between fragments (potential contact, Coulomb friction).
@@ -102,9 +104,15 @@ struct SolverSettings {
   real time_step_safety = 0.9;  // fraction of the stable-step bound (0 < s <= 10; <= 1 is stable)
   real time_step = 0;           // s; if > 0 overrides the stable-step estimate (must be <= it, unless testing)
   real mass_scaling = 1;        // density factor m >= 1
-  real damping_scale = 1;       // factor on the critical damping eta = 2 h sqrt(m rho E); 0 = undamped
+  /// The ranges of solver.time_step_safety (0 < s <= kMaxSafety) and mass_scaling (1 <= m <=
+  /// kMaxMassScaling), also of --vary.
+  static constexpr real kMaxSafety = 10, kMaxMassScaling = 1e6;
+  real damping_scale = 1;  // factor on the critical damping eta = 2 h sqrt(m rho E); 0 = undamped
   EndCondition end;
   int threads = 0;  // OpenMP threads; 0 = as set by OMP_NUM_THREADS or all cores
+  /// The most threads a run takes (solver.threads, -t): a node's cores many times over. OpenMP
+  /// fails to start tens of thousands (libgomp crashed at 65,536 on the dev VM).
+  static constexpr int kMaxThreads = 1024;
   // Time loop: "cpu" (OpenMP), "cuda" (one GPU per rank) or "debug" (the device loop on the CPU
   // with separate device memory, for checking that every copy is in place).
   std::string backend = "cpu";

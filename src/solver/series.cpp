@@ -118,7 +118,8 @@ void apply_series_value(Scene& s, const std::string& key, const std::string& val
   }
   const real v = number(key, value);
   if (key == "sigma3") {
-    require(v >= 0, key, value, "the confining pressure must be >= 0 Pa");
+    require(v >= 0 && v <= Confinement::kMaxPressure, key, value,
+            "the confining pressure must be in [0, " + fmt(Confinement::kMaxPressure) + "] Pa");
     require(v == 0 || v >= 1e3, key, value,
             "values are in Pa: a confining pressure below 1 kPa is surely a slip (did you mean " + value + "e6?)");
     s.confinement.enabled = v > 0;
@@ -128,7 +129,8 @@ void apply_series_value(Scene& s, const std::string& key, const std::string& val
             "confinement.path: constant in " +
                 s.file);
   } else if (key == "platen_velocity") {
-    require(v > 0, key, value, "the platen speed must be > 0 m/s");
+    require(v > 0 && v <= Platens::kMaxVelocity, key, value,
+            "the platen speed must be > 0 m/s and at most " + fmt(Platens::kMaxVelocity) + " m/s");
     require(s.platens.enabled, key, value, "the scene " + s.file + " has no platens");
     s.platens.velocity = v;
   } else if (key == "diameter" || key == "element_size") {
@@ -145,10 +147,12 @@ void apply_series_value(Scene& s, const std::string& key, const std::string& val
             "the element size must be smaller than the specimen (diameter " + fmt(s.mesh.diameter) + " m, height " +
                 fmt(s.mesh.height) + " m)");
   } else if (key == "mass_scaling") {
-    require(v >= 1, key, value, "mass scaling must be >= 1");
+    require(v >= 1 && v <= SolverSettings::kMaxMassScaling, key, value,
+            "mass scaling must be >= 1 and at most " + fmt(SolverSettings::kMaxMassScaling));
     s.solver.mass_scaling = v;
   } else if (key == "time_step_safety") {
-    require(v > 0 && v <= 10, key, value, "the time-step safety factor must be in (0, 10] (<= 1 is stable)");
+    require(v > 0 && v <= SolverSettings::kMaxSafety, key, value,
+            "the time-step safety factor must be in (0, " + fmt(SolverSettings::kMaxSafety) + "] (<= 1 is stable)");
     s.solver.time_step_safety = v;
   } else {
     throw InputError("unknown series key '" + key + "'");
@@ -156,6 +160,13 @@ void apply_series_value(Scene& s, const std::string& key, const std::string& val
 }
 
 std::vector<SeriesValues> series_combinations(const std::vector<SeriesAxis>& axes) {
+  for (std::size_t i = 0; i < axes.size(); ++i)
+    for (std::size_t j = 0; j < i; ++j)
+      if (axes[i].key == axes[j].key)
+        throw InputError("--vary " + axes[i].key +
+                         " is given twice (each run takes one value of a key); give all "
+                         "its values in one --vary " +
+                         axes[i].key + "=a,b,...");
   std::vector<SeriesValues> combos(1);
   for (const SeriesAxis& a : axes) {
     std::vector<SeriesValues> next;

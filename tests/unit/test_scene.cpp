@@ -282,6 +282,7 @@ INSTANTIATE_TEST_SUITE_P(
         BadScene{"platen_too_fast.yaml", "platens.velocity: 20 is out of range; allowed 0 < velocity <= 10"},
         BadScene{"no_platens_strain_end.yaml", "solver.end"},
         BadScene{"safety_too_big.yaml", "solver.time_step_safety"},
+        BadScene{"threads_too_many.yaml", "solver.threads: 65536 is out of range; allowed 0 <= threads <= 1024"},
         BadScene{"negative_mass_scaling.yaml", "solver.mass_scaling"},
         BadScene{"fractional_steps.yaml", "solver.end.steps: 10.5 is not a whole number"},
         BadScene{"unknown_end_key.yaml", "solver.end.strain: unknown key"},
