@@ -99,6 +99,16 @@ fdem::Model build_scene_model(const fdem::Scene& scene, const std::string& write
           "cannot write the mesh to " + write_mesh + ": " +
           (std::filesystem::is_directory(write_mesh, ec) ? "it is a folder" : folder.string() + " is not a folder") +
           ". Fix: give --write-mesh a file name in a folder that exists, e.g. mesh.msh");
+    // Not over what this run reads, nor over a device or other special file (renamed over it).
+    for (const auto& [what, input] : {std::pair<const char*, std::string>{"the scene file", scene.file},
+                                      std::pair<const char*, std::string>{"the scene's mesh.file", scene.mesh.file}})
+      if (!input.empty() && std::filesystem::equivalent(write_mesh, input, ec))
+        throw fdem::InputError("--write-mesh " + write_mesh + " is " + what + " (" + input +
+                               "), which writing would replace. Fix: give --write-mesh another file name");
+    if (std::filesystem::exists(write_mesh, ec) && !std::filesystem::is_regular_file(write_mesh, ec))
+      throw fdem::OutputError("cannot write the mesh to " + write_mesh +
+                              ": it exists and is not a regular file (a device, socket or pipe). Fix: give "
+                              "--write-mesh a file name in a folder that exists, e.g. mesh.msh");
   }
   fdem::Mesh mesh;
   fdem::Model model;

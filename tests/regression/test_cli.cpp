@@ -3,6 +3,7 @@
 // output folder left behind), an unstable run (exit 3) and launching under mpiexec.
 // Scenes live in tests/data/cli/ (and tests/data/bad_scenes/); outputs go to a temp folder.
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -124,6 +125,26 @@ TEST(CliExe, CheckWritesTheMeshThatAFileSceneBuildsTheSameModelFrom) {
   EXPECT_TRUE(has(c.text, bad.string())) << c.text;
   EXPECT_FALSE(fs::exists(tmp.path / "missing"));
   EXPECT_FALSE(has(c.text, "tets ")) << c.text;
+  // Over the files the check reads (the scene, its mesh.file, by another spelling of the path):
+  // exit 2, and both keep their bytes.
+  const fs::path scene = tmp.path / "from_file.yaml";
+  const std::string scene_text = slurp(scene), mesh_text = slurp(msh);
+  for (const auto& [target, names] : {std::pair<fs::path, std::string>{scene, "is the scene file"},
+                                      std::pair<fs::path, std::string>{tmp.path / "." / "box.msh", "mesh.file"}}) {
+    const Outcome d = fdem("check " + quote(scene.string()) + " --write-mesh " + quote(target.string()));
+    EXPECT_EQ(d.code, 2) << d.text;
+    EXPECT_TRUE(has(d.text, names) && has(d.text, "another file name")) << d.text;
+  }
+  EXPECT_EQ(slurp(scene), scene_text);
+  EXPECT_EQ(slurp(msh), mesh_text);
+  // Over a special file (here a pipe; a device such as /dev/full alike, whose node the rename
+  // replaced when run as root): refused, the pipe left in place.
+  const fs::path pipe = tmp.path / "pipe";
+  ASSERT_EQ(::mkfifo(pipe.c_str(), 0600), 0);
+  const Outcome e = fdem("check " + quote(scene.string()) + " --write-mesh " + quote(pipe.string()));
+  EXPECT_EQ(e.code, 4) << e.text;
+  EXPECT_TRUE(has(e.text, "not a regular file")) << e.text;
+  EXPECT_TRUE(fs::is_fifo(pipe));
 }
 
 TEST(CliExe, InvertedTetsInAMeshFileAreFine) {
