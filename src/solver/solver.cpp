@@ -108,6 +108,7 @@ void Solver::setup() {
   const real rho = sol.mass_scaling * mat.density;
   stable_.dt = sol.time_step_safety * stable_.dt;
   dt_ = sol.time_step > 0 ? sol.time_step : stable_.dt;
+  check_step_count();
 
   top_z0_ = model_.box_max.z;
   bottom_z0_ = model_.box_min.z;
@@ -485,6 +486,30 @@ void Solver::check_finite(long bad_nodes) const {
                  std::to_string((dd_.distributed() ? dd_.node_global[first] : long(first)) + 1) +
                  " at reference position " + fmt(model_.X[first].x, 3) + ", " + fmt(model_.X[first].y, 3) + ", " +
                  fmt(model_.X[first].z, 3) + " m). The run is unstable. " + instability_advice());
+}
+
+void Solver::check_step_count() const {
+  const SolverSettings& sol = scene_.solver;
+  const std::string file = scene_.file.empty() ? "the scene" : scene_.file;
+  if (!(dt_ > 0) || !std::isfinite(dt_))
+    throw InputError(file + ": the time step is " + fmt(dt_) +
+                     " s: the material (youngs_modulus, density, the penalties), solver.mass_scaling or mesh.scale "
+                     "lie beyond what double precision resolves. Fix: give them in SI units (Pa, kg/m^3, m) at a "
+                     "rock's scale");
+  // The steps the run's end takes at most (the axial strain's at the platen speed, its ramp aside):
+  // beyond 1e12 (weeks at the fastest step rates) a run would not finish; it is a slip of units.
+  const real kMaxSteps = 1e12;
+  real steps = sol.end.steps > 0 ? real(sol.end.steps) : INFINITY;
+  std::string which = "solver.end.steps";
+  if (sol.end.time > 0 && sol.end.time / dt_ < steps) steps = sol.end.time / dt_, which = "solver.end.time";
+  if (sol.end.axial_strain > 0 && scene_.platens.enabled) {
+    const real n = sol.end.axial_strain * model_.height0 / (scene_.platens.velocity * dt_);
+    if (n < steps) steps = n, which = "solver.end.axial_strain";
+  }
+  if (steps > kMaxSteps && std::isfinite(steps))
+    throw InputError(file + ": " + which + " takes " + fmt(steps, 3) + " steps of " + fmt(dt_, 3) +
+                     " s, more than a run can make (1e12). Fix: check the units of " + which +
+                     ", solver.time_step and solver.time_step_safety, and of the material and mesh.scale");
 }
 
 void Solver::check_runaway(real ke) const {

@@ -195,6 +195,9 @@ class Solver {
   StableStep stable_step_bound() const;
   void check_finite(long bad_nodes) const;
   /// Throws RunError when the kinetic energy ke (J) far exceeds the work put in.
+  /// InputError (naming the scene) for a time step that is 0 or not finite, or an end that takes
+  /// more than 1e12 steps: values beyond a rock's scale or a slip of units.
+  void check_step_count() const;
   void check_runaway(real ke) const;
   /// "Cause: ... Fix: ..." for an unstable run: the time step against its bound, mass scaling,
   /// the penalties, in that order of likelihood.

@@ -174,6 +174,8 @@ TEST(CliExe, BadInputExitsTwoNamingTheProblemAndWritesNothing) {
       {"cli/garbage_msh.yaml", {"bad_garbage.msh", "$MeshFormat"}, false},
       {"bad_scenes/missing_mesh_file.yaml", {"missing_mesh_file.yaml", "mesh.file"}, false},
       {"cli/folded_mesh.yaml", {"bad_overlap.msh", "overlapping"}, true},  // a tet folded over its neighbour
+      {"cli/zero_time_step.yaml", {"zero_time_step.yaml", "the time step is 0 s", "youngs_modulus"}, true},
+      {"cli/endless_run.yaml", {"endless_run.yaml", "solver.end.time takes 1e+294 steps"}, true},  // ran forever
   };
   int i = 0;
   for (const BadCase& c : cases) {
