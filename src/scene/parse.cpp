@@ -621,10 +621,18 @@ Scene load_scene(const std::string& path) {
     throw InputError(path + ": the scene file does not exist; check the path (scenes/ucs_small.yaml is an example)");
   if (fs::is_directory(path, ec)) throw InputError(path + ": is a folder, not a scene file; give a .yaml file");
   std::ifstream in(path, std::ios::binary);
-  std::ostringstream text;
-  if (in) text << in.rdbuf();
-  if (!in || in.bad()) throw InputError(path + ": cannot read the scene file; check its permissions");
-  return parse_scene(text.str(), path);
+  if (!in) throw InputError(path + ": cannot read the scene file; check its permissions");
+  // Read up to a bound: a device or pipe (/dev/zero) need not end. A scene is a few kB.
+  constexpr std::size_t kMaxBytes = std::size_t(16) << 20;
+  std::string text;
+  char chunk[1 << 16];
+  while (text.size() <= kMaxBytes && in.read(chunk, sizeof chunk).gcount() > 0)
+    text.append(chunk, std::size_t(in.gcount()));
+  if (in.bad()) throw InputError(path + ": cannot read the scene file; check its permissions");
+  if (text.size() > kMaxBytes)
+    throw InputError(path + ": more than 16 MiB, not a scene file (a scene is a few kB of YAML; the mesh goes in " +
+                     "a .msh file named by mesh.file); give the scene's .yaml file");
+  return parse_scene(text, path);
 }
 
 }  // namespace fdem

@@ -227,6 +227,9 @@ TEST(Scene, MissingOrUnreadableSceneFile) {
   EXPECT_NE(msg.find("does not exist"), std::string::npos) << msg;
   const std::string folder = load_error(kData + "/bad_scenes");
   EXPECT_NE(folder.find("folder"), std::string::npos) << folder;
+  // A file with no end (it grew to gigabytes of memory): refused after 16 MiB.
+  const std::string endless = load_error("/dev/zero");
+  EXPECT_NE(endless.find("/dev/zero: more than 16 MiB, not a scene file"), std::string::npos) << endless;
 }
 
 // One bad file per row: the file (in tests/data/bad_scenes) and what its message must contain besides the
