@@ -7,10 +7,12 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <csignal>
 #include <cstdio>
+#include <cstring>
 #include <deque>
 #include <filesystem>
 #include <fstream>
@@ -529,6 +531,29 @@ void report_model(const Solver& solver, std::ostream& out) {
       << solver.scene().solver.mass_scaling << ")\n";
 }
 
+namespace {
+/// Before a fresh run removes or truncates anything of an earlier run in its folder: each of
+/// `names` there is absent or a file it can replace ("checkpoints" a folder), and the folder can
+/// be written. "" if so, else what stands in the way.
+std::string replace_problem(const std::string& folder, const std::vector<std::string>& names) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  for (const std::string& name : names) {
+    const fs::path p = fs::path(folder) / name;
+    const fs::file_status st = fs::status(p, ec);
+    if (!fs::exists(st)) continue;
+    const bool folder_wanted = name == "checkpoints";
+    if (folder_wanted ? !fs::is_directory(st) : !fs::is_regular_file(st))
+      return p.string() + " is " + (fs::is_directory(st) ? "a folder" : "not a regular file") +
+             " where the run writes its " + (folder_wanted ? "checkpoint folder" : "file");
+    if (!folder_wanted && ::access(p.c_str(), W_OK) != 0)
+      return p.string() + " cannot be written (" + std::strerror(errno) + ")";
+  }
+  if (::access(folder.c_str(), W_OK | X_OK) != 0) return folder + " cannot be written (" + std::strerror(errno) + ")";
+  return "";
+}
+}  // namespace
+
 RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& options) {
   namespace fs = std::filesystem;
   const Scene& scene = solver.scene();
@@ -654,8 +679,23 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
     }
     if (!csv.f.is_open()) throw InputError("--restart " + options.restart + ": no usable checkpoint:" + problems);
   } else {
-    // A fresh run: checkpoints of an earlier run in this folder belong to files it replaces.
-    if (root) fs::remove_all(ckpt_dir, ec);
+    // A fresh run replaces an earlier run's outputs in this folder: first a check that it can
+    // (on every rank), so that a failure leaves them whole; then its checkpoints, summary, plot
+    // and broken-CE6 list go (they belong to the files replaced), and the rest is overwritten.
+    std::vector<std::string> names{fields_name + ".h5", fields_name + ".xdmf"};
+    if (root)
+      names.insert(names.end(), {"monitors.csv", "summary.csv", "broken_ce6.csv", "stress_strain.png", "fields.xdmf",
+                                 "checkpoints"});
+    const std::string problem = replace_problem(out.folder, names);
+    if (!all_ranks(problem.empty()))
+      throw OutputError(("the run cannot replace the outputs of an earlier one: " +
+                         (problem.empty() ? "another rank found one in the way" : problem)) +
+                        "; nothing was changed. Fix: move it away, or give the run another output folder (-o)");
+    if (root) {
+      fs::remove_all(ckpt_dir, ec);
+      for (const char* stale : {"summary.csv", "broken_ce6.csv", "stress_strain.png"})
+        fs::remove(fs::path(out.folder) / stale, ec);
+    }
     csv.f.open(csv_path);
   }
   if (!csv.f) throw InputError(scene.file + ": output.folder: cannot write '" + csv_path + "'");

@@ -286,6 +286,36 @@ TEST(CliExe, UnstableRunStopsWithExitThreeAndAValidCsv) {
   EXPECT_FALSE(has(xdmf, "nan"));
 }
 
+TEST(CliExe, AFreshRunThatCannotReplaceTheOutputsChangesNothingAndOneThatStartsDropsTheStaleOnes) {
+  TempDir tmp("replace");
+  const fs::path out = tmp.path / "out";
+  const std::string first = "run " + quote((kData / "cli" / "run_box.yaml").string()) + " -q -o " + quote(out.string());
+  ASSERT_EQ(fdem(first).code, 0);
+  ASSERT_TRUE(fs::exists(out / "summary.csv") && fs::exists(out / "broken_ce6.csv"));
+  // The field index's place taken by a folder (what a file that cannot be replaced does without
+  // root): exit 4 naming it, and the earlier run's files keep every byte (monitors.csv was cut
+  // to its header, and fields.h5 emptied, before the field writer failed).
+  fs::remove(out / "fields.xdmf");
+  fs::create_directory(out / "fields.xdmf");
+  std::vector<std::pair<fs::path, std::string>> before;
+  for (const char* f : {"monitors.csv", "summary.csv", "broken_ce6.csv", "fields.h5"})
+    before.push_back({out / f, slurp(out / f)});
+  const Outcome blocked = fdem(first);
+  EXPECT_EQ(blocked.code, 4) << blocked.text;
+  EXPECT_TRUE(has(blocked.text, (out / "fields.xdmf").string() + " is a folder")) << blocked.text;
+  EXPECT_TRUE(has(blocked.text, "nothing was changed")) << blocked.text;
+  for (const auto& [path, bytes] : before) EXPECT_EQ(slurp(path), bytes) << path;
+  // Cleared, a run that stops unstable (exit 3) leaves no summary or broken-CE6 list of the
+  // earlier run beside its own monitors.
+  fs::remove(out / "fields.xdmf");
+  const Outcome unstable =
+      fdem("run " + quote((kData / "cli" / "unstable_box.yaml").string()) + " -q -o " + quote(out.string()));
+  EXPECT_EQ(unstable.code, 3) << unstable.text;
+  EXPECT_FALSE(fs::exists(out / "summary.csv"));
+  EXPECT_FALSE(fs::exists(out / "broken_ce6.csv"));
+  EXPECT_NE(slurp(out / "monitors.csv"), before[0].second);
+}
+
 TEST(CliExe, RunsUnderMpiexecWithOneRank) {
   const std::string mpiexec = find_mpiexec();
   if (mpiexec.empty()) GTEST_SKIP() << "mpiexec not found";
