@@ -714,14 +714,8 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
   merge_index();
 
   // Expected number of steps, for the ETA and the automatic field interval.
-  const real dt = solver.dt();
-  real expected = 0;
-  if (end.steps > 0) expected = real(end.steps);
-  if (end.time > 0) expected = expected > 0 ? std::min(expected, end.time / dt) : end.time / dt;
-  if (end.axial_strain > 0 && scene.platens.enabled) {
-    const real t = end.axial_strain * solver.model().height0 / scene.platens.velocity;
-    expected = expected > 0 ? std::min(expected, t / dt) : t / dt;
-  }
+  const real end_steps = solver.end_steps().steps;
+  const real expected = std::isfinite(end_steps) ? end_steps : 0;
   const long field_interval = out.field_interval > 0 ? out.field_interval : std::max<long>(1, long(expected / 20));
 
   const auto t0 = std::chrono::steady_clock::now();

@@ -488,27 +488,30 @@ void Solver::check_finite(long bad_nodes) const {
                  fmt(model_.X[first].z, 3) + " m). The run is unstable. " + instability_advice());
 }
 
+Solver::EndSteps Solver::end_steps() const {
+  const EndCondition& end = scene_.solver.end;
+  EndSteps e{INFINITY, ""};
+  if (end.steps > 0) e = {real(end.steps), "solver.end.steps"};
+  if (end.time > 0 && end.time / dt_ < e.steps) e = {end.time / dt_, "solver.end.time"};
+  if (end.axial_strain > 0 && scene_.platens.enabled) {
+    const real n = end.axial_strain * model_.height0 / scene_.platens.velocity / dt_;  // (a time, then steps)
+    if (n < e.steps) e = {n, "solver.end.axial_strain"};
+  }
+  return e;
+}
+
 void Solver::check_step_count() const {
-  const SolverSettings& sol = scene_.solver;
   const std::string file = scene_.file.empty() ? "the scene" : scene_.file;
   if (!(dt_ > 0) || !std::isfinite(dt_))
     throw InputError(file + ": the time step is " + fmt(dt_) +
                      " s: the material (youngs_modulus, density, the penalties), solver.mass_scaling or mesh.scale "
                      "lie beyond what double precision resolves. Fix: give them in SI units (Pa, kg/m^3, m) at a "
                      "rock's scale");
-  // The steps the run's end takes at most (the axial strain's at the platen speed, its ramp aside):
-  // beyond 1e12 (weeks at the fastest step rates) a run would not finish; it is a slip of units.
-  const real kMaxSteps = 1e12;
-  real steps = sol.end.steps > 0 ? real(sol.end.steps) : INFINITY;
-  std::string which = "solver.end.steps";
-  if (sol.end.time > 0 && sol.end.time / dt_ < steps) steps = sol.end.time / dt_, which = "solver.end.time";
-  if (sol.end.axial_strain > 0 && scene_.platens.enabled) {
-    const real n = sol.end.axial_strain * model_.height0 / (scene_.platens.velocity * dt_);
-    if (n < steps) steps = n, which = "solver.end.axial_strain";
-  }
-  if (steps > kMaxSteps && std::isfinite(steps))
-    throw InputError(file + ": " + which + " takes " + fmt(steps, 3) + " steps of " + fmt(dt_, 3) +
-                     " s, more than a run can make (1e12). Fix: check the units of " + which +
+  // Beyond 1e12 steps (weeks at the fastest step rates) a run would not finish: a slip of units.
+  const EndSteps e = end_steps();
+  if (e.steps > 1e12 && std::isfinite(e.steps))
+    throw InputError(file + ": " + e.key + " takes " + fmt(e.steps, 3) + " steps of " + fmt(dt_, 3) +
+                     " s, more than a run can make (1e12). Fix: check the units of " + e.key +
                      ", solver.time_step and solver.time_step_safety, and of the material and mesh.scale");
 }
 

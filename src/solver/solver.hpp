@@ -88,6 +88,14 @@ class Solver {
   const Ce6Params& ce6_params() const { return ce6p_; }
   const StableStep& stable_step() const { return stable_; }
   real dt() const { return dt_; }
+  /// The steps the scene's end takes at most from step 0 at this time step (end.steps, end.time,
+  /// or end.axial_strain at the platen speed, its ramp aside), and the key; infinite where only
+  /// the post-peak fraction ends the run.
+  struct EndSteps {
+    real steps;
+    std::string key;
+  };
+  EndSteps end_steps() const;
   long step_count() const { return step_; }
   real time() const { return time_; }
 
