@@ -103,6 +103,12 @@ Range count_at_least(double lo, double hi = kInf) {
   return {lo, hi, false, false, true};
 }
 
+/// What a run's name may not hold: control characters, and what ends a folder name or a CSV field.
+bool bad_name_char(char c) {
+  const unsigned char u = c;
+  return u < 0x20 || u == 0x7f || c == '/' || c == '\\' || c == ',' || c == '"';
+}
+
 /// Walks the YAML tree, fills the Scene and collects every error.
 class Reader {
  public:
@@ -272,20 +278,23 @@ class Reader {
                     "cohesive_penalty_tangential", "cohesive_penalty_overlap", "friction_platen", "friction_rock",
                     "softening"}))
       return;
-    number(n, p, "density", positive(), m.density);
-    number(n, p, "youngs_modulus", positive(), m.youngs_modulus);
+    // Upper bounds far beyond any solid (osmium 22.6e3 kg/m^3, diamond 1.2e12 Pa), so that the
+    // products in the laws stay finite: density 1e300 gave a time step of 1e141 s and NaN forces.
+    auto up_to = [](double hi) { return Range{0, hi, true, false}; };
+    number(n, p, "density", up_to(1e5), m.density);
+    number(n, p, "youngs_modulus", up_to(1e13), m.youngs_modulus);
     number(n, p, "poisson_ratio", Range{0, 0.5, false, true}, m.poisson_ratio);
-    number(n, p, "tensile_strength", positive(), m.tensile_strength);
-    number(n, p, "cohesion", positive(), m.cohesion);
+    number(n, p, "tensile_strength", up_to(1e11), m.tensile_strength);
+    number(n, p, "cohesion", up_to(1e11), m.cohesion);
     number(n, p, "friction_angle", Range{0, 90, false, true}, m.friction_angle);
-    number(n, p, "fracture_energy_I", positive(), m.fracture_energy_I);
-    number(n, p, "fracture_energy_II", positive(), m.fracture_energy_II);
-    number(n, p, "contact_penalty", positive(), m.contact_penalty);
-    number(n, p, "cohesive_penalty_open", positive(), m.cohesive_penalty_open);
-    number(n, p, "cohesive_penalty_tangential", positive(), m.cohesive_penalty_tangential);
-    number(n, p, "cohesive_penalty_overlap", positive(), m.cohesive_penalty_overlap);
-    number(n, p, "friction_platen", at_least(0), m.friction_platen);
-    number(n, p, "friction_rock", at_least(0), m.friction_rock);
+    number(n, p, "fracture_energy_I", up_to(1e9), m.fracture_energy_I);
+    number(n, p, "fracture_energy_II", up_to(1e9), m.fracture_energy_II);
+    number(n, p, "contact_penalty", up_to(1e17), m.contact_penalty);
+    number(n, p, "cohesive_penalty_open", up_to(1e17), m.cohesive_penalty_open);
+    number(n, p, "cohesive_penalty_tangential", up_to(1e17), m.cohesive_penalty_tangential);
+    number(n, p, "cohesive_penalty_overlap", up_to(1e17), m.cohesive_penalty_overlap);
+    number(n, p, "friction_platen", closed(0, 10), m.friction_platen);
+    number(n, p, "friction_rock", closed(0, 10), m.friction_rock);
     choice(n, p, "softening", {"munjiza", "linear"}, m.softening);
   }
 
@@ -543,17 +552,56 @@ class Reader {
             "cohesion");
   }
 
+  /// The name is the default output folder out/<name>, the first field of summary.csv and the
+  /// plot's title: one folder name, nothing that ends a CSV field or reads as an option.
+  void name_check(const std::string& name) {
+    std::string why;
+    for (const char c : name)
+      if (bad_name_char(c))
+        why = (unsigned char)c < 0x20 || c == 0x7f ? "holds a control character" : "holds '" + std::string(1, c) + "'";
+    if (name == "." || name == "..") why = "is a folder reference";
+    if (name.size() > 100) why = "is longer than 100 bytes";
+    if (why.empty() && (name.front() == '-' || name.front() == ' ' || name.back() == ' '))
+      why = "starts with '-' or starts or ends with a space";
+    if (!why.empty())
+      error("name", why,
+            "give a short name of letters, digits, spaces, '-', '_' and '.' (it names the output folder out/<name> "
+            "and the row of summary.csv)");
+  }
+
+  /// What YAML allows and a scene has no use for, anywhere in the tree: a tag of one's own
+  /// (`!weird 2000` was read as 2000) and a NUL character in a value (it cut names and paths).
+  void strange_yaml(const YAML::Node& n, const std::string& path) {
+    const std::string& tag = n.Tag();
+    if (!tag.empty() && tag != "?" && tag != "!" && tag.rfind("tag:yaml.org,2002:", 0) != 0)
+      error(path.empty() ? "(top level)" : path, "has the tag '" + tag + "', which fdem does not read",
+            "remove the tag (a scene holds plain numbers, words, lists and maps)");
+    if (n.IsScalar() && n.Scalar().find('\0') != std::string::npos)
+      error(path.empty() ? "(top level)" : path, "holds a NUL character", "remove it");
+    if (n.IsSequence())
+      for (std::size_t i = 0; i < n.size(); ++i) strange_yaml(n[i], path + "[" + std::to_string(i) + "]");
+    if (n.IsMap())
+      for (const auto& kv : n)
+        strange_yaml(kv.second, join_path(path, kv.first.IsScalar() ? kv.first.Scalar() : std::string("?")));
+  }
+
   Scene scene(const YAML::Node& root, const std::string& file) {
     Scene s;
     s.file = file;
-    const std::string stem = fs::path(file).stem().string();
-    s.name = stem.empty() ? "scene" : stem;
+    // Without a name key, the file's name, with what name_check refuses replaced by '_'.
+    std::string stem = fs::path(file).stem().string().substr(0, 100);
+    for (char& c : stem)
+      if (bad_name_char(c)) c = '_';
+    if (!stem.empty() && (stem.front() == '-' || stem.front() == ' ')) stem.front() = '_';
+    if (!stem.empty() && stem.back() == ' ') stem.back() = '_';
+    s.name = stem.empty() || stem == "." || stem == ".." ? "scene" : stem;
+    strange_yaml(root, "");
     if (!check_map(root, "",
                    {"name", "material", "mesh", "fracture_regions", "platens", "confinement", "contact", "gravity",
                     "solver", "output"}))
       return s;
     const std::string scene_dir = fs::path(file).parent_path().string();
-    text(root, "", "name", s.name, "give a short name for the run");
+    if (text(root, "", "name", s.name, "give a short name for the run")) name_check(s.name);
     const size_t before = errors_.size();
     // A section left empty (`material:` with nothing under it) keeps its defaults.
     auto given = [&](const char* key) { return root[key] && !root[key].IsNull(); };
@@ -591,7 +639,15 @@ Scene parse_scene(const std::string& yaml_text, const std::string& file) {
   const std::string label = file.empty() ? "<scene>" : file;
   YAML::Node root;
   try {
-    root = YAML::Load(yaml_text);
+    std::vector<YAML::Node> docs = YAML::LoadAll(yaml_text);
+    std::size_t second = 1;  // an empty document after a closing '---' is nothing read
+    while (second < docs.size() && docs[second].IsNull()) ++second;
+    if (second < docs.size())
+      throw InputError(label + ": line " + std::to_string(docs[second].Mark().line + 1) +
+                       ": a second YAML document (after " +
+                       "'---'); a scene is one document, and fdem would have read only the first. Fix: merge them, " +
+                       "or put each scene in a file of its own");
+    if (!docs.empty()) root = docs[0];
   } catch (const YAML::Exception& e) {
     std::string where;
     if (!e.mark.is_null())

@@ -302,12 +302,36 @@ INSTANTIATE_TEST_SUITE_P(
         BadScene{"confinement_no_pressure.yaml", "confinement.pressure: missing"},
         BadScene{"confinement_bad_path.yaml", "confinement.path: 'rising' is not recognised"},
         BadScene{"hydrostatic_without_platens.yaml", "confinement.path: hydrostatic follows the axial stress"},
-        BadScene{"many_errors.yaml", "material.density"}),
+        BadScene{"many_errors.yaml", "material.density"}, BadScene{"name_comma.yaml", "name: holds ','"},
+        BadScene{"name_outside_out.yaml", "name: holds '/'"},
+        BadScene{"second_document.yaml", "line 6: a second YAML document"},
+        BadScene{"custom_tag.yaml", "material.density: has the tag '!kg_per_m3'"},
+        BadScene{"density_beyond_any_solid.yaml",
+                 "material.density: 1e300 is out of range; allowed 0 < density <= 100000"},
+        BadScene{"friction_huge.yaml",
+                 "material.friction_rock: 1e300 is out of range; allowed 0 <= friction_rock <= 10"}),
     [](const ::testing::TestParamInfo<BadScene>& info) {
       std::string n = info.param.file;
       n = n.substr(0, n.find('.'));
       return n;
     });
+
+TEST(Scene, TheNameIsOneFolderAndOneCsvField) {
+  const std::string body =
+      "mesh: {generate: {shape: box, size: [0.01, 0.01, 0.02], element_size: 0.004}}\n"
+      "solver: {end: {steps: 10}}\n";
+  // Without a name key, the file's name with what a name may not hold replaced.
+  const Scene from_file = parse_scene(body, "some/dir/granite, dry \"B\".yaml");
+  EXPECT_EQ(from_file.name, "granite_ dry _B_");
+  EXPECT_EQ(from_file.output.folder, "out/granite_ dry _B_");
+  EXPECT_EQ(parse_scene(body, "-x.yaml").name, "_x");
+  // Spaces inside, dots and UTF-8 letters are fine.
+  EXPECT_EQ(parse_scene("name: Äspö granite v1.2\n" + body, "a.yaml").name, "Äspö granite v1.2");
+  // An empty document after a closing '---' is no second scene.
+  EXPECT_EQ(parse_scene("---\nname: n\n" + body + "---\n", "a.yaml").name, "n");
+  for (const char* bad : {"name: \"a\\0b\"\n", "name: ..\n", "name: -x\n", "name: \"x \"\n", "name: a\\b\n"})
+    EXPECT_THROW(parse_scene(bad + body, "a.yaml"), InputError) << bad;
+}
 
 TEST(Scene, ContactAndGravityAreRead) {
   const Scene s = parse_scene(
