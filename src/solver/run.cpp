@@ -562,7 +562,9 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
   RunSummary sum;
   sum.folder = out.folder;
   std::error_code ec;
-  fs::create_directories(out.folder, ec);
+  // A restart continues in a folder that holds the run (it is not created, so that a wrong one
+  // is not left behind empty); a fresh run creates its own.
+  if (options.restart.empty()) fs::create_directories(out.folder, ec);
   if (ec) throw InputError(scene.file + ": output.folder: cannot create '" + out.folder + "': " + ec.message());
   // Several ranks: rank 0 writes the monitors and the summary, every rank its own field files.
   const bool dist = solver.distributed(), root = solver.rank() == 0;
@@ -586,6 +588,20 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
   real wall_before = 0;  // s, spent by the run before the checkpoint it continues from
   MonitorFile csv;
   std::unique_ptr<FieldWriter> fields;
+
+  // Why the run ends after the step just taken ("" where it goes on); monitor_now: mon was just measured.
+  auto end_reason = [&](bool monitor_now) {
+    const long n = solver.step_count();
+    const real strain = solver.top_offset / solver.model().height0;
+    std::string reason;
+    if (end.steps > 0 && n >= end.steps) reason = "step count " + std::to_string(end.steps) + " reached";
+    if (end.time > 0 && solver.time() >= end.time) reason = "end time reached";
+    if (end.axial_strain > 0 && strain >= end.axial_strain) reason = "axial strain reached";
+    if (monitor_now && end.post_peak_fraction > 0 && sum.peak_stress > 0 &&
+        mon.axial_stress < end.post_peak_fraction * sum.peak_stress)
+      reason = "stress fell below " + std::to_string(end.post_peak_fraction) + " of the peak";
+    return reason;
+  };
 
   if (!options.restart.empty()) {
     // The newest checkpoint that reads and matches the files here; a damaged one, or one whose
@@ -662,6 +678,14 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
         problems += "\n  " + why;
         continue;
       }
+      // A scene whose end was moved before the checkpoint: the loop would take one step more
+      // and stop, after the rows and frames past the checkpoint had been dropped.
+      if (const std::string reason = end_reason(true); !reason.empty())
+        throw InputError("--restart " + options.restart + ": " + file + " is at step " +
+                         std::to_string(solver.step_count()) + ", t = " + fmt(solver.time(), 6) +
+                         " s, where the scene's end is already reached (" + reason +
+                         "); nothing was changed. Fix: move solver.end in " + scene.file +
+                         " past it to continue the run, or run without --restart to start again");
       // Rows and frames written after the checkpoint are dropped; the loop writes them again.
       // Newer checkpoints (damaged, or of the history being replaced) go too.
       fields = std::make_unique<FieldWriter>(out.folder, fields_name, fs_state);
@@ -806,13 +830,7 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
       if (n % field_interval == 0) write_frame(*fields, solver, "");
       merge_index();
       const real strain = solver.top_offset / solver.model().height0;
-      std::string reason;
-      if (end.steps > 0 && n >= end.steps) reason = "step count " + std::to_string(end.steps) + " reached";
-      if (end.time > 0 && solver.time() >= end.time) reason = "end time reached";
-      if (end.axial_strain > 0 && strain >= end.axial_strain) reason = "axial strain reached";
-      if (monitor_now && end.post_peak_fraction > 0 && sum.peak_stress > 0 &&
-          mon.axial_stress < end.post_peak_fraction * sum.peak_stress)
-        reason = "stress fell below " + std::to_string(end.post_peak_fraction) + " of the peak";
+      const std::string reason = end_reason(monitor_now);
       const real wall = elapsed();
       if (!reason.empty() || (out.progress_interval > 0 && wall >= next_progress)) {
         real frac = expected > 0 ? n / expected : 0;

@@ -2,8 +2,9 @@
 // every N steps, by wall time, or on SIGTERM) writes the same files as an uninterrupted run,
 // bit for bit (monitors.csv, broken_ce6.csv, the XDMF index and every dataset of every frame in
 // fields.h5); a damaged newest checkpoint falls back to the one before; a checkpoint of another
-// scene is refused with exit 2; an interrupted `fdem series` continues its run from its checkpoint;
-// a checkpoint that cannot be written is a warning, not the end of the run.
+// scene, or one already past the scene's end, is refused with exit 2; an interrupted `fdem
+// series` continues its run from its checkpoint; a checkpoint that cannot be written is a
+// warning, not the end of the run.
 #include <regex>
 
 #include "cli_support.hpp"
@@ -202,10 +203,22 @@ TEST(Restart, ACheckpointOfAnotherSceneOrNoneIsRefusedWithExitTwo) {
   EXPECT_TRUE(has(o.text, "step_000000000100.ckpt")) << o.text;
   EXPECT_TRUE(has(o.text, "another model or scene")) << o.text;
   EXPECT_EQ(slurp(d / "monitors.csv"), before);
-  // A folder without checkpoints.
+  // The same scene with its end moved before the checkpoint: refused, the rows after it kept (the
+  // run used to drop them, take one step and stop).
+  const fs::path shorter = scene_variant(
+      tmp.path, "shorter",
+      {{"end: {steps: 3000}", "end: {steps: 80}"}, {"checkpoint_wall_interval: 0", "checkpoint_interval: 100"}});
+  o = fdem(run_args(shorter, d) + " --restart " + quote(d.string()));
+  EXPECT_EQ(o.code, 2) << o.text;
+  EXPECT_TRUE(has(o.text, "is at step 100, t = ")) << o.text;
+  EXPECT_TRUE(has(o.text, "the scene's end is already reached (step count 80 reached); nothing was changed")) << o.text;
+  EXPECT_EQ(slurp(d / "monitors.csv"), before);
+  EXPECT_EQ(checkpoint_names(d).size(), 1u);
+  // A folder without checkpoints; the output folder named is not created.
   o = fdem(run_args(scene, tmp.path / "e") + " --restart " + quote(tmp.path.string()));
   EXPECT_EQ(o.code, 2) << o.text;
   EXPECT_TRUE(has(o.text, "no checkpoint there")) << o.text;
+  EXPECT_FALSE(fs::exists(tmp.path / "e"));
 }
 
 TEST(Restart, AnInterruptedSeriesContinuesFromItsCheckpoint) {
