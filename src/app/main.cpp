@@ -4,6 +4,7 @@
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
@@ -218,7 +219,14 @@ int run_main(int argc, char** argv) {
                     "(reference positions, gathered again with the current ones whenever a node has moved a "
                     "quarter of it; it must exceed twice a node's motion in one step). Default with contact: two "
                     "mean edge lengths, or 2.5 times the platen travel to the end condition if larger")
-        ->check(CLI::PositiveNumber);
+        ->check([](const std::string& v) -> std::string {
+          // CLI::PositiveNumber lets nan through (nan <= 0 is false), and nan meant "the default".
+          char* end = nullptr;
+          const double x = std::strtod(v.c_str(), &end);
+          return end != v.c_str() && *end == '\0' && std::isfinite(x) && x > 0
+                     ? ""
+                     : "Value " + v + " is not a finite length > 0 (m)";
+        });
 
   std::string sigma3;
   auto* triaxial = app.add_subcommand(

@@ -379,6 +379,7 @@ TEST(CliExe, SeriesBadValuesExitTwoBeforeAnyRun) {
       {"triaxial " + scene + " --sigma3 1e11", "sigma3=1e11: the confining pressure must be in [0, "},
       {"series " + scene + " --vary mass_scaling=5 --vary mass_scaling=10", "--vary mass_scaling is given twice"},
       {"run " + scene + " -t 65536", "--threads: Value 65536 not in range 0 to 1024"},
+      {"run " + scene + " --contact-reach nan", "--contact-reach: Value nan is not a finite length > 0 (m)"},
       {"series " + scene + " -t 1025 --vary mass_scaling=5", "Value 1025 not in range 0 to 1024"},
       {"study " + scene + " --vary precision=fp64,fp32", "double precision only"},
       {"study " + scene + " --vary sigma3=0,1e6", "sigma3 has no most exact value"},
