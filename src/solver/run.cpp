@@ -47,7 +47,7 @@ const char* kCsvHeader =
 
 /// One monitor row (10 significant digits); a row with a non-finite value throws RunError
 /// instead (no output file holds NaN or inf), naming the step and the column.
-std::string monitor_row(const Monitors& m) {
+std::string monitor_row(const Monitors& m, const Solver& solver) {
   std::ostringstream o;
   o << std::setprecision(10);
   o << m.step << ',' << m.time << ',' << m.axial_strain << ',' << m.axial_stress << ',' << m.lateral_strain << ','
@@ -64,7 +64,7 @@ std::string monitor_row(const Monitors& m) {
     while (std::getline(names, name, ',') && std::getline(cells, cell, ','))
       if (cell.find("nan") != std::string::npos || cell.find("inf") != std::string::npos) break;
     throw RunError("step " + std::to_string(m.step) + ": the monitor " + name + " is " + cell +
-                   ": the run is unstable. Fix: lower solver.time_step_safety or the penalties");
+                   ": the run is unstable. " + solver.instability_advice());
   }
   return row;
 }
@@ -512,9 +512,8 @@ void report_model(const Solver& solver, std::ostream& out) {
   }
   out << "  height " << m.height0 << " m, loaded area " << m.area0 << " m^2, mean edge " << m.mean_edge
       << " m, minimum altitude " << m.min_altitude << " m\n"
-      << "  stable step " << st.dt / solver.scene().solver.time_step_safety << " s limited by " << st.limit << " (TET4 "
-      << st.dt_tet << " s, CE6 " << st.dt_ce6 << " s, platens " << st.dt_platen << " s, contact " << st.dt_contact
-      << " s)\n"
+      << "  stable step " << solver.stable_bound() << " s limited by " << st.limit << " (TET4 " << st.dt_tet
+      << " s, CE6 " << st.dt_ce6 << " s, platens " << st.dt_platen << " s, contact " << st.dt_contact << " s)\n"
       << "  backend " << backend_name(solver.backend())
       << (solver.backend() == Backend::cuda ? " (" + cuda_device_description() + ")" : std::string())
       << (solver.device_loop() ? solver.device_loop()->integrates()
@@ -527,8 +526,11 @@ void report_model(const Solver& solver, std::ostream& out) {
                                                          : ", halo: staged through host memory"
                                                    : "")
       << "\n"
-      << "  time step " << solver.dt() << " s (safety " << solver.scene().solver.time_step_safety << ", mass scaling "
-      << solver.scene().solver.mass_scaling << ")\n";
+      << "  time step " << solver.dt() << " s ("
+      << (solver.scene().solver.time_step > 0
+              ? "solver.time_step, " + fmt(solver.dt() / solver.stable_bound(), 3) + " x the stable-step bound"
+              : "safety " + fmt(solver.scene().solver.time_step_safety))
+      << ", mass scaling " << solver.scene().solver.mass_scaling << ")\n";
 }
 
 namespace {
@@ -786,7 +788,7 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
   int pending_request = 0;                             // several ranks: a signal waits for the next monitor row
   if (options.restart.empty()) {
     mon = solver.measure();
-    csv.put(monitor_row(mon));
+    csv.put(monitor_row(mon, solver));
     write_frame(*fields, solver, "initial");
     merge_index();
   }
@@ -797,7 +799,7 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
       const bool monitor_now = n % out.monitor_interval == 0;
       if (monitor_now) {
         mon = solver.measure();
-        csv.put(monitor_row(mon));
+        csv.put(monitor_row(mon, solver));
         if (const DeviceLoop* d = solver.device_loop(); d && d->times().pair_growth != pair_growth_seen) {
           pair_growth_seen = d->times().pair_growth;  // the buffers grow by half each time
           log << "device: contact pair buffers grew to hold " << mon.contact_pairs << " pairs (device memory "
@@ -890,7 +892,7 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
       }
     }
     mon = solver.measure();
-    if (solver.step_count() % out.monitor_interval != 0) csv.put(monitor_row(mon));
+    if (solver.step_count() % out.monitor_interval != 0) csv.put(monitor_row(mon, solver));
   } catch (const RunError&) {
     write_diagnostic(*fields, solver);
     throw;

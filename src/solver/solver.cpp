@@ -507,6 +507,14 @@ void Solver::check_step_count() const {
                      " s: the material (youngs_modulus, density, the penalties), solver.mass_scaling or mesh.scale "
                      "lie beyond what double precision resolves. Fix: give them in SI units (Pa, kg/m^3, m) at a "
                      "rock's scale");
+  const SolverSettings& sol = scene_.solver;
+  const real bound = stable_bound();
+  if (sol.time_step > SolverSettings::kMaxSafety * bound)
+    throw InputError(file + ": solver.time_step: " + fmt(sol.time_step, 6) + " s is " + fmt(sol.time_step / bound, 3) +
+                     " x the stable-step bound " + fmt(bound, 3) + " s (limited by " + stable_.limit + "); beyond " +
+                     fmt(SolverSettings::kMaxSafety) +
+                     " x it no run is stable (the limit of time_step_safety). Fix: lower solver.time_step, or set it "
+                     "to 0 for the bound times solver.time_step_safety");
   // Beyond 1e12 steps (weeks at the fastest step rates) a run would not finish: a slip of units.
   const EndSteps e = end_steps();
   if (e.steps > 1e12 && std::isfinite(e.steps))
@@ -527,7 +535,7 @@ void Solver::check_runaway(real ke) const {
 std::string Solver::instability_advice() const {
   const SolverSettings& s = scene_.solver;
   const Material& mat = scene_.material;
-  const real bound = stable_.dt / s.time_step_safety;  // the stable-step bound without the safety factor
+  const real bound = stable_bound();
   const real ratio = dt_ / bound;
   const real E = mat.youngs_modulus;
   const real p_ce6 =
@@ -550,8 +558,13 @@ std::string Solver::instability_advice() const {
   else
     cause = "large deformation or fragment overlap beyond the stable-step bound " + fmt(bound, 3) + " s (limited by " +
             stable_.limit + "); the time step is " + fmt(ratio, 3) + " of it";
-  return "Cause: " + cause + ". Fix: lower solver.time_step_safety (now " + fmt(s.time_step_safety, 3) +
-         ", <= 1 is stable for the small-strain model), lower the penalties (material.contact_penalty, "
+  const std::string step_fix =
+      s.time_step > 0 ? "lower solver.time_step (now " + fmt(s.time_step, 3) + " s, " + fmt(ratio, 3) +
+                            " x the stable-step bound), or set it to 0 for the bound times solver.time_step_safety"
+                      : "lower solver.time_step_safety (now " + fmt(s.time_step_safety, 3) +
+                            ", <= 1 is stable for the small-strain model)";
+  return "Cause: " + cause + ". Fix: " + step_fix +
+         ", lower the penalties (material.contact_penalty, "
          "material.cohesive_penalty_*), or lower solver.mass_scaling (now " +
          fmt(s.mass_scaling, 3) + ")";
 }

@@ -87,6 +87,11 @@ class Solver {
   /// The CE6 law's parameters (from the scene's material).
   const Ce6Params& ce6_params() const { return ce6p_; }
   const StableStep& stable_step() const { return stable_; }
+  /// s: the stable-step bound itself, before solver.time_step_safety is applied.
+  real stable_bound() const { return stable_.dt / scene_.solver.time_step_safety; }
+  /// "Cause: ... Fix: ..." for an unstable run: the time step against its bound, mass scaling,
+  /// the penalties, in that order of likelihood.
+  std::string instability_advice() const;
   real dt() const { return dt_; }
   /// The steps the scene's end takes at most from step 0 at this time step (end.steps, end.time,
   /// or end.axial_strain at the platen speed, its ramp aside), and the key; infinite where only
@@ -203,13 +208,11 @@ class Solver {
   StableStep stable_step_bound() const;
   void check_finite(long bad_nodes) const;
   /// Throws RunError when the kinetic energy ke (J) far exceeds the work put in.
-  /// InputError (naming the scene) for a time step that is 0 or not finite, or an end that takes
-  /// more than 1e12 steps: values beyond a rock's scale or a slip of units.
+  /// InputError (naming the scene) for a time step that is 0 or not finite, a solver.time_step
+  /// beyond kMaxSafety times the stable-step bound, or an end that takes more than 1e12 steps:
+  /// values beyond a rock's scale or a slip of units.
   void check_step_count() const;
   void check_runaway(real ke) const;
-  /// "Cause: ... Fix: ..." for an unstable run: the time step against its bound, mass scaling,
-  /// the penalties, in that order of likelihood.
-  std::string instability_advice() const;
 
   Scene scene_;
   Model model_;

@@ -174,7 +174,10 @@ TEST(CliExe, BadInputExitsTwoNamingTheProblemAndWritesNothing) {
       {"cli/garbage_msh.yaml", {"bad_garbage.msh", "$MeshFormat"}, false},
       {"bad_scenes/missing_mesh_file.yaml", {"missing_mesh_file.yaml", "mesh.file"}, false},
       {"cli/folded_mesh.yaml", {"bad_overlap.msh", "overlapping"}, true},  // a tet folded over its neighbour
-      {"cli/zero_time_step.yaml", {"zero_time_step.yaml", "the time step is 0 s", "youngs_modulus"}, true},
+      {"cli/zero_time_step.yaml", {"zero_time_step.yaml", "the time step is 0 s", "density"}, true},
+      {"cli/time_step_beyond_bound.yaml",
+       {"time_step_beyond_bound.yaml", "solver.time_step: 1 s is", "x the stable-step bound", "lower solver.time_step"},
+       true},  // ran, stopped as unstable, and advised time_step_safety
       {"cli/endless_run.yaml", {"endless_run.yaml", "solver.end.time takes 1e+294 steps"}, true},  // ran forever
   };
   int i = 0;
@@ -284,6 +287,14 @@ TEST(CliExe, UnstableRunStopsWithExitThreeAndAValidCsv) {
   EXPECT_TRUE(has(xdmf, "\"inverted\"")) << "the diagnostic frame marks the inverted tets";
   EXPECT_TRUE(has(xdmf, "\"non_finite\""));
   EXPECT_FALSE(has(xdmf, "nan"));
+  // The same step given as solver.time_step: the fix names that key, not time_step_safety
+  // (which it overrides).
+  const fs::path given = cli_test::scene_variant(kData / "cli" / "unstable_box.yaml", tmp.path, "given",
+                                                 {{"time_step_safety: 4.0", "time_step: 1.0e-7"}});
+  const Outcome g = fdem("run " + quote(given.string()) + " -q -o " + quote((tmp.path / "given").string()));
+  EXPECT_EQ(g.code, 3) << g.text;
+  EXPECT_TRUE(has(g.text, "Fix: lower solver.time_step (now 1e-07 s, 3.99 x the stable-step bound)")) << g.text;
+  EXPECT_FALSE(has(g.text, "time_step_safety (now")) << g.text;
 }
 
 TEST(CliExe, AFreshRunThatCannotReplaceTheOutputsChangesNothingAndOneThatStartsDropsTheStaleOnes) {
