@@ -288,7 +288,11 @@ int run_main(int argc, char** argv) {
     const fdem::PartitionPlan plan = plan_scene(scene, model, parts, contact_reach);
     const double reach = plan.reach;
     if (output.empty()) output = scene.output.folder + "/partition_" + std::to_string(parts);
-    std::filesystem::create_directories(output);
+    std::error_code ec;
+    std::filesystem::create_directories(output, ec);
+    if (ec)
+      throw fdem::OutputError("cannot create the folder '" + output + "' for the rank files: " + ec.message() +
+                              ". Fix: give -o a folder (new or existing), not a file");
     std::cout << "partition of " << model.tet_nodes.size() << " tets, " << model.ce6_nodes.size() << " CE6, "
               << model.X.size() << " nodes for " << parts << " ranks, contact reach " << reach << " m:\n";
     for (int r = 0; r < parts; ++r) {

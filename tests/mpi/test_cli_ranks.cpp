@@ -95,6 +95,13 @@ TEST(CliRanks, RankFilesFromPartitionGiveTheSameRun) {
   const Outcome p = fdem("partition " + quote(kScene) + " -n 2 -o " + quote(parts.string()));
   ASSERT_EQ(p.code, 0) << p.text;
   EXPECT_TRUE(fs::exists(parts / "rank_0.fdp") && fs::exists(parts / "rank_1.fdp")) << p.text;
+  // -o naming a file: exit 4 naming it and the fix, the file kept (it was a raw filesystem error, exit 1).
+  std::ofstream(tmp.path / "a_file") << "keep";
+  const Outcome f = fdem("partition " + quote(kScene) + " -n 2 -o " + quote((tmp.path / "a_file").string()));
+  EXPECT_EQ(f.code, 4) << f.text;
+  EXPECT_TRUE(has(f.text, "cannot create the folder '" + (tmp.path / "a_file").string() + "' for the rank files"))
+      << f.text;
+  EXPECT_EQ(slurp(tmp.path / "a_file"), "keep");
   const std::string steps = " -q -o ";
   const Outcome a = run_cmd(mpiexec(2) + quote(kExe) + " run " + quote(kScene) + steps + quote(fly.string()));
   ASSERT_EQ(a.code, 0) << a.text;
