@@ -41,8 +41,10 @@ std::string describe(const YAML::Node& n) {
       return "a list";
     case YAML::NodeType::Map:
       return "a map";
-    case YAML::NodeType::Scalar:
-      return "'" + n.Scalar() + "'";
+    case YAML::NodeType::Scalar:  // the start of a long one (a whole file read as one value)
+      return "'" + (n.Scalar().size() > 60
+                        ? n.Scalar().substr(0, 60) + "...' (" + std::to_string(n.Scalar().size()) + " characters)"
+                        : n.Scalar() + "'");
     default:
       return "an undefined value";
   }
@@ -637,6 +639,10 @@ class Reader {
 
 Scene parse_scene(const std::string& yaml_text, const std::string& file) {
   const std::string label = file.empty() ? "<scene>" : file;
+  if (yaml_text.find_first_not_of(" \t\r\n") != std::string::npos &&
+      yaml_text.compare(yaml_text.find_first_not_of(" \t\r\n"), 11, "$MeshFormat") == 0)
+    throw InputError(label + ": is a gmsh mesh, not a scene. Fix: give a scene .yaml file with mesh: {file: " +
+                     fs::path(label).filename().string() + "} (scenes/ucs_small.yaml is an example)");
   YAML::Node root;
   try {
     std::vector<YAML::Node> docs = YAML::LoadAll(yaml_text);

@@ -232,6 +232,24 @@ TEST(Scene, MissingOrUnreadableSceneFile) {
   EXPECT_NE(endless.find("/dev/zero: more than 16 MiB, not a scene file"), std::string::npos) << endless;
 }
 
+TEST(Scene, AMeshOrALongTextGivenAsTheSceneGetsAShortMessage) {
+  // fdem check mesh.msh put the whole mesh file into one error line.
+  const std::string mesh = load_error(kData + "/meshes/cube6_v22.msh");
+  EXPECT_NE(mesh.find("cube6_v22.msh: is a gmsh mesh, not a scene. Fix: give a scene .yaml file with mesh: {file: "
+                      "cube6_v22.msh}"),
+            std::string::npos)
+      << mesh;
+  EXPECT_EQ(mesh.find("$Nodes"), std::string::npos) << mesh;
+  try {
+    parse_scene(std::string(5000, 'x'), "long.yaml");
+    FAIL() << "a plain text was accepted as a scene";
+  } catch (const InputError& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("got '" + std::string(60, 'x') + "...' (5000 characters)"), std::string::npos) << msg;
+    EXPECT_LT(msg.size(), 400u) << msg;
+  }
+}
+
 // One bad file per row: the file (in tests/data/bad_scenes) and what its message must contain besides the
 // file name: the key path, or for files without a usable tree the kind of problem.
 struct BadScene {
