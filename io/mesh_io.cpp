@@ -265,6 +265,7 @@ void other_element(Reader& r, MshData& d, std::uint64_t tag, std::uint64_t type)
 }
 
 void add_node(Reader& r, MshData& d, std::uint64_t tag, Vec3 x, long line) {
+  if (tag == 0) r.fail_at(line, "node tag 0: gmsh's tags start at 1", "number the nodes from 1 or re-export the mesh");
   const auto ins = d.node_index.emplace(tag, static_cast<int>(d.coords.size()));
   if (!ins.second)
     r.fail_at(line,

@@ -368,6 +368,7 @@ TEST(ReadMsh, BadFilesThrowInputErrorNamingTheFile) {
       {"bad_mixed_prism_v41.msh",
        ":50: element tag 21 is a 6-node prism (type 6), one of 1 volume elements besides the 6"},
       {"bad_unknown_type.msh", ":32: element tag 16 has type 999"},
+      {"bad_node_tag_zero.msh", ":11: node tag 0: gmsh's tags start at 1"},
       {"bad_no_format.msh", "$MeshFormat"},
       {"bad_garbage.msh", "not a gmsh .msh file"},
       {"bad_empty.msh", "empty"},
