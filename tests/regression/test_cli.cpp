@@ -445,6 +445,17 @@ TEST(CliExe, StudyMeasuresErrorsAgainstTheReferenceAndResumes) {
   const Outcome bad = fdem(args + " --reference time_step_safety=0.3");
   EXPECT_EQ(bad.code, 2) << bad.text;
   EXPECT_TRUE(has(bad.text, "--reference names no variant")) << bad.text;
+  // A reference that ends before any load (no platens): exit 3 naming it, not a table of NaN errors.
+  const fs::path unloaded = cli_test::scene_variant(kData / "cli" / "study_box.yaml", tmp.path, "unloaded",
+                                                    {{"platens: {velocity: 0.5, ramp_time: 4e-5}", "platens: none"},
+                                                     {"end: {axial_strain: 0.0005}", "end: {steps: 20}"}});
+  const fs::path out2 = tmp.path / "unloaded";
+  const Outcome none =
+      fdem("study " + quote(unloaded.string()) + " --vary time_step_safety=0.9,0.45 -q -o " + quote(out2.string()));
+  EXPECT_EQ(none.code, 3) << none.text;
+  EXPECT_TRUE(has(none.text, "the reference variant (time_step_safety=0.45) reached no peak: peak stress 0 Pa"))
+      << none.text;
+  EXPECT_FALSE(fs::exists(out2 / "study.csv"));
 }
 
 TEST(CliExe, EveryHostileInputFileExitsTwoQuicklyWithItsNameAndWritesNothing) {
