@@ -710,8 +710,8 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
     // and broken-CE6 list go (they belong to the files replaced), and the rest is overwritten.
     std::vector<std::string> names{fields_name + ".h5", fields_name + ".xdmf"};
     if (root)
-      names.insert(names.end(), {"monitors.csv", "summary.csv", "broken_ce6.csv", "stress_strain.png", "fields.xdmf",
-                                 "checkpoints"});
+      names.insert(names.end(), {"monitors.csv", "summary.csv", "broken_ce6.csv", "stress_strain.png", "checkpoints"});
+    if (root && dist) names.push_back("fields.xdmf");  // the merged index of the ranks' files
     const std::string problem = replace_problem(out.folder, names);
     if (!all_ranks(problem.empty()))
       throw OutputError(("the run cannot replace the outputs of an earlier one: " +
