@@ -17,6 +17,8 @@
 #include <utility>
 #include <vector>
 
+#include "core/format.hpp"
+
 namespace cli_test {
 
 namespace fs = std::filesystem;
@@ -49,7 +51,7 @@ inline Outcome run_cmd(const std::string& cmd) {
   return o;
 }
 
-inline Outcome fdem(const std::string& args) {
+inline Outcome run_fdem(const std::string& args) {
   return run_cmd(kEnv + quote(kExe) + " " + args);
 }
 
@@ -77,24 +79,15 @@ struct Csv {
   std::vector<std::string> bad;  // cells that are not finite numbers
 };
 
-inline std::vector<std::string> split(const std::string& line) {
-  std::vector<std::string> out;
-  std::stringstream ss(line);
-  std::string cell;
-  while (std::getline(ss, cell, ',')) out.push_back(cell);
-  if (!line.empty() && line.back() == ',') out.push_back("");
-  return out;
-}
-
 inline Csv read_csv(const fs::path& p) {
   Csv c;
   std::ifstream in(p);
   std::string line;
   if (!std::getline(in, line)) return c;
-  c.header = split(line);
+  c.header = fdem::split_csv(line);
   while (std::getline(in, line)) {
     std::vector<double> row;
-    for (const std::string& cell : split(line)) {
+    for (const std::string& cell : fdem::split_csv(line)) {
       char* end = nullptr;
       const double v = std::strtod(cell.c_str(), &end);
       if (cell.empty() || *end != '\0' || !std::isfinite(v)) c.bad.push_back(cell);

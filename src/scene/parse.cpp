@@ -33,6 +33,13 @@ std::string last_key(const std::string& path) {
   return dot == std::string::npos ? path : path.substr(dot + 1);
 }
 
+/// At most n bytes of s, not cutting a UTF-8 character.
+std::string utf8_prefix(const std::string& s, std::size_t n) {
+  if (s.size() <= n) return s;
+  while (n > 0 && (static_cast<unsigned char>(s[n]) & 0xC0) == 0x80) --n;
+  return s.substr(0, n);
+}
+
 std::string describe(const YAML::Node& n) {
   switch (n.Type()) {
     case YAML::NodeType::Null:
@@ -43,7 +50,7 @@ std::string describe(const YAML::Node& n) {
       return "a map";
     case YAML::NodeType::Scalar:  // the start of a long one (a whole file read as one value)
       return "'" + (n.Scalar().size() > 60
-                        ? n.Scalar().substr(0, 60) + "...' (" + std::to_string(n.Scalar().size()) + " characters)"
+                        ? utf8_prefix(n.Scalar(), 60) + "...' (" + std::to_string(n.Scalar().size()) + " bytes)"
                         : n.Scalar() + "'");
     default:
       return "an undefined value";
@@ -105,10 +112,10 @@ Range count_at_least(double lo, double hi = kInf) {
   return {lo, hi, false, false, true};
 }
 
-/// What a run's name may not hold: control characters, and what ends a folder name or a CSV field.
+/// What a run's name may not hold: control characters, and what ends a folder name.
 bool bad_name_char(char c) {
   const unsigned char u = c;
-  return u < 0x20 || u == 0x7f || c == '/' || c == '\\' || c == ',' || c == '"';
+  return u < 0x20 || u == 0x7f || c == '/' || c == '\\';
 }
 
 /// Walks the YAML tree, fills the Scene and collects every error.
@@ -554,26 +561,28 @@ class Reader {
             "cohesion");
   }
 
-  /// The name is the default output folder out/<name>, the first field of summary.csv and the
-  /// plot's title: one folder name, nothing that ends a CSV field or reads as an option.
+  /// The name is the default output folder out/<name>: one folder name (summary.csv quotes it
+  /// as a field, so commas, quotes and a leading '-' are fine).
   void name_check(const std::string& name) {
     std::string why;
     for (const char c : name)
       if (bad_name_char(c))
         why = (unsigned char)c < 0x20 || c == 0x7f ? "holds a control character" : "holds '" + std::string(1, c) + "'";
     if (name == "." || name == "..") why = "is a folder reference";
-    if (name.size() > 100) why = "is longer than 100 bytes";
-    if (why.empty() && (name.front() == '-' || name.front() == ' ' || name.back() == ' '))
-      why = "starts with '-' or starts or ends with a space";
+    if (name.size() > 200) why = "is longer than 200 bytes";
     if (!why.empty())
       error("name", why,
-            "give a short name of letters, digits, spaces, '-', '_' and '.' (it names the output folder out/<name> "
-            "and the row of summary.csv)");
+            "give a short name without '/', '\\' or control characters (it names the output folder out/<name>)");
   }
+
+  /// yaml-cpp nodes seen by strange_yaml (by their place in the file): an alias is walked once,
+  /// so that `&a [1, *a]` ends and nested aliases do not multiply the work.
+  std::set<std::pair<int, int>> walked_;
 
   /// What YAML allows and a scene has no use for, anywhere in the tree: a tag of one's own
   /// (`!weird 2000` was read as 2000) and a NUL character in a value (it cut names and paths).
   void strange_yaml(const YAML::Node& n, const std::string& path) {
+    if ((n.IsMap() || n.IsSequence()) && !walked_.insert({n.Mark().line, n.Mark().column}).second) return;
     const std::string& tag = n.Tag();
     if (!tag.empty() && tag != "?" && tag != "!" && tag.rfind("tag:yaml.org,2002:", 0) != 0)
       error(path.empty() ? "(top level)" : path, "has the tag '" + tag + "', which fdem does not read",
@@ -591,11 +600,9 @@ class Reader {
     Scene s;
     s.file = file;
     // Without a name key, the file's name, with what name_check refuses replaced by '_'.
-    std::string stem = fs::path(file).stem().string().substr(0, 100);
+    std::string stem = fs::path(file).stem().string();
     for (char& c : stem)
       if (bad_name_char(c)) c = '_';
-    if (!stem.empty() && (stem.front() == '-' || stem.front() == ' ')) stem.front() = '_';
-    if (!stem.empty() && stem.back() == ' ') stem.back() = '_';
     s.name = stem.empty() || stem == "." || stem == ".." ? "scene" : stem;
     strange_yaml(root, "");
     if (!check_map(root, "",
@@ -646,14 +653,17 @@ Scene parse_scene(const std::string& yaml_text, const std::string& file) {
   YAML::Node root;
   try {
     std::vector<YAML::Node> docs = YAML::LoadAll(yaml_text);
-    std::size_t second = 1;  // an empty document after a closing '---' is nothing read
+    // Empty documents (a '---' at the top or the end, or two of them around a comment) hold
+    // nothing; the scene is the one that is not empty.
+    std::size_t first = 0;
+    while (first < docs.size() && docs[first].IsNull()) ++first;
+    std::size_t second = first + 1;
     while (second < docs.size() && docs[second].IsNull()) ++second;
     if (second < docs.size())
       throw InputError(label + ": line " + std::to_string(docs[second].Mark().line + 1) +
-                       ": a second YAML document (after " +
-                       "'---'); a scene is one document, and fdem would have read only the first. Fix: merge them, " +
-                       "or put each scene in a file of its own");
-    if (!docs.empty()) root = docs[0];
+                       ": a second YAML document (after a '---' or '...' line); a scene is one document. Fix: " +
+                       "merge them, put each scene in a file of its own, or make notes comments (#)");
+    if (first < docs.size()) root = docs[first];
   } catch (const YAML::Exception& e) {
     std::string where;
     if (!e.mark.is_null())

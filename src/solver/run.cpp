@@ -74,12 +74,12 @@ void write_summary(const std::string& path, const Scene& scene, const RunSummary
   std::ostringstream o;
   o << std::setprecision(10) << kSummaryHeader << '\n';
   const FracturePattern& f = r.fracture;
-  o << scene.name << ',' << r.peak_stress << ',' << r.strain_at_peak << ',' << r.peak_indirect_tensile << ','
+  o << csv_field(scene.name) << ',' << r.peak_stress << ',' << r.strain_at_peak << ',' << r.peak_indirect_tensile << ','
     << scene.confinement.pressure * scene.confinement.enabled << ',' << scene.platens.velocity << ','
     << r.last.energy_error << ',' << f.broken << ',' << f.mode_I << ',' << f.mode_II << ',' << f.mixed << ',' << f.area
     << ',' << f.plane_angle_deg << ',' << f.planarity << ',' << f.mean_facet_angle_deg << ',' << f.centroid.x << ','
-    << f.centroid.y << ',' << f.centroid.z << ',' << r.steps << ',' << r.time << ',' << r.wall_seconds << ",\""
-    << r.end_reason << "\"\n";
+    << f.centroid.y << ',' << f.centroid.z << ',' << r.steps << ',' << r.time << ',' << r.wall_seconds << ','
+    << csv_field(r.end_reason) << '\n';
   write_file_atomically(path, o.str());
 }
 
@@ -913,7 +913,7 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
   }
   if (out.plot && root) {
     const std::string png = (fs::path(out.folder) / "stress_strain.png").string();
-    if (!run_python_script("plot_curves.py", {csv_path, png, "--title", scene.name}))
+    if (!run_python_script("plot_curves.py", {csv_path, png, "--title=" + scene.name}))
       log << "warning: could not plot " << png << " (needs python3-matplotlib); the curves are in " << csv_path
           << std::endl;
   }

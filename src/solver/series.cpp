@@ -45,20 +45,6 @@ void require(bool ok, const std::string& key, const std::string& value, const st
 }
 
 // Splits a CSV line, honouring double quotes (no embedded quotes are written).
-std::vector<std::string> split_csv(const std::string& line) {
-  std::vector<std::string> out(1);
-  bool quoted = false;
-  for (char c : line) {
-    if (c == '"')
-      quoted = !quoted;
-    else if (c == ',' && !quoted)
-      out.emplace_back();
-    else if (c != '\r')
-      out.back() += c;
-  }
-  return out;
-}
-
 std::string folder_name(const SeriesValues& values) {
   std::string n;
   for (const auto& [k, v] : values) n += (n.empty() ? "" : "_") + k + "_" + v;
@@ -69,10 +55,11 @@ std::string folder_name(const SeriesValues& values) {
 // last column) with the reason.
 void write_unstable_summary(const std::string& path, const std::string& name, std::string why) {
   for (char& c : why)
-    if (c == '"' || c == '\n') c = '\'';
+    if (c == '\n') c = ' ';
   const std::string header = kSummaryHeader;
-  write_file_atomically(path, header + '\n' + name + std::string(std::count(header.begin(), header.end(), ','), ',') +
-                                  "\"unstable: " + why + "\"\n");
+  write_file_atomically(path, header + '\n' + csv_field(name) +
+                                  std::string(std::count(header.begin(), header.end(), ','), ',') +
+                                  csv_field("unstable: " + why) + "\n");
 }
 
 }  // namespace
@@ -286,12 +273,11 @@ void write_series_csv(const std::string& path, const std::vector<SeriesRow>& row
   for (const std::string& c : cols) o << ',' << c;
   o << '\n';
   for (const SeriesRow& r : rows) {
-    for (const auto& kv : r.values) o << kv.second << ',';
-    o << r.folder;
+    for (const auto& kv : r.values) o << csv_field(kv.second) << ',';
+    o << csv_field(r.folder);
     for (const std::string& c : cols) {
       const auto it = r.summary.find(c);
-      const std::string v = it == r.summary.end() ? "" : it->second;
-      o << ',' << (v.find_first_of(", ") != std::string::npos ? "\"" + v + "\"" : v);
+      o << ',' << csv_field(it == r.summary.end() ? "" : it->second);
     }
     o << '\n';
   }

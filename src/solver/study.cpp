@@ -201,12 +201,12 @@ bool write_study(const std::string& folder, const StudyResult& r) {
   md << '\n';
   for (std::size_t i = 0; i < r.rows.size(); ++i) {
     const StudyRow& row = r.rows[i];
-    for (const auto& kv : row.run.values) csv << kv.second << ',';
+    for (const auto& kv : row.run.values) csv << csv_field(kv.second) << ',';
     csv << row.reference << ',' << row.stable << ',' << row.wall << ',' << row.steps << ',' << row.seconds_per_step
         << ',' << row.speedup;
     for (const std::string& m : study_metrics()) csv << ',' << row.error.at(m);
-    csv << ',' << row.pareto << ',' << row.within_budget << ',' << (int(i) == r.recommended) << ',' << row.run.folder
-        << '\n';
+    csv << ',' << row.pareto << ',' << row.within_budget << ',' << (int(i) == r.recommended) << ','
+        << csv_field(row.run.folder) << '\n';
     md << "| " << label_of(row.run.values) << (row.reference ? " (reference)" : "")
        << (int(i) == r.recommended ? " **recommended**" : "") << " | " << fmt(row.wall, 3) << " | " << row.steps
        << " | " << fmt(row.seconds_per_step, 3) << " | " << (row.stable ? fmt(row.speedup, 3) + "×" : "unstable")

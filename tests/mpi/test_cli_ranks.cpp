@@ -63,7 +63,7 @@ TEST(CliRanks, TwoRanksWriteTheOneRankResults) {
   if (mpiexec(2).empty()) GTEST_SKIP() << "mpiexec not found";
   TempDir tmp("ranks");
   const fs::path one = tmp.path / "one", two = tmp.path / "two";
-  const Outcome a = fdem("run " + quote(kScene) + " -q -o " + quote(one.string()));
+  const Outcome a = run_fdem("run " + quote(kScene) + " -q -o " + quote(one.string()));
   ASSERT_EQ(a.code, 0) << a.text;
   const Outcome b = run_cmd(mpiexec(2) + quote(kExe) + " run " + quote(kScene) + " -q -o " + quote(two.string()));
   ASSERT_EQ(b.code, 0) << b.text;
@@ -92,12 +92,12 @@ TEST(CliRanks, RankFilesFromPartitionGiveTheSameRun) {
   if (mpiexec(2).empty()) GTEST_SKIP() << "mpiexec not found";
   TempDir tmp("partition");
   const fs::path parts = tmp.path / "parts", fly = tmp.path / "fly", files = tmp.path / "files";
-  const Outcome p = fdem("partition " + quote(kScene) + " -n 2 -o " + quote(parts.string()));
+  const Outcome p = run_fdem("partition " + quote(kScene) + " -n 2 -o " + quote(parts.string()));
   ASSERT_EQ(p.code, 0) << p.text;
   EXPECT_TRUE(fs::exists(parts / "rank_0.fdp") && fs::exists(parts / "rank_1.fdp")) << p.text;
   // -o naming a file: exit 4 naming it and the fix, the file kept (it was a raw filesystem error, exit 1).
   std::ofstream(tmp.path / "a_file") << "keep";
-  const Outcome f = fdem("partition " + quote(kScene) + " -n 2 -o " + quote((tmp.path / "a_file").string()));
+  const Outcome f = run_fdem("partition " + quote(kScene) + " -n 2 -o " + quote((tmp.path / "a_file").string()));
   EXPECT_EQ(f.code, 4) << f.text;
   EXPECT_TRUE(has(f.text, "cannot create the folder '" + (tmp.path / "a_file").string() + "' for the rank files"))
       << f.text;
@@ -127,13 +127,13 @@ TEST(CliRanks, RankFilesFromPartitionGiveTheSameRun) {
   }
 
   // Rank files for two ranks on one: refused, naming the file and the fix.
-  const Outcome c = fdem("run " + quote(kScene) + " --partitioned " + quote(parts.string()) + " -q -o " +
-                         quote((tmp.path / "wrong").string()));
+  const Outcome c = run_fdem("run " + quote(kScene) + " --partitioned " + quote(parts.string()) + " -q -o " +
+                             quote((tmp.path / "wrong").string()));
   EXPECT_EQ(c.code, 2) << c.text;
   EXPECT_TRUE(has(c.text, "rank_0.fdp") && has(c.text, "mpiexec -n 2")) << c.text;
   // A folder without rank files: named as one, with fdem partition's fix (not a checkpoint's).
-  const Outcome m = fdem("run " + quote(kScene) + " --partitioned " + quote((tmp.path / "none").string()) + " -q -o " +
-                         quote((tmp.path / "m").string()));
+  const Outcome m = run_fdem("run " + quote(kScene) + " --partitioned " + quote((tmp.path / "none").string()) +
+                             " -q -o " + quote((tmp.path / "m").string()));
   EXPECT_EQ(m.code, 2) << m.text;
   EXPECT_TRUE(has(m.text, "rank_0.fdp: cannot open the rank file") && has(m.text, "fdem partition -o")) << m.text;
   EXPECT_FALSE(has(m.text, "checkpoint")) << m.text;
@@ -160,7 +160,7 @@ TEST(CliRanks, ABadInputOnOneRankEndsTheJobWithItsMessage) {
 
   // A damaged rank file on one rank: the same.
   const fs::path parts = tmp.path / "parts";
-  ASSERT_EQ(fdem("partition " + quote(kScene) + " -n 2 -o " + quote(parts.string())).code, 0);
+  ASSERT_EQ(run_fdem("partition " + quote(kScene) + " -n 2 -o " + quote(parts.string())).code, 0);
   fs::resize_file(parts / "rank_1.fdp", fs::file_size(parts / "rank_1.fdp") / 2);
   const Outcome d = run_cmd(mpiexec(2) + "timeout 120 " + quote(kExe) + " run " + quote(kScene) + " --partitioned " +
                             quote(parts.string()) + " -q -o " + quote((tmp.path / "c").string()));
@@ -284,7 +284,7 @@ TEST(CliRanks, PeakFramesKeptBeforeContactGhostsGrowAreWrittenWhole) {
       kScene, tmp.path, "fine",
       {{"element_size: 0.005", "element_size: 0.0025"}, {"plot: false", "plot: false, peak_frames: true"}});
   const fs::path one = tmp.path / "one", two = tmp.path / "two";
-  const Outcome a = fdem("run " + quote(scene.string()) + " -q -o " + quote(one.string()));
+  const Outcome a = run_fdem("run " + quote(scene.string()) + " -q -o " + quote(one.string()));
   ASSERT_EQ(a.code, 0) << a.text;
   const Outcome b = run_cmd(mpiexec(2) + quote(kExe) + " run " + quote(scene.string()) + " --contact-reach 2e-5 -o " +
                             quote(two.string()));

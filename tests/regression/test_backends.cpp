@@ -426,8 +426,9 @@ TEST(DebugBackend, CliRunGivesTheCpuFiles) {
   using namespace cli_test;
   TempDir dir("backend_debug");
   const std::string scene = quote((kData / "cli" / "restart_box.yaml").string());
-  const Outcome a = cli_test::fdem("run " + scene + " -q -o " + quote((dir.path / "cpu").string()));
-  const Outcome b = cli_test::fdem("run " + scene + " -q --backend debug -o " + quote((dir.path / "debug").string()));
+  const Outcome a = cli_test::run_fdem("run " + scene + " -q -o " + quote((dir.path / "cpu").string()));
+  const Outcome b =
+      cli_test::run_fdem("run " + scene + " -q --backend debug -o " + quote((dir.path / "debug").string()));
   ASSERT_EQ(a.code, 0) << a.text;
   ASSERT_EQ(b.code, 0) << b.text;
   EXPECT_TRUE(has(b.text, "backend debug"));
@@ -455,8 +456,8 @@ TEST(DebugBackend, CudaWithoutAGpuIsAClearInputError) {
   if (cuda_device_count() > 0) GTEST_SKIP() << "a GPU is visible here: tests/gpu covers the CUDA backend";
   using namespace cli_test;
   TempDir dir("backend_cuda");
-  const Outcome o = cli_test::fdem("run " + quote(kNoGmshScene.string()) + " -q --backend cuda -o " +
-                                   quote((dir.path / "out").string()));
+  const Outcome o = cli_test::run_fdem("run " + quote(kNoGmshScene.string()) + " -q --backend cuda -o " +
+                                       quote((dir.path / "out").string()));
   EXPECT_EQ(o.code, 2) << o.text;
   EXPECT_TRUE(has(o.text, cuda_built() ? "no CUDA device is visible" : "built without CUDA")) << o.text;
   EXPECT_TRUE(has(o.text, "--backend cpu")) << o.text;

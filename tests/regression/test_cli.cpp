@@ -18,12 +18,13 @@
 #include <vector>
 
 #include "cli_support.hpp"
+#include "solver/series.hpp"
 
 namespace fs = std::filesystem;
 using namespace cli_test;
 
 TEST(CliExe, HelpListsTheSubcommands) {
-  const Outcome o = fdem("--help");
+  const Outcome o = run_fdem("--help");
   EXPECT_EQ(o.code, 0) << o.text;
   EXPECT_TRUE(has(o.text, "run")) << o.text;
   EXPECT_TRUE(has(o.text, "check")) << o.text;
@@ -31,14 +32,14 @@ TEST(CliExe, HelpListsTheSubcommands) {
   EXPECT_TRUE(has(o.text, "series")) << o.text;
   EXPECT_TRUE(has(o.text, "Subcommands")) << o.text;
   // Each subcommand has its own help naming its scene argument.
-  const Outcome r = fdem("run --help");
+  const Outcome r = run_fdem("run --help");
   EXPECT_EQ(r.code, 0) << r.text;
   EXPECT_TRUE(has(r.text, "scene")) << r.text;
   EXPECT_TRUE(has(r.text, "--output")) << r.text;
 }
 
 TEST(CliExe, VersionPrintsTheProjectVersion) {
-  const Outcome o = fdem("--version");
+  const Outcome o = run_fdem("--version");
   EXPECT_EQ(o.code, 0) << o.text;
   EXPECT_TRUE(has(o.text, std::string("fdem ") + FDEM_VERSION)) << o.text;
 }
@@ -48,7 +49,7 @@ TEST(CliExe, UnknownSubcommandsAndOptionsFail) {
   // (Each launch costs about 0.6 s of MPI start-up, so the list is short.)
   for (const std::string& args :
        {std::string("frobnicate"), "check " + scene + " --frobnicate", "run " + scene + " -t minus"}) {
-    const Outcome o = fdem(args);
+    const Outcome o = run_fdem(args);
     EXPECT_NE(o.code, 0) << "fdem " << args << "\n" << o.text;
     EXPECT_EQ(o.code, 2) << "fdem " << args << "\n" << o.text;  // a command-line error is bad input
     EXPECT_FALSE(has(o.text, "tets ")) << "fdem " << args << " built a model:\n" << o.text;
@@ -93,7 +94,7 @@ TEST(CliExe, CheckWritesTheMeshThatAFileSceneBuildsTheSameModelFrom) {
   TempDir tmp("write_mesh");
   const fs::path msh = tmp.path / "box.msh";
   const Outcome a =
-      fdem("check " + quote((kData / "cli" / "check_box.yaml").string()) + " --write-mesh " + quote(msh.string()));
+      run_fdem("check " + quote((kData / "cli" / "check_box.yaml").string()) + " --write-mesh " + quote(msh.string()));
   ASSERT_EQ(a.code, 0) << a.text;
   ASSERT_TRUE(fs::exists(msh)) << a.text;
   EXPECT_TRUE(has(a.text, "mesh written: " + msh.string())) << a.text;
@@ -102,7 +103,7 @@ TEST(CliExe, CheckWritesTheMeshThatAFileSceneBuildsTheSameModelFrom) {
     scene << "name: from_file\nmesh: {file: box.msh}\nsolver:\n  end: {steps: 100}\n"
           << "output: {progress_interval: 0, plot: false}\n";
   }
-  const Outcome b = fdem("check " + quote((tmp.path / "from_file.yaml").string()));
+  const Outcome b = run_fdem("check " + quote((tmp.path / "from_file.yaml").string()));
   ASSERT_EQ(b.code, 0) << b.text;
   const std::size_t ia = a.text.find("  tets "), ib = b.text.find("  tets ");
   ASSERT_NE(ia, std::string::npos) << a.text;
@@ -120,7 +121,7 @@ TEST(CliExe, CheckWritesTheMeshThatAFileSceneBuildsTheSameModelFrom) {
   // model built first (the check comes before the meshing).
   const fs::path bad = tmp.path / "missing" / "box.msh";
   const Outcome c =
-      fdem("check " + quote((kData / "cli" / "check_box.yaml").string()) + " --write-mesh " + quote(bad.string()));
+      run_fdem("check " + quote((kData / "cli" / "check_box.yaml").string()) + " --write-mesh " + quote(bad.string()));
   EXPECT_EQ(c.code, 4) << c.text;
   EXPECT_TRUE(has(c.text, bad.string())) << c.text;
   EXPECT_FALSE(fs::exists(tmp.path / "missing"));
@@ -131,7 +132,7 @@ TEST(CliExe, CheckWritesTheMeshThatAFileSceneBuildsTheSameModelFrom) {
   const std::string scene_text = slurp(scene), mesh_text = slurp(msh);
   for (const auto& [target, names] : {std::pair<fs::path, std::string>{scene, "is the scene file"},
                                       std::pair<fs::path, std::string>{tmp.path / "." / "box.msh", "mesh.file"}}) {
-    const Outcome d = fdem("check " + quote(scene.string()) + " --write-mesh " + quote(target.string()));
+    const Outcome d = run_fdem("check " + quote(scene.string()) + " --write-mesh " + quote(target.string()));
     EXPECT_EQ(d.code, 2) << d.text;
     EXPECT_TRUE(has(d.text, names) && has(d.text, "another file name")) << d.text;
   }
@@ -141,14 +142,14 @@ TEST(CliExe, CheckWritesTheMeshThatAFileSceneBuildsTheSameModelFrom) {
   // replaced when run as root): refused, the pipe left in place.
   const fs::path pipe = tmp.path / "pipe";
   ASSERT_EQ(::mkfifo(pipe.c_str(), 0600), 0);
-  const Outcome e = fdem("check " + quote(scene.string()) + " --write-mesh " + quote(pipe.string()));
+  const Outcome e = run_fdem("check " + quote(scene.string()) + " --write-mesh " + quote(pipe.string()));
   EXPECT_EQ(e.code, 4) << e.text;
   EXPECT_TRUE(has(e.text, "not a regular file")) << e.text;
   EXPECT_TRUE(fs::is_fifo(pipe));
 }
 
 TEST(CliExe, InvertedTetsInAMeshFileAreFine) {
-  const Outcome o = fdem("check " + quote((kData / "cli" / "inverted_tets.yaml").string()));
+  const Outcome o = run_fdem("check " + quote((kData / "cli" / "inverted_tets.yaml").string()));
   EXPECT_EQ(o.code, 0) << o.text;
   // cube6_v22.msh: 6 tets of the unit cube (scaled to 1 cm) around one diagonal.
   EXPECT_TRUE(has(o.text, "tets 6, CE6 6, nodes 24, surface faces 12")) << o.text;
@@ -188,7 +189,7 @@ TEST(CliExe, BadInputExitsTwoNamingTheProblemAndWritesNothing) {
     std::vector<std::string> calls{"run " + scene + " -q -o " + quote(out.string())};
     if (c.also_check) calls.push_back("check " + scene);
     for (const std::string& args : calls) {
-      const Outcome r = fdem(args);
+      const Outcome r = run_fdem(args);
       SCOPED_TRACE("fdem " + args + "\n" + r.text);
       EXPECT_EQ(r.code, 2);
       EXPECT_TRUE(has(r.text, "error")) << r.text;
@@ -207,7 +208,8 @@ TEST(CliExe, BadInputExitsTwoNamingTheProblemAndWritesNothing) {
 TEST(CliExe, RunWritesMonitorsAndFields) {
   TempDir tmp("run");
   const fs::path out = tmp.path / "nested" / "run_box";
-  const Outcome o = fdem("run " + quote((kData / "cli" / "run_box.yaml").string()) + " -t 1 -o " + quote(out.string()));
+  const Outcome o =
+      run_fdem("run " + quote((kData / "cli" / "run_box.yaml").string()) + " -t 1 -o " + quote(out.string()));
   ASSERT_EQ(o.code, 0) << o.text;
   EXPECT_TRUE(has(o.text, "finished")) << o.text;
   EXPECT_TRUE(has(o.text, "step count 400 reached")) << o.text;
@@ -266,7 +268,8 @@ TEST(CliExe, RunWritesMonitorsAndFields) {
 TEST(CliExe, UnstableRunStopsWithExitThreeAndAValidCsv) {
   TempDir tmp("unstable");
   const fs::path out = tmp.path / "unstable";
-  const Outcome o = fdem("run " + quote((kData / "cli" / "unstable_box.yaml").string()) + " -o " + quote(out.string()));
+  const Outcome o =
+      run_fdem("run " + quote((kData / "cli" / "unstable_box.yaml").string()) + " -o " + quote(out.string()));
   EXPECT_EQ(o.code, 3) << o.text;
   EXPECT_TRUE(has(o.text, "time_step_safety")) << o.text;
   EXPECT_TRUE(has(o.text, "unstable")) << o.text;
@@ -291,7 +294,7 @@ TEST(CliExe, UnstableRunStopsWithExitThreeAndAValidCsv) {
   // (which it overrides).
   const fs::path given = cli_test::scene_variant(kData / "cli" / "unstable_box.yaml", tmp.path, "given",
                                                  {{"time_step_safety: 4.0", "time_step: 1.0e-7"}});
-  const Outcome g = fdem("run " + quote(given.string()) + " -q -o " + quote((tmp.path / "given").string()));
+  const Outcome g = run_fdem("run " + quote(given.string()) + " -q -o " + quote((tmp.path / "given").string()));
   EXPECT_EQ(g.code, 3) << g.text;
   EXPECT_TRUE(has(g.text, "Fix: lower solver.time_step (now 1e-07 s, 3.99 x the stable-step bound)")) << g.text;
   EXPECT_FALSE(has(g.text, "time_step_safety (now")) << g.text;
@@ -301,7 +304,7 @@ TEST(CliExe, AFreshRunThatCannotReplaceTheOutputsChangesNothingAndOneThatStartsD
   TempDir tmp("replace");
   const fs::path out = tmp.path / "out";
   const std::string first = "run " + quote((kData / "cli" / "run_box.yaml").string()) + " -q -o " + quote(out.string());
-  ASSERT_EQ(fdem(first).code, 0);
+  ASSERT_EQ(run_fdem(first).code, 0);
   ASSERT_TRUE(fs::exists(out / "summary.csv") && fs::exists(out / "broken_ce6.csv"));
   // The field index's place taken by a folder (what a file that cannot be replaced does without
   // root): exit 4 naming it, and the earlier run's files keep every byte (monitors.csv was cut
@@ -311,7 +314,7 @@ TEST(CliExe, AFreshRunThatCannotReplaceTheOutputsChangesNothingAndOneThatStartsD
   std::vector<std::pair<fs::path, std::string>> before;
   for (const char* f : {"monitors.csv", "summary.csv", "broken_ce6.csv", "fields.h5"})
     before.push_back({out / f, slurp(out / f)});
-  const Outcome blocked = fdem(first);
+  const Outcome blocked = run_fdem(first);
   EXPECT_EQ(blocked.code, 4) << blocked.text;
   EXPECT_TRUE(has(blocked.text, (out / "fields.xdmf").string() + " is a folder")) << blocked.text;
   EXPECT_TRUE(has(blocked.text, "nothing was changed")) << blocked.text;
@@ -320,7 +323,7 @@ TEST(CliExe, AFreshRunThatCannotReplaceTheOutputsChangesNothingAndOneThatStartsD
   // earlier run beside its own monitors.
   fs::remove(out / "fields.xdmf");
   const Outcome unstable =
-      fdem("run " + quote((kData / "cli" / "unstable_box.yaml").string()) + " -q -o " + quote(out.string()));
+      run_fdem("run " + quote((kData / "cli" / "unstable_box.yaml").string()) + " -q -o " + quote(out.string()));
   EXPECT_EQ(unstable.code, 3) << unstable.text;
   EXPECT_FALSE(fs::exists(out / "summary.csv"));
   EXPECT_FALSE(fs::exists(out / "broken_ce6.csv"));
@@ -346,9 +349,13 @@ TEST(CliExe, RunsUnderMpiexecWithOneRank) {
 TEST(CliExe, SeriesRunsEveryValueOnceAndTabulatesThem) {
   TempDir tmp("series");
   const fs::path out = tmp.path / "study";
-  const std::string scene = quote((kData / "cli" / "run_box.yaml").string());
+  // A name with a comma and a quote (a lab's "Berea, dry"): one field of summary.csv and series.csv.
+  const std::string name = "Berea, dry \"B\"";
+  const std::string scene = quote(cli_test::scene_variant(kData / "cli" / "run_box.yaml", tmp.path, "named",
+                                                          {{"name: cli_run_box", "name: \"Berea, dry \\\"B\\\"\""}})
+                                      .string());
   const std::string args = "series " + scene + " --vary mass_scaling=10,40 -q -o " + quote(out.string());
-  const Outcome o = fdem(args);
+  const Outcome o = run_fdem(args);
   ASSERT_EQ(o.code, 0) << o.text;
   EXPECT_TRUE(has(o.text, "[2/2] mass_scaling_40: running")) << o.text;
   const Csv csv = read_csv(out / "series.csv");
@@ -365,9 +372,14 @@ TEST(CliExe, SeriesRunsEveryValueOnceAndTabulatesThem) {
   EXPECT_NEAR(csv.rows[1][time] / csv.rows[0][time], 2.0, 0.02);
   for (const char* f : {"mass_scaling_10/summary.csv", "mass_scaling_40/monitors.csv", "mass_scaling_40/run.txt"})
     EXPECT_TRUE(fs::exists(out / f)) << f;
+  EXPECT_EQ(fdem::read_summary((out / "mass_scaling_10" / "summary.csv").string()).at("name"),
+            name + " mass_scaling_10");
+  EXPECT_EQ(fdem::read_summary((out / "mass_scaling_40" / "summary.csv").string()).at("end_reason"),
+            "step count 400 reached");
+  EXPECT_EQ(csv.rows[1].size(), csv.header.size());
   // Again: both found finished, the table unchanged.
   const std::string before = slurp(out / "series.csv");
-  const Outcome again = fdem(args);
+  const Outcome again = run_fdem(args);
   ASSERT_EQ(again.code, 0) << again.text;
   EXPECT_TRUE(has(again.text, "[1/2] mass_scaling_10: finished before, not run again")) << again.text;
   EXPECT_TRUE(has(again.text, "[2/2] mass_scaling_40: finished before, not run again")) << again.text;
@@ -399,7 +411,7 @@ TEST(CliExe, SeriesBadValuesExitTwoBeforeAnyRun) {
   int i = 0;
   for (const auto& [args, msg] : cases) {
     const fs::path out = tmp.path / ("o" + std::to_string(i++));
-    const Outcome o = fdem(args + " -q -o " + quote(out.string()));
+    const Outcome o = run_fdem(args + " -q -o " + quote(out.string()));
     EXPECT_EQ(o.code, 2) << args << "\n" << o.text;
     EXPECT_TRUE(has(o.text, msg)) << args << "\n" << o.text;
     EXPECT_FALSE(fs::exists(out)) << args;
@@ -413,7 +425,7 @@ TEST(CliExe, StudyMeasuresErrorsAgainstTheReferenceAndResumes) {
   const fs::path out = tmp.path / "study";
   const std::string args = "study " + quote((kData / "cli" / "study_box.yaml").string()) +
                            " --vary time_step_safety=0.9,0.2,0.45 --budget curve_pre=1% -q -o " + quote(out.string());
-  const Outcome o = fdem(args);
+  const Outcome o = run_fdem(args);
   ASSERT_EQ(o.code, 0) << o.text;
   const Csv csv = read_csv(out / "study.csv");
   ASSERT_EQ(csv.rows.size(), 3u);  // rows in --vary order: 0.9, 0.2, 0.45
@@ -437,12 +449,12 @@ TEST(CliExe, StudyMeasuresErrorsAgainstTheReferenceAndResumes) {
   EXPECT_TRUE(has(slurp(out / "study.md"), "(reference)"));
   // Again: nothing reruns, the table is the same.
   const std::string before = slurp(out / "study.csv");
-  const Outcome again = fdem(args);
+  const Outcome again = run_fdem(args);
   ASSERT_EQ(again.code, 0) << again.text;
   EXPECT_FALSE(has(again.text, ": running in")) << again.text;
   EXPECT_EQ(slurp(out / "study.csv"), before);
   // A reference that is not among the variants is bad input.
-  const Outcome bad = fdem(args + " --reference time_step_safety=0.3");
+  const Outcome bad = run_fdem(args + " --reference time_step_safety=0.3");
   EXPECT_EQ(bad.code, 2) << bad.text;
   EXPECT_TRUE(has(bad.text, "--reference names no variant")) << bad.text;
   // A reference that ends before any load (no platens): exit 3 naming it, not a table of NaN errors.
@@ -451,7 +463,7 @@ TEST(CliExe, StudyMeasuresErrorsAgainstTheReferenceAndResumes) {
                                                      {"end: {axial_strain: 0.0005}", "end: {steps: 20}"}});
   const fs::path out2 = tmp.path / "unloaded";
   const Outcome none =
-      fdem("study " + quote(unloaded.string()) + " --vary time_step_safety=0.9,0.45 -q -o " + quote(out2.string()));
+      run_fdem("study " + quote(unloaded.string()) + " --vary time_step_safety=0.9,0.45 -q -o " + quote(out2.string()));
   EXPECT_EQ(none.code, 3) << none.text;
   EXPECT_TRUE(has(none.text, "the reference variant (time_step_safety=0.45) reached no peak: peak stress 0 Pa"))
       << none.text;

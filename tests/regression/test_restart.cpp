@@ -115,7 +115,7 @@ const fs::path& reference_run() {
   static const fs::path out = dir.path / "a";
   static bool done = false;
   if (!done) {
-    const Outcome o = fdem(run_args(kScene, out));
+    const Outcome o = run_fdem(run_args(kScene, out));
     EXPECT_EQ(o.code, 0) << o.text;
     done = true;
     // The run fractures and the peak frames exist: the restart must carry all of that state.
@@ -138,12 +138,12 @@ TEST(Restart, FromAStepCheckpointBeforeThePeakEqualsTheUninterruptedRun) {
       tmp.path, "first",
       {{"end: {steps: 3000}", "end: {steps: 1000}"}, {"checkpoint_wall_interval: 0", "checkpoint_interval: 500"}});
   const fs::path b = tmp.path / "b";
-  Outcome o = fdem(run_args(first, b));
+  Outcome o = run_fdem(run_args(first, b));
   ASSERT_EQ(o.code, 0) << o.text;
   EXPECT_TRUE(has(o.text, "checkpoint (every 500 steps)")) << o.text;
   ASSERT_EQ(checkpoint_names(b), std::vector<std::string>{"step_000000000500.ckpt"});
   // Continued to the reference's 3000 steps (solver.end may change on a restart).
-  o = fdem(run_args(kScene, b) + " --restart " + quote((b / "checkpoints" / "step_000000000500.ckpt").string()));
+  o = run_fdem(run_args(kScene, b) + " --restart " + quote((b / "checkpoints" / "step_000000000500.ckpt").string()));
   ASSERT_EQ(o.code, 0) << o.text;
   EXPECT_TRUE(has(o.text, "restart: continuing from")) << o.text;
   expect_same_run(a, b);
@@ -177,7 +177,7 @@ TEST(Restart, AfterSigtermWithADamagedNewestCheckpointEqualsTheUninterruptedRun)
     f.seekp(-5, std::ios::end);
     f.put('\x7f');
   }
-  o = fdem(run_args(scene, c) + " --restart " + quote(c.string()));
+  o = run_fdem(run_args(scene, c) + " --restart " + quote(c.string()));
   ASSERT_EQ(o.code, 0) << o.text;
   EXPECT_TRUE(has(o.text, "checksum mismatch")) << o.text;
   EXPECT_TRUE(has(o.text, "continuing from " + (c / "checkpoints" / names.front()).string())) << o.text;
@@ -190,7 +190,7 @@ TEST(Restart, ACheckpointOfAnotherSceneOrNoneIsRefusedWithExitTwo) {
       tmp.path, "short",
       {{"end: {steps: 3000}", "end: {steps: 120}"}, {"checkpoint_wall_interval: 0", "checkpoint_interval: 100"}});
   const fs::path d = tmp.path / "d";
-  ASSERT_EQ(fdem(run_args(scene, d)).code, 0);
+  ASSERT_EQ(run_fdem(run_args(scene, d)).code, 0);
   ASSERT_EQ(checkpoint_names(d).size(), 1u);
   const std::string before = slurp(d / "monitors.csv");
   // Another loading rate: refused, and the folder is left as it was.
@@ -198,7 +198,7 @@ TEST(Restart, ACheckpointOfAnotherSceneOrNoneIsRefusedWithExitTwo) {
                                         {{"end: {steps: 3000}", "end: {steps: 120}"},
                                          {"checkpoint_wall_interval: 0", "checkpoint_interval: 100"},
                                          {"velocity: 1.0", "velocity: 1.5"}});
-  Outcome o = fdem(run_args(faster, d) + " --restart " + quote(d.string()));
+  Outcome o = run_fdem(run_args(faster, d) + " --restart " + quote(d.string()));
   EXPECT_EQ(o.code, 2) << o.text;
   EXPECT_TRUE(has(o.text, "step_000000000100.ckpt")) << o.text;
   EXPECT_TRUE(has(o.text, "another model or scene")) << o.text;
@@ -208,14 +208,14 @@ TEST(Restart, ACheckpointOfAnotherSceneOrNoneIsRefusedWithExitTwo) {
   const fs::path shorter = scene_variant(
       tmp.path, "shorter",
       {{"end: {steps: 3000}", "end: {steps: 80}"}, {"checkpoint_wall_interval: 0", "checkpoint_interval: 100"}});
-  o = fdem(run_args(shorter, d) + " --restart " + quote(d.string()));
+  o = run_fdem(run_args(shorter, d) + " --restart " + quote(d.string()));
   EXPECT_EQ(o.code, 2) << o.text;
   EXPECT_TRUE(has(o.text, "is at step 100, t = ")) << o.text;
   EXPECT_TRUE(has(o.text, "the scene's end is already reached (step count 80 reached); nothing was changed")) << o.text;
   EXPECT_EQ(slurp(d / "monitors.csv"), before);
   EXPECT_EQ(checkpoint_names(d).size(), 1u);
   // A folder without checkpoints; the output folder named is not created.
-  o = fdem(run_args(scene, tmp.path / "e") + " --restart " + quote(tmp.path.string()));
+  o = run_fdem(run_args(scene, tmp.path / "e") + " --restart " + quote(tmp.path.string()));
   EXPECT_EQ(o.code, 2) << o.text;
   EXPECT_TRUE(has(o.text, "no checkpoint there")) << o.text;
   EXPECT_FALSE(fs::exists(tmp.path / "e"));
@@ -227,7 +227,7 @@ TEST(Restart, AnInterruptedSeriesContinuesFromItsCheckpoint) {
       scene_variant(tmp.path, "series", {{"checkpoint_wall_interval: 0", "checkpoint_wall_interval: 0.1"}});
   const std::string vary = " --vary platen_velocity=1.0 -t 1 -o ";
   const fs::path s1 = tmp.path / "s1", s2 = tmp.path / "s2";
-  Outcome o = fdem("series " + quote(scene.string()) + vary + quote(s1.string()));
+  Outcome o = run_fdem("series " + quote(scene.string()) + vary + quote(s1.string()));
   ASSERT_EQ(o.code, 0) << o.text;
   std::vector<fs::path> variants;
   for (const auto& e : fs::directory_iterator(s1))
@@ -242,7 +242,7 @@ TEST(Restart, AnInterruptedSeriesContinuesFromItsCheckpoint) {
   o = run_cmd("bash -c " + quote(script));
   ASSERT_EQ(o.code, 5) << o.text;
   EXPECT_TRUE(has(o.text, "run the same command again")) << o.text;
-  o = fdem("series " + quote(scene.string()) + vary + quote(s2.string()));
+  o = run_fdem("series " + quote(scene.string()) + vary + quote(s2.string()));
   ASSERT_EQ(o.code, 0) << o.text;
   EXPECT_TRUE(has(o.text, "continuing from the checkpoint in")) << o.text;
   expect_same_run(s1 / variants[0], run);
@@ -257,10 +257,10 @@ TEST(Restart, AFreshRunDropsOldCheckpointsAndARestartChecksItsMonitorFile) {
       tmp.path, "every50",
       {{"end: {steps: 3000}", "end: {steps: 60}"}, {"checkpoint_wall_interval: 0", "checkpoint_interval: 50"}});
   const fs::path d = tmp.path / "d", e = tmp.path / "e";
-  ASSERT_EQ(fdem(run_args(every100, d)).code, 0);
+  ASSERT_EQ(run_fdem(run_args(every100, d)).code, 0);
   ASSERT_EQ(checkpoint_names(d), (std::vector<std::string>{"step_000000000100.ckpt", "step_000000000200.ckpt"}));
   // A fresh run in the same folder: the old checkpoints belong to files it replaces.
-  ASSERT_EQ(fdem(run_args(every50, d)).code, 0);
+  ASSERT_EQ(run_fdem(run_args(every50, d)).code, 0);
   EXPECT_EQ(checkpoint_names(d), std::vector<std::string>{"step_000000000050.ckpt"});
   // A checkpoint restarted into another run's folder (same physics, other monitor rows): refused
   // before anything there changes.
@@ -268,10 +268,10 @@ TEST(Restart, AFreshRunDropsOldCheckpointsAndARestartChecksItsMonitorFile) {
                                         {{"end: {steps: 3000}", "end: {steps: 250}"},
                                          {"checkpoint_wall_interval: 0", "checkpoint_interval: 100"},
                                          {"monitor_interval: 50", "monitor_interval: 25"}});
-  ASSERT_EQ(fdem(run_args(rows25, e)).code, 0);
+  ASSERT_EQ(run_fdem(run_args(rows25, e)).code, 0);
   const std::string before = slurp(e / "monitors.csv");
   const Outcome o =
-      fdem(run_args(every50, e) + " --restart " + quote((d / "checkpoints" / "step_000000000050.ckpt").string()));
+      run_fdem(run_args(every50, e) + " --restart " + quote((d / "checkpoints" / "step_000000000050.ckpt").string()));
   EXPECT_EQ(o.code, 2) << o.text;
   EXPECT_TRUE(has(o.text, "different from the monitors.csv of this checkpoint")) << o.text;
   EXPECT_EQ(slurp(e / "monitors.csv"), before);
