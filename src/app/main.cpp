@@ -291,8 +291,11 @@ int run_main(int argc, char** argv) {
     std::error_code ec;
     std::filesystem::create_directories(output, ec);
     if (ec)
-      throw fdem::OutputError("cannot create the folder '" + output + "' for the rank files: " + ec.message() +
-                              ". Fix: give -o a folder (new or existing), not a file");
+      throw fdem::OutputError(
+          "cannot create the folder '" + output + "' for the rank files: " + ec.message() +
+          (ec == std::errc::not_a_directory || ec == std::errc::file_exists
+               ? ". Fix: give -o a folder (new or existing), not a file"
+               : ". Fix: give -o a folder where you may write (check its permissions and free space)"));
     std::cout << "partition of " << model.tet_nodes.size() << " tets, " << model.ce6_nodes.size() << " CE6, "
               << model.X.size() << " nodes for " << parts << " ranks, contact reach " << reach << " m:\n";
     for (int r = 0; r < parts; ++r) {

@@ -6,11 +6,13 @@
 #include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <memory>
 #include <sstream>
 
 #include "core/error.hpp"
 #include "core/format.hpp"
 #include "io/atomic_file.hpp"
+#include "io/checkpoint.hpp"
 #include "io/mesh_io.hpp"
 #include "model/model.hpp"
 #include "solver/run.hpp"
@@ -35,7 +37,8 @@ real number(const std::string& key, const std::string& value) {
   } catch (const std::exception&) {
     used = 0;
   }
-  if (used != value.size() || value.empty() || !std::isfinite(v))
+  // Decimal only: std::stod also reads hexadecimal (0x10 = 16), which no one means for SI values.
+  if (used != value.size() || value.empty() || !std::isfinite(v) || value.find_first_of("xX") != std::string::npos)
     throw InputError(key + "=" + value + ": not a number; give SI values such as 5e6 (Pa) or 0.1 (m/s)");
   return v;
 }
@@ -44,7 +47,6 @@ void require(bool ok, const std::string& key, const std::string& value, const st
   if (!ok) throw InputError(key + "=" + value + ": " + what);
 }
 
-// Splits a CSV line, honouring double quotes (no embedded quotes are written).
 std::string folder_name(const SeriesValues& values) {
   std::string n;
   for (const auto& [k, v] : values) n += (n.empty() ? "" : "_") + k + "_" + v;
@@ -86,13 +88,21 @@ SeriesAxis parse_series_axis(const std::string& arg) {
   bool known = false;
   for (const std::string& k : series_keys()) known |= k == a.key;
   if (!known) throw InputError("--vary " + arg + ": unknown key '" + a.key + "'; allowed: " + keys);
+  // The same value twice (also spelled differently: 1 and 1.0, 1e6 and 1000000) would run twice
+  // and, in fdem triaxial, count twice in the Mohr-Coulomb fit.
+  auto same = [](const std::string& x, const std::string& y) {
+    char *ex = nullptr, *ey = nullptr;
+    const double vx = std::strtod(x.c_str(), &ex), vy = std::strtod(y.c_str(), &ey);
+    return x == y || (*ex == '\0' && *ey == '\0' && vx == vy);
+  };
   std::stringstream in(arg.substr(eq + 1));
   for (std::string v; std::getline(in, v, ',');) {
     if (v.empty()) throw InputError("--vary " + arg + ": an empty value; separate values by single commas");
     for (const std::string& seen : a.values)
-      if (seen == v) throw InputError("--vary " + arg + ": value " + v + " is given twice");
+      if (same(seen, v)) throw InputError("--vary " + arg + ": value " + v + " is given twice (as " + seen + ")");
     a.values.push_back(v);
   }
+  if (arg.back() == ',') throw InputError("--vary " + arg + ": an empty value after the last comma; remove it");
   if (a.values.empty()) throw InputError("--vary " + arg + ": no values after '='");
   return a;
 }
@@ -154,6 +164,11 @@ std::vector<SeriesValues> series_combinations(const std::vector<SeriesAxis>& axe
                          " is given twice (each run takes one value of a key); give all "
                          "its values in one --vary " +
                          axes[i].key + "=a,b,...");
+  double count = 1;
+  for (const SeriesAxis& a : axes) count *= double(a.values.size());
+  if (count > kMaxSeriesRuns)
+    throw InputError("--vary: " + fmt(count, 3) + " combinations, each a whole run; at most " +
+                     std::to_string(kMaxSeriesRuns) + ". Fix: give fewer values, or split the study into series");
   std::vector<SeriesValues> combos(1);
   for (const SeriesAxis& a : axes) {
     std::vector<SeriesValues> next;
@@ -198,6 +213,22 @@ std::vector<SeriesRow> run_series(const std::string& scene_path, const std::vect
     Scene s = base;
     for (const auto& [k, v] : c) apply_series_value(s, k, v);
   }
+  // What a finished run is recognised by (run.txt): fdem's version, the values, the mesh file's
+  // bytes and the scene's text. Not the scene's path as typed (./a.yaml and a.yaml are one scene),
+  // but the mesh's content, which the scene's text does not hold.
+  std::string mesh_line;
+  if (!base.mesh.file.empty()) {
+    const std::string bytes = read_text(base.mesh.file);
+    char h[17];
+    std::snprintf(h, sizeof h, "%016llx", static_cast<unsigned long long>(fnv1a64(bytes.data(), bytes.size())));
+    mesh_line = "mesh " + fs::path(base.mesh.file).filename().string() + " FNV-1a " + h + "\n";
+  }
+  std::error_code made;
+  fs::create_directories(folder, made);
+  if (made || !fs::is_directory(folder))
+    throw InputError("-o " + folder + ": cannot create the folder for the runs" +
+                     (made ? ": " + made.message() : std::string()) +
+                     ". Fix: give -o a folder (new or existing) where you may write, not a file");
   std::vector<SeriesRow> rows;
   const SignalGuard signals;  // a SIGTERM between runs stops the series before the next one
   for (std::size_t i = 0; i < combos.size(); ++i) {
@@ -205,7 +236,7 @@ std::vector<SeriesRow> run_series(const std::string& scene_path, const std::vect
     row.values = combos[i];
     row.folder = (fs::path(folder) / folder_name(combos[i])).string();
     std::ostringstream fp;
-    fp << "fdem " FDEM_VERSION "\nscene " << scene_path << "\n";
+    fp << "fdem " FDEM_VERSION "\n" << mesh_line;
     for (const auto& [k, v] : combos[i]) fp << k << " = " << v << "\n";
     fp << "---\n" << text;
     const std::string fp_path = (fs::path(row.folder) / "run.txt").string();
@@ -242,19 +273,31 @@ std::vector<SeriesRow> run_series(const std::string& scene_path, const std::vect
       } catch (const InputError& e) {
         throw InputError(scene_path + " (" + label + "): mesh: " + e.what());
       }
-      Solver solver(s, std::move(model));
+      std::unique_ptr<Solver> solver;
       try {
-        const RunSummary r = run_scene(solver, log, run_options);
-        log << "  peak " << r.peak_stress / 1e6 << " MPa at strain " << r.strain_at_peak << ", " << r.last.broken
-            << " broken CE6, " << r.wall_seconds << " s wall" << std::endl;
-      } catch (const Interrupted& e) {
-        throw Interrupted(std::string(e.what()) + " (" + label +
-                          "); run the same command again to continue: finished runs are skipped and this one "
-                          "resumes from its checkpoint");
-      } catch (const RunError& e) {
-        // An unstable variant is a result of the series (e.g. too much mass scaling), not its end.
-        log << "  stopped: " << e.what() << std::endl;
-        write_unstable_summary(summary_path, s.name, e.what());
+        solver = std::make_unique<Solver>(s, std::move(model));
+      } catch (const TimeStepBeyondBound& e) {
+        // A fixed solver.time_step that this variant's mesh or mass scaling cannot take: an
+        // unstable variant, not the end of the series.
+        log << "  not run: " << e.what() << std::endl;
+        write_unstable_summary(summary_path, s.name, std::string("not run: ") + e.what());
+      } catch (const InputError& e) {
+        throw InputError(std::string(e.what()) + " (" + label + ")");
+      }
+      if (solver) {
+        try {
+          const RunSummary r = run_scene(*solver, log, run_options);
+          log << "  peak " << r.peak_stress / 1e6 << " MPa at strain " << r.strain_at_peak << ", " << r.last.broken
+              << " broken CE6, " << r.wall_seconds << " s wall" << std::endl;
+        } catch (const Interrupted& e) {
+          throw Interrupted(std::string(e.what()) + " (" + label +
+                            "); run the same command again to continue: finished runs are skipped and this one "
+                            "resumes from its checkpoint");
+        } catch (const RunError& e) {
+          // An unstable variant is a result of the series (e.g. too much mass scaling), not its end.
+          log << "  stopped: " << e.what() << std::endl;
+          write_unstable_summary(summary_path, s.name, e.what());
+        }
       }
     }
     row.summary = read_summary(summary_path);

@@ -3,9 +3,10 @@
 // confining pressures and the paper's loading-rate and specimen-size studies.
 //
 // Each run writes a normal run folder <folder>/<key>_<value>[_<key>_<value>...]/ (monitors.csv,
-// fields, summary.csv) plus run.txt, the fingerprint of what was run (fdem version, the scene
-// file's text, the values). A run whose folder holds summary.csv and the same run.txt is not run
-// again: an interrupted series resumes where it stopped. The series writes
+// fields, summary.csv) plus run.txt, the fingerprint of what was run (fdem version, the values,
+// an FNV-1a hash of the mesh file's bytes, the scene file's text; not the scene's path). A run
+// whose folder holds summary.csv and the same run.txt is not run again: an interrupted series
+// resumes where it stopped. The series writes
 // <folder>/series.csv, one row per run: the varied values, then the columns of summary.csv.
 #include <iosfwd>
 #include <map>
@@ -26,7 +27,8 @@ namespace fdem {
 ///   mass_scaling     -    density factor m >= 1
 ///   activation       -    adaptive | full | none
 ///   time_step_safety -    fraction of the stable-step bound
-/// A run stopped as unstable (RunError) gets a summary.csv with empty numbers and end_reason
+/// A run stopped as unstable (RunError), or not run since the scene's fixed solver.time_step is
+/// beyond ten times its stable-step bound, gets a summary.csv with empty numbers and end_reason
 /// "unstable: <why>", and the series goes on.
 struct SeriesAxis {
   std::string key;
@@ -43,6 +45,9 @@ SeriesAxis parse_series_axis(const std::string& arg);
 void apply_series_value(Scene& scene, const std::string& key, const std::string& value);
 
 using SeriesValues = std::vector<std::pair<std::string, std::string>>;  // key, value as typed
+
+/// At most this many runs in one series (each a whole run: more is a slip).
+constexpr int kMaxSeriesRuns = 10000;
 
 /// Every combination of the axes' values, the last axis varying fastest.
 std::vector<SeriesValues> series_combinations(const std::vector<SeriesAxis>& axes);

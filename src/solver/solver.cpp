@@ -510,7 +510,7 @@ void Solver::check_step_count() const {
   const SolverSettings& sol = scene_.solver;
   const real bound = stable_bound();
   if (sol.time_step > SolverSettings::kMaxSafety * bound)
-    throw InputError(file + ": solver.time_step: " + fmt(sol.time_step, 6) + " s is " + fmt(sol.time_step / bound, 3) +
+    throw TimeStepBeyondBound(file + ": solver.time_step: " + fmt(sol.time_step, 6) + " s is " + fmt(sol.time_step / bound, 3) +
                      " x the stable-step bound " + fmt(bound, 3) + " s (limited by " + stable_.limit + "); beyond " +
                      fmt(SolverSettings::kMaxSafety) +
                      " x it no run is stable (the limit of time_step_safety). Fix: lower solver.time_step, or set it "

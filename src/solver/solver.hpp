@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "core/device_memory.hpp"
+#include "core/error.hpp"
 #include "model/model.hpp"
 #include "partition/halo.hpp"
 #include "partition/partition.hpp"
@@ -19,6 +20,12 @@
 #include "solver/device_loop.hpp"
 
 namespace fdem {
+
+/// A solver.time_step beyond SolverSettings::kMaxSafety times the stable-step bound: no run is
+/// stable there. An input error for fdem run; an unstable variant for a series.
+struct TimeStepBeyondBound : InputError {
+  using InputError::InputError;
+};
 
 class CheckpointOut;
 class CheckpointIn;

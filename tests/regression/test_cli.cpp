@@ -389,6 +389,8 @@ TEST(CliExe, SeriesRunsEveryValueOnceAndTabulatesThem) {
 TEST(CliExe, SeriesBadValuesExitTwoBeforeAnyRun) {
   TempDir tmp("series_bad");
   const std::string scene = quote((kData / "cli" / "run_box.yaml").string());
+  std::string many = "1";  // 1001 mass scalings: with 10 safety factors, 10010 runs
+  for (int m = 2; m <= 1001; ++m) many += "," + std::to_string(m);
   const std::vector<std::pair<std::string, std::string>> cases = {
       {"triaxial " + scene + " --sigma3 0,5", "below 1 kPa"},
       {"series " + scene + " --vary frob=1,2", "unknown key 'frob'"},
@@ -401,6 +403,14 @@ TEST(CliExe, SeriesBadValuesExitTwoBeforeAnyRun) {
       {"series " + scene + " --vary platen_velocity=1e9", "at most 10 m/s"},
       {"triaxial " + scene + " --sigma3 1e11", "sigma3=1e11: the confining pressure must be in [0, "},
       {"series " + scene + " --vary mass_scaling=5 --vary mass_scaling=10", "--vary mass_scaling is given twice"},
+      // The same value spelled twice ran twice, and counted twice in triaxial's Mohr-Coulomb fit.
+      {"series " + scene + " --vary mass_scaling=10,1e1", "value 1e1 is given twice (as 10)"},
+      {"triaxial " + scene + " --sigma3 1e6,1000000", "value 1000000 is given twice (as 1e6)"},
+      {"series " + scene + " --vary mass_scaling=10,", "an empty value after the last comma"},
+      {"series " + scene + " --vary mass_scaling=0x10", "mass_scaling=0x10: not a number"},
+      {"series " + scene + " --vary mass_scaling=" + many +
+           " --vary time_step_safety=0.1,0.2,0.3,0.4,0.5,0.6,0.7,0.8,0.9,1",
+       "--vary: 1e+04 combinations, each a whole run; at most 10000"},
       {"run " + scene + " -t 65536", "--threads: Value 65536 not in range 0 to 1024"},
       {"run " + scene + " --contact-reach nan", "--contact-reach: Value nan is not a finite length > 0 (m)"},
       {"series " + scene + " -t 1025 --vary mass_scaling=5", "Value 1025 not in range 0 to 1024"},
@@ -416,6 +426,60 @@ TEST(CliExe, SeriesBadValuesExitTwoBeforeAnyRun) {
     EXPECT_TRUE(has(o.text, msg)) << args << "\n" << o.text;
     EXPECT_FALSE(fs::exists(out)) << args;
   }
+  // -o naming a file: exit 2 naming it (it was exit 4, "cannot write .../run.txt.tmp").
+  std::ofstream(tmp.path / "a_file") << "keep";
+  const Outcome f =
+      run_fdem("series " + scene + " --vary mass_scaling=5 -q -o " + quote((tmp.path / "a_file").string()));
+  EXPECT_EQ(f.code, 2) << f.text;
+  EXPECT_TRUE(has(f.text, "cannot create the folder for the runs")) << f.text;
+  EXPECT_EQ(slurp(tmp.path / "a_file"), "keep");
+}
+
+TEST(CliExe, SeriesKnowsAFinishedRunByItsSceneTextAndMeshBytesNotThePathAsTyped) {
+  TempDir tmp("series_fingerprint");
+  fs::copy_file(kData / "meshes" / "cube6_v22.msh", tmp.path / "cube.msh");
+  std::ofstream(tmp.path / "s.yaml") << "name: fp\nmesh: {file: cube.msh, scale: 0.01}\n"
+                                        "solver: {end: {steps: 20}}\noutput: {progress_interval: 0, plot: false}\n";
+  const std::string out = " -q -o " + quote((tmp.path / "series").string());
+  const std::string vary = " --vary mass_scaling=1";
+  Outcome o = run_fdem("series " + quote((tmp.path / "s.yaml").string()) + vary + out);
+  ASSERT_EQ(o.code, 0) << o.text;
+  EXPECT_TRUE(has(o.text, "[1/1] mass_scaling_1: running in")) << o.text;
+  // The same scene by another spelling of its path: finished (it reran, dropping checkpoints).
+  o = run_fdem("series " + quote((tmp.path / "." / "s.yaml").string()) + vary + out);
+  ASSERT_EQ(o.code, 0) << o.text;
+  EXPECT_TRUE(has(o.text, "finished before, not run again")) << o.text;
+  // The mesh file edited (a corner moved), the scene's text the same: run again (it reported the
+  // old mesh's results as finished).
+  std::string mesh = slurp(tmp.path / "cube.msh");
+  const std::size_t at = mesh.find("\n80 1.0 1.0 1.0\n");
+  ASSERT_NE(at, std::string::npos);
+  mesh.replace(at, 16, "\n80 1.0 1.0 1.2\n");
+  std::ofstream(tmp.path / "cube.msh") << mesh;
+  o = run_fdem("series " + quote((tmp.path / "s.yaml").string()) + vary + out);
+  ASSERT_EQ(o.code, 0) << o.text;
+  EXPECT_TRUE(has(o.text, "[1/1] mass_scaling_1: running in")) << o.text;
+}
+
+TEST(CliExe, ASeriesVariantWhoseFixedTimeStepIsBeyondItsBoundIsUnstableNotTheEnd) {
+  // solver.time_step fixed at 1e-6 s: about 0.65 x the stable-step bound at m = 1000, 20 x at
+  // m = 1 (the bound grows with sqrt(m)). The second variant is recorded, not run; the series ends
+  // with its table.
+  TempDir tmp("series_dt");
+  const fs::path scene = cli_test::scene_variant(kData / "cli" / "study_box.yaml", tmp.path, "fixed_dt",
+                                                 {{"mass_scaling: 10", "mass_scaling: 10\n  time_step: 1.0e-6"}});
+  const fs::path out = tmp.path / "series";
+  const Outcome o =
+      run_fdem("series " + quote(scene.string()) + " --vary mass_scaling=1000,1 -q -o " + quote(out.string()));
+  ASSERT_EQ(o.code, 0) << o.text;
+  EXPECT_TRUE(has(o.text, "[2/2] mass_scaling_1: running in")) << o.text;
+  EXPECT_TRUE(has(o.text, "not run: ")) << o.text;
+  const auto first = fdem::read_summary((out / "mass_scaling_1000" / "summary.csv").string());
+  const auto second = fdem::read_summary((out / "mass_scaling_1" / "summary.csv").string());
+  EXPECT_EQ(first.at("end_reason"), "axial strain reached");
+  EXPECT_EQ(second.at("end_reason").rfind("unstable: not run: ", 0), 0u) << second.at("end_reason");
+  EXPECT_TRUE(has(second.at("end_reason"), "x the stable-step bound")) << second.at("end_reason");
+  EXPECT_TRUE(fs::exists(out / "series.csv"));
 }
 
 TEST(CliExe, StudyMeasuresErrorsAgainstTheReferenceAndResumes) {
