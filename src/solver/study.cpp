@@ -131,12 +131,16 @@ StudyResult run_study(const std::string& scene_path, const std::vector<SeriesAxi
   const StressStrainCurve c0 = read_stress_strain((fs::path(r0.folder) / "monitors.csv").string());
   const std::vector<long> b0 = read_broken_ce6((fs::path(r0.folder) / "broken_ce6.csv").string());
   const real pk0 = r0.number("peak_stress_Pa"), e0 = r0.number("strain_at_peak"), n0 = r0.number("broken_ce6");
+  // Errors relative to a reference without a peak would be x/0 (peak, strain at peak) or have no
+  // pre-peak curve.
   if (!(pk0 > 0) || !(e0 > 0))
-    throw RunError("the reference variant (" + label_of(r0.values) + ") reached no peak: peak stress " + fmt(pk0, 3) +
-                   " Pa at axial strain " + fmt(e0, 3) + " when it ended (" +
+    throw RunError("the reference variant (" + label_of(r0.values) + ") " +
+                   (pk0 > 0 ? "peaked at axial strain " + fmt(e0, 3) + " (before the platens moved)"
+                            : "reached no peak: peak stress " + fmt(pk0, 3) + " Pa") +
+                   " when it ended (" +
                    (r0.summary.count("end_reason") ? r0.summary.at("end_reason") : std::string("?")) +
-                   "), so the errors against it are 0/0. Fix: let the runs load past the peak (solver.end: "
-                   "post_peak_fraction, or a larger axial_strain); the runs are kept in " +
+                   "), so the errors against it are undefined. Fix: load the specimen (platens) past the peak "
+                   "(solver.end: post_peak_fraction, or a larger axial_strain); the runs are kept in " +
                    fs::path(r0.folder).parent_path().string());
   const real w0 = r0.number("wall_s"), end0 = c0.strain.empty() ? 0 : c0.strain.back();
   for (std::size_t i = 0; i < runs.size(); ++i) {
