@@ -1,5 +1,8 @@
 #include "io/checkpoint.hpp"
 
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 
@@ -35,11 +38,20 @@ CheckpointIn read_checkpoint(const std::string& path, CheckpointKind kind) {
   const bool rank_file = kind == CheckpointKind::rank_file;
   const std::string name = rank_file ? "rank file" : "checkpoint";
   const std::string again = "write the rank files again with fdem partition";
+  const std::string where = rank_file
+                                ? "give --partitioned the folder fdem partition -o wrote (rank_<r>.fdp for every rank)"
+                                : "give a checkpoint file or the run's folder";
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec))
+    throw InputError(path + ": is a folder, not a " + name + ". Fix: " + where);
   std::ifstream in(path, std::ios::binary);
-  if (!in)
-    throw InputError(path + ": cannot open the " + name + ". Fix: " +
-                     (rank_file ? "give --partitioned the folder fdem partition -o wrote (rank_<r>.fdp for every rank)"
-                                : "give a checkpoint file or the run's folder"));
+  if (!in) {
+    const int err = errno;
+    if (std::filesystem::exists(path, ec))
+      throw CannotOpen(path + ": cannot open the " + name + " (" + std::strerror(err) +
+                       "). Fix: make it readable (chmod u+r) for the user who runs fdem");
+    throw InputError(path + ": cannot open the " + name + " (" + std::strerror(err) + "). Fix: " + where);
+  }
   std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   auto bad = [&](const std::string& what) {
     throw InputError(path + ": not a usable fdem " + name + " (" + what + "). Fix: " +

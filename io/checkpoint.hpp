@@ -128,6 +128,12 @@ enum class CheckpointKind { checkpoint, rank_file };
 
 /// Reads and verifies a checkpoint file; throws InputError naming the file, what is wrong with
 /// it and the fix.
+/// A checkpoint or rank file that is there but cannot be opened (permissions): not damaged, so a
+/// restart stops instead of falling back to (and removing) it.
+struct CannotOpen : InputError {
+  using InputError::InputError;
+};
+
 CheckpointIn read_checkpoint(const std::string& path, CheckpointKind kind = CheckpointKind::checkpoint);
 
 }  // namespace fdem

@@ -645,6 +645,9 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
         std::optional<CheckpointIn> in;
         try {
           in.emplace(read_checkpoint(file));
+        } catch (const CannotOpen& e) {
+          // Not damaged, only unreadable: falling back would drop its rows and remove it.
+          throw InputError("--restart " + options.restart + ": " + e.what() + "; nothing was changed");
         } catch (const InputError& e) {
           why = e.what();
         }

@@ -5,6 +5,8 @@
 // scene, or one already past the scene's end, is refused with exit 2; an interrupted `fdem
 // series` continues its run from its checkpoint; a checkpoint that cannot be written is a
 // warning, not the end of the run.
+#include <unistd.h>
+
 #include <regex>
 
 #include "cli_support.hpp"
@@ -219,6 +221,31 @@ TEST(Restart, ACheckpointOfAnotherSceneOrNoneIsRefusedWithExitTwo) {
   EXPECT_EQ(o.code, 2) << o.text;
   EXPECT_TRUE(has(o.text, "no checkpoint there")) << o.text;
   EXPECT_FALSE(fs::exists(tmp.path / "e"));
+}
+
+TEST(Restart, ACheckpointThatCannotBeOpenedStopsItAndIsKept) {
+  // The newest checkpoint unreadable (permissions: a shared folder, another user's umask): the
+  // restart fell back to the one before and removed the newest with the rows after the older.
+  TempDir tmp("restart_unreadable");
+  const fs::path scene = scene_variant(
+      tmp.path, "every100",
+      {{"end: {steps: 3000}", "end: {steps: 250}"}, {"checkpoint_wall_interval: 0", "checkpoint_interval: 100"}});
+  const fs::path d = tmp.path / "d";
+  ASSERT_EQ(run_fdem(run_args(scene, d)).code, 0);
+  ASSERT_EQ(checkpoint_names(d), (std::vector<std::string>{"step_000000000100.ckpt", "step_000000000200.ckpt"}));
+  const std::string before = slurp(d / "monitors.csv");
+  // Root reads any file: run fdem as nobody then, in a tree nobody may write.
+  const std::string as = geteuid() == 0 ? "setpriv --reuid=65534 --regid=65534 --clear-groups " : "";
+  if (!as.empty()) {
+    ASSERT_EQ(run_cmd("chmod -R a+rwX " + quote(tmp.path.string())).code, 0);
+  }
+  fs::permissions(d / "checkpoints" / "step_000000000200.ckpt", fs::perms::none);
+  const Outcome o = run_cmd(kEnv + as + quote(kExe) + " " + run_args(scene, d) + " --restart " + quote(d.string()));
+  EXPECT_EQ(o.code, 2) << o.text;
+  EXPECT_TRUE(has(o.text, "step_000000000200.ckpt: cannot open the checkpoint (Permission denied)")) << o.text;
+  EXPECT_TRUE(has(o.text, "nothing was changed")) << o.text;
+  EXPECT_EQ(checkpoint_names(d).size(), 2u);
+  EXPECT_EQ(slurp(d / "monitors.csv"), before);
 }
 
 TEST(Restart, AnInterruptedSeriesContinuesFromItsCheckpoint) {

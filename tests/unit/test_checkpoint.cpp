@@ -102,6 +102,12 @@ TEST(Checkpoint, DamagedOrForeignFilesAreRefusedNamingTheFile) {
   write_bytes(p, good);
   EXPECT_EQ(refusal(p), "");
   fs::remove(p);
+
+  // A folder by the file's name (it was std::ios_base::failure's "Is a directory", exit 1).
+  fs::create_directory(p);
+  why = refusal(p);
+  EXPECT_NE(why.find(p.string() + ": is a folder, not a checkpoint"), std::string::npos) << why;
+  fs::remove(p);
 }
 
 TEST(Checkpoint, ReadingPastTheEndOrLeavingBytesIsAnError) {
