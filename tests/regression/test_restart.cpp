@@ -23,6 +23,14 @@ fs::path scene_variant(const fs::path& dir, const std::string& name,
   return cli_test::scene_variant(kScene, dir, name, edits);
 }
 
+/// The restart scene ending after `steps` with a checkpoint every `every` steps, plus edits.
+fs::path checkpointed(const fs::path& dir, const std::string& name, int steps, int every,
+                      std::vector<std::pair<std::string, std::string>> edits = {}) {
+  edits.insert(edits.begin(), {{"end: {steps: 3000}", "end: {steps: " + std::to_string(steps) + "}"},
+                               {"checkpoint_wall_interval: 0", "checkpoint_interval: " + std::to_string(every)}});
+  return scene_variant(dir, name, edits);
+}
+
 std::string run_args(const fs::path& scene, const fs::path& out) {
   return "run " + quote(scene.string()) + " -o " + quote(out.string());
 }
@@ -136,9 +144,7 @@ TEST(Restart, FromAStepCheckpointBeforeThePeakEqualsTheUninterruptedRun) {
   const fs::path& a = reference_run();
   TempDir tmp("restart_steps");
   // A first run of 1000 steps checkpointing every 500: one checkpoint, at step 500 (none at the end).
-  const fs::path first = scene_variant(
-      tmp.path, "first",
-      {{"end: {steps: 3000}", "end: {steps: 1000}"}, {"checkpoint_wall_interval: 0", "checkpoint_interval: 500"}});
+  const fs::path first = checkpointed(tmp.path, "first", 1000, 500);
   const fs::path b = tmp.path / "b";
   Outcome o = run_fdem(run_args(first, b));
   ASSERT_EQ(o.code, 0) << o.text;
@@ -188,18 +194,13 @@ TEST(Restart, AfterSigtermWithADamagedNewestCheckpointEqualsTheUninterruptedRun)
 
 TEST(Restart, ACheckpointOfAnotherSceneOrNoneIsRefusedWithExitTwo) {
   TempDir tmp("restart_refused");
-  const fs::path scene = scene_variant(
-      tmp.path, "short",
-      {{"end: {steps: 3000}", "end: {steps: 120}"}, {"checkpoint_wall_interval: 0", "checkpoint_interval: 100"}});
+  const fs::path scene = checkpointed(tmp.path, "short", 120, 100);
   const fs::path d = tmp.path / "d";
   ASSERT_EQ(run_fdem(run_args(scene, d)).code, 0);
   ASSERT_EQ(checkpoint_names(d).size(), 1u);
   const std::string before = slurp(d / "monitors.csv");
   // Another loading rate: refused, and the folder is left as it was.
-  const fs::path faster = scene_variant(tmp.path, "faster",
-                                        {{"end: {steps: 3000}", "end: {steps: 120}"},
-                                         {"checkpoint_wall_interval: 0", "checkpoint_interval: 100"},
-                                         {"velocity: 1.0", "velocity: 1.5"}});
+  const fs::path faster = checkpointed(tmp.path, "faster", 120, 100, {{"velocity: 1.0", "velocity: 1.5"}});
   Outcome o = run_fdem(run_args(faster, d) + " --restart " + quote(d.string()));
   EXPECT_EQ(o.code, 2) << o.text;
   EXPECT_TRUE(has(o.text, "step_000000000100.ckpt")) << o.text;
@@ -207,9 +208,7 @@ TEST(Restart, ACheckpointOfAnotherSceneOrNoneIsRefusedWithExitTwo) {
   EXPECT_EQ(slurp(d / "monitors.csv"), before);
   // The same scene with its end moved before the checkpoint: refused, the rows after it kept (the
   // run used to drop them, take one step and stop).
-  const fs::path shorter = scene_variant(
-      tmp.path, "shorter",
-      {{"end: {steps: 3000}", "end: {steps: 80}"}, {"checkpoint_wall_interval: 0", "checkpoint_interval: 100"}});
+  const fs::path shorter = checkpointed(tmp.path, "shorter", 80, 100);
   o = run_fdem(run_args(shorter, d) + " --restart " + quote(d.string()));
   EXPECT_EQ(o.code, 2) << o.text;
   EXPECT_TRUE(has(o.text, "is at step 100, t = ")) << o.text;
@@ -227,9 +226,7 @@ TEST(Restart, ACheckpointThatCannotBeOpenedStopsItAndIsKept) {
   // The newest checkpoint unreadable (permissions: a shared folder, another user's umask): the
   // restart fell back to the one before and removed the newest with the rows after the older.
   TempDir tmp("restart_unreadable");
-  const fs::path scene = scene_variant(
-      tmp.path, "every100",
-      {{"end: {steps: 3000}", "end: {steps: 250}"}, {"checkpoint_wall_interval: 0", "checkpoint_interval: 100"}});
+  const fs::path scene = checkpointed(tmp.path, "every100", 250, 100);
   const fs::path d = tmp.path / "d";
   ASSERT_EQ(run_fdem(run_args(scene, d)).code, 0);
   ASSERT_EQ(checkpoint_names(d), (std::vector<std::string>{"step_000000000100.ckpt", "step_000000000200.ckpt"}));
@@ -277,12 +274,8 @@ TEST(Restart, AnInterruptedSeriesContinuesFromItsCheckpoint) {
 
 TEST(Restart, AFreshRunDropsOldCheckpointsAndARestartChecksItsMonitorFile) {
   TempDir tmp("restart_fresh");
-  const fs::path every100 = scene_variant(
-      tmp.path, "every100",
-      {{"end: {steps: 3000}", "end: {steps: 250}"}, {"checkpoint_wall_interval: 0", "checkpoint_interval: 100"}});
-  const fs::path every50 = scene_variant(
-      tmp.path, "every50",
-      {{"end: {steps: 3000}", "end: {steps: 60}"}, {"checkpoint_wall_interval: 0", "checkpoint_interval: 50"}});
+  const fs::path every100 = checkpointed(tmp.path, "every100", 250, 100);
+  const fs::path every50 = checkpointed(tmp.path, "every50", 60, 50);
   const fs::path d = tmp.path / "d", e = tmp.path / "e";
   ASSERT_EQ(run_fdem(run_args(every100, d)).code, 0);
   ASSERT_EQ(checkpoint_names(d), (std::vector<std::string>{"step_000000000100.ckpt", "step_000000000200.ckpt"}));
@@ -291,10 +284,8 @@ TEST(Restart, AFreshRunDropsOldCheckpointsAndARestartChecksItsMonitorFile) {
   EXPECT_EQ(checkpoint_names(d), std::vector<std::string>{"step_000000000050.ckpt"});
   // A checkpoint restarted into another run's folder (same physics, other monitor rows): refused
   // before anything there changes.
-  const fs::path rows25 = scene_variant(tmp.path, "rows25",
-                                        {{"end: {steps: 3000}", "end: {steps: 250}"},
-                                         {"checkpoint_wall_interval: 0", "checkpoint_interval: 100"},
-                                         {"monitor_interval: 50", "monitor_interval: 25"}});
+  const fs::path rows25 =
+      checkpointed(tmp.path, "rows25", 250, 100, {{"monitor_interval: 50", "monitor_interval: 25"}});
   ASSERT_EQ(run_fdem(run_args(rows25, e)).code, 0);
   const std::string before = slurp(e / "monitors.csv");
   const Outcome o =
