@@ -1,10 +1,12 @@
 // The fdem command line. Exit codes: 0 success, 2 bad input, 3 run stopped (unstable),
 // 4 writing output failed, 5 stopped by SIGTERM/SIGINT after a checkpoint, 1 other.
 #include <mpi.h>
+#include <omp.h>
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
@@ -278,6 +280,13 @@ int run_main(int argc, char** argv) {
     return code == 0 ? 0 : 2;
   }
 
+  // OpenMP's own limit is far above what it survives: libgomp crashed at 100000 threads before
+  // the first line of output.
+  if (omp_get_max_threads() > fdem::SolverSettings::kMaxThreads)
+    throw fdem::InputError(
+        "OMP_NUM_THREADS=" + std::string(std::getenv("OMP_NUM_THREADS") ? std::getenv("OMP_NUM_THREADS") : "?") +
+        ": more than " + std::to_string(fdem::SolverSettings::kMaxThreads) +
+        " OpenMP threads. Fix: set OMP_NUM_THREADS to the cores of one rank, or unset it");
   const int size = world_size(), rank = world_rank();
   if (size > 1 && !run->parsed())
     throw fdem::InputError("fdem " + app.get_subcommands().front()->get_name() + " runs on one MPI rank (got " +

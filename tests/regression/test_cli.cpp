@@ -435,6 +435,14 @@ TEST(CliExe, SeriesBadValuesExitTwoBeforeAnyRun) {
   EXPECT_EQ(slurp(tmp.path / "a_file"), "keep");
 }
 
+TEST(CliExe, OpenMpThreadsFromTheEnvironmentHaveTheSameLimitAsTheOption) {
+  // libgomp crashed (exit 139, no output) at OMP_NUM_THREADS=100000.
+  const Outcome o =
+      run_cmd("OMP_NUM_THREADS=100000 " + quote(kExe) + " check " + quote((kData / "cli" / "run_box.yaml").string()));
+  EXPECT_EQ(o.code, 2) << o.text;
+  EXPECT_TRUE(has(o.text, "OMP_NUM_THREADS=100000: more than 1024 OpenMP threads")) << o.text;
+}
+
 TEST(CliExe, SeriesKnowsAFinishedRunByItsSceneTextAndMeshBytesNotThePathAsTyped) {
   TempDir tmp("series_fingerprint");
   fs::copy_file(kData / "meshes" / "cube6_v22.msh", tmp.path / "cube.msh");
