@@ -19,12 +19,11 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// A decimal number, all of v (not "2%" or "0x1"); NaN otherwise.
 real value_of(const std::string& v) {
-  try {
-    return std::stod(v);
-  } catch (const std::exception&) {
-    return NAN;
-  }
+  char* end = nullptr;
+  const double x = std::strtod(v.c_str(), &end);
+  return v.empty() || *end != '\0' || v.find_first_of("xX") != std::string::npos ? NAN : x;
 }
 
 // How exact a value of an axis is: larger is more exact; NaN where there is no order.
@@ -74,6 +73,12 @@ std::map<std::string, real> parse_budget(const std::vector<std::string>& args) {
       if (!(x >= 0) || (key == "jaccard" && x > 1))
         throw InputError("--budget " + arg + ": '" + item + "' needs a limit >= 0 such as 2% or 0.02" +
                          (key == "jaccard" ? " (jaccard: the least overlap accepted, <= 1)" : ""));
+      // A fraction above 1 is an error of more than 100 %: surely per cent meant without the sign.
+      if (!pct && key != "jaccard" && x > 1)
+        throw InputError("--budget " + arg + ": '" + item + "' is " + fmt(100 * x) +
+                         " % (limits are fractions); write " + v + "% for " + v + " per cent, or " + fmt(100 * x) +
+                         "% if that is meant");
+      if (b.count(key)) throw InputError("--budget " + arg + ": " + key + " is given twice; give one limit for it");
       b[key] = x;
     }
   }

@@ -417,6 +417,10 @@ TEST(CliExe, SeriesBadValuesExitTwoBeforeAnyRun) {
       {"study " + scene + " --vary precision=fp64,fp32", "double precision only"},
       {"study " + scene + " --vary sigma3=0,1e6", "sigma3 has no most exact value"},
       {"study " + scene + " --vary mass_scaling=1,5 --budget speed=2", "should be metric=limit"},
+      // 2 read as 200 %, the second limit silently winning, and 2%% taken.
+      {"study " + scene + " --vary mass_scaling=1,5 --budget peak=2", "'peak=2' is 200 % (limits are fractions)"},
+      {"study " + scene + " --vary mass_scaling=1,5 --budget peak=2%,peak=3%", "peak is given twice"},
+      {"study " + scene + " --vary mass_scaling=1,5 --budget peak=2%%", "needs a limit >= 0"},
   };
   int i = 0;
   for (const auto& [args, msg] : cases) {
