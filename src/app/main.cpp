@@ -363,6 +363,19 @@ int run_main(int argc, char** argv) {
                              " of " + std::to_string(rm.dd.size) + ", run as rank " + std::to_string(rank) + " of " +
                              std::to_string(size) + ". Fix: mpiexec -n " + std::to_string(rm.dd.size) +
                              ", or fdem partition -n " + std::to_string(size));
+    // The contact reach is the rank files': a partition made without contact holds no ghosts for
+    // it, and the run would lose contacts across ranks without a word.
+    if (size > 1 && scene.contact.enabled() && !(rm.dd.reach > 0))
+      throw fdem::InputError(rank_file(partitioned, rank) +
+                             ": written for a scene without contact (contact reach 0 m); " + scene.file +
+                             " has contact (" + scene.contact.activation +
+                             "). Fix: fdem partition this scene again, or run with --contact none");
+    if (contact_reach > 0)
+      throw fdem::InputError("--contact-reach " + fdem::fmt(contact_reach) +
+                             " with --partitioned: the rank files hold " + "their own reach (" +
+                             fdem::fmt(rm.dd.reach) +
+                             " m). Fix: give --contact-reach to fdem "
+                             "partition, or leave it out here");
     model = std::move(rm.model);
     dd = std::move(rm.dd);
   } else if (size == 1) {

@@ -126,6 +126,23 @@ TEST(CliRanks, RankFilesFromPartitionGiveTheSameRun) {
     EXPECT_TRUE(has(x.text, "without PETSc") && has(x.text, "--distribute root")) << x.text;
   }
 
+  // Rank files of the scene without contact, run with contact: refused on every rank (the run
+  // held no contact ghosts and lost contacts across ranks without a word); and --contact-reach
+  // beside --partitioned, which it cannot change.
+  const fs::path no_contact = cli_test::scene_variant(
+      kScene, tmp.path, "no_contact", {{"contact: {activation: adaptive}", "contact: {activation: none}"}});
+  const fs::path parts_nc = tmp.path / "parts_nc";
+  ASSERT_EQ(run_fdem("partition " + quote(no_contact.string()) + " -n 2 -o " + quote(parts_nc.string())).code, 0);
+  const Outcome nc = run_cmd(mpiexec(2) + quote(kExe) + " run " + quote(kScene) + " --partitioned " +
+                             quote(parts_nc.string()) + steps + quote((tmp.path / "nc").string()));
+  EXPECT_EQ(nc.code, 2) << nc.text;
+  EXPECT_TRUE(has(nc.text, "written for a scene without contact (contact reach 0 m)")) << nc.text;
+  const Outcome reach =
+      run_cmd(mpiexec(2) + quote(kExe) + " run " + quote(kScene) + " --partitioned " + quote(parts.string()) +
+              " --contact-reach 0.001" + steps + quote((tmp.path / "reach").string()));
+  EXPECT_EQ(reach.code, 2) << reach.text;
+  EXPECT_TRUE(has(reach.text, "--contact-reach 0.001 with --partitioned")) << reach.text;
+
   // Rank files for two ranks on one: refused, naming the file and the fix.
   const Outcome c = run_fdem("run " + quote(kScene) + " --partitioned " + quote(parts.string()) + " -q -o " +
                              quote((tmp.path / "wrong").string()));
