@@ -452,6 +452,24 @@ FieldWriter::FieldWriter(const std::string& folder, const std::string& basename,
   have_mesh_ = state.have_mesh;
   if (labels_.size() != grids_.size()) throw OutputError("field output " + h5_path_ + ": inconsistent saved state");
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  try {
+    take_over();
+  } catch (const OutputError& first) {
+    // A frame cut short (the disk filled while it was written) can leave the file so that its
+    // group cannot be removed: the frames the checkpoint holds go into a new file instead.
+    const std::string copied = copy_kept_frames();
+    if (!copied.empty())
+      throw OutputError(std::string(first.what()) + "; copying the " + std::to_string(frames()) +
+                        " frames before the checkpoint into a new file failed too (" + copied +
+                        "). Fix: run the scene afresh, without --restart (the field frames cannot be continued)");
+    take_over();
+    repaired_ = std::string(first.what()) + "; the " + std::to_string(frames()) +
+                " frames before the checkpoint were copied into a new " + h5_name_;
+  }
+  rewrite_index();
+}
+
+void FieldWriter::take_over() {
   Handle h5(H5Fopen(h5_path_.c_str(), H5F_ACC_RDWR, H5P_DEFAULT), H5Fclose);
   if (!h5.ok()) h5_fail(h5_path_, "opening the file of the interrupted run (restart in its output folder)");
   for (int i = 0; i < frames(); ++i) {
@@ -469,7 +487,29 @@ FieldWriter::FieldWriter(const std::string& folder, const std::string& basename,
     if (H5Ldelete(h5.get(), gname.c_str(), H5P_DEFAULT) < 0) h5_fail(h5_path_, "removing /" + gname);
   }
   if (!h5.reset()) h5_fail(h5_path_, "closing the file");
-  rewrite_index();
+}
+
+std::string FieldWriter::copy_kept_frames() const {
+  namespace fs = std::filesystem;
+  const std::string tmp = h5_path_ + ".copy";
+  std::string why;
+  {
+    Handle from(H5Fopen(h5_path_.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
+    Handle to(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose);
+    if (!from.ok() || !to.ok()) why = (from.ok() ? "creating " + tmp : "opening " + h5_path_) + ": " + h5_detail();
+    std::vector<std::string> names;
+    if (have_mesh_) names.push_back("mesh");
+    for (int i = 0; i < frames(); ++i) names.push_back(frame_name(i));
+    for (const std::string& n : names)
+      if (why.empty() && H5Ocopy(from.get(), n.c_str(), to.get(), n.c_str(), H5P_DEFAULT, H5P_DEFAULT) < 0)
+        why = "copying /" + n + ": " + h5_detail();
+    if (!to.reset() && why.empty()) why = "closing " + tmp + ": " + h5_detail();
+  }
+  std::error_code ec;
+  if (why.empty()) fs::rename(tmp, h5_path_, ec);
+  if (ec) why = "renaming " + tmp + ": " + ec.message();
+  if (!why.empty()) fs::remove(tmp, ec);
+  return why;
 }
 
 void FieldWriter::rewrite_index() const {
@@ -485,6 +525,10 @@ void FieldWriter::rewrite_index() const {
   } catch (const OutputError& e) {
     throw OutputError(std::string("field output: index: ") + e.what());
   }
+}
+
+int open_hdf5_files() {
+  return static_cast<int>(H5Fget_obj_count(H5F_OBJ_ALL, H5F_OBJ_FILE));
 }
 
 }  // namespace fdem

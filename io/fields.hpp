@@ -53,6 +53,11 @@ struct FieldWriterState {
   bool have_mesh = false;
 };
 
+/// HDF5 files still open in this process: after a close that failed (disk full at the final
+/// flush), HDF5 1.10's own shutdown inside MPI_Finalize crashes on such a file, so that the
+/// program leaves without it (src/app/main.cpp).
+int open_hdf5_files();
+
 /// Appends frames to <folder>/<basename>.h5 and keeps <folder>/<basename>.xdmf up to date.
 /// A file-system or HDF5 failure throws OutputError; a non-finite value or inconsistent sizes
 /// throw RunError
@@ -66,7 +71,11 @@ class FieldWriter {
   /// those in `state` are removed from the .h5, the labels of the kept ones are set as saved
   /// (a later relabel is undone) and the index is rewritten. Throws OutputError if the .h5 is
   /// missing or lacks a saved frame.
+  /// A frame cut short (the disk filled) that cannot be removed: the kept frames are copied into
+  /// a new .h5 and repaired() says so.
   FieldWriter(const std::string& folder, const std::string& basename, const FieldWriterState& state);
+  /// After a restart that had to copy the kept frames into a new file: why; else "".
+  const std::string& repaired() const { return repaired_; }
   FieldWriterState state() const { return {grids_, labels_, mesh_tets_, have_mesh_}; }
   /// Appends one frame.
   void write(const FieldFrame& f);
@@ -87,7 +96,13 @@ class FieldWriter {
   std::vector<std::string> grids_;   // XDMF text of each frame written so far
   std::vector<std::string> labels_;  // and its label
 
+  std::string repaired_;
+
   void rewrite_index() const;
+  /// The restart's work on the .h5: the kept frames' labels as saved, later frames removed.
+  void take_over();
+  /// Copies /mesh and the kept frames into <h5>.copy and renames it over the .h5; "" or why not.
+  std::string copy_kept_frames() const;
 };
 
 }  // namespace fdem

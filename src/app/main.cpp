@@ -18,6 +18,7 @@
 #include "core/format.hpp"
 #include "io/atomic_file.hpp"
 #include "io/checkpoint.hpp"
+#include "io/fields.hpp"
 #include "io/mesh_io.hpp"
 #include "model/model.hpp"
 #include "partition/halo.hpp"
@@ -509,6 +510,13 @@ int main(int argc, char** argv) {
   } else if (!message.empty()) {
     std::cerr << who << message << std::endl;
     if (size > 1) MPI_Abort(MPI_COMM_WORLD, code);
+  }
+  if (code != 0 && fdem::open_hdf5_files() > 0) {
+    // A field file whose close failed: HDF5's shutdown in MPI_Finalize would crash on it
+    // (exit 139 instead of the code above). Everything of ours is written or reported.
+    std::cout.flush();
+    std::cerr.flush();
+    std::_Exit(code);
   }
   fdem::plex_finalize();
   MPI_Finalize();

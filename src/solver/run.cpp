@@ -694,6 +694,7 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
       // Rows and frames written after the checkpoint are dropped; the loop writes them again.
       // Newer checkpoints (damaged, or of the history being replaced) go too.
       fields = std::make_unique<FieldWriter>(out.folder, fields_name, fs_state);
+      if (!fields->repaired().empty()) (root ? log : std::cerr) << "warning: " << fields->repaired() << std::endl;
       if (root) {
         fs::resize_file(csv_path, csv.bytes, ec);
         if (ec) throw OutputError("cannot truncate " + csv_path + ": " + ec.message());

@@ -245,6 +245,37 @@ TEST(Restart, ACheckpointThatCannotBeOpenedStopsItAndIsKept) {
   EXPECT_EQ(slurp(d / "monitors.csv"), before);
 }
 
+TEST(Restart, ADiskThatFillsWhileAFrameIsWrittenEndsWithExitFourAndTheRestartKeepsTheFrames) {
+  // A 40 kB file system fills while a ParaView frame is written: HDF5's shutdown crashed on the
+  // file it could not close (exit 139), and every restart failed to remove the frame cut short.
+  // Now exit 4, and the restart (with room again) copies the frames the checkpoint holds into a
+  // new fields.h5 and ends as the uninterrupted run does, bit for bit.
+  TempDir tmp("restart_disk_full");
+  const fs::path scene = tmp.path / "tiny.yaml", small = tmp.path / "small";
+  std::ofstream(scene) << "name: tiny\nmesh: {file: " << (kData / "meshes" / "cube6_v22.msh").string()
+                       << ", scale: 0.01}\nsolver: {end: {steps: 200}, threads: 1}\noutput: {progress_interval: 0, "
+                          "plot: false, checkpoint_interval: 20, checkpoint_wall_interval: 0, monitor_interval: 10, "
+                          "field_interval: 20}\n";
+  const fs::path ref = tmp.path / "ref";
+  ASSERT_EQ(run_fdem(run_args(scene, ref)).code, 0);
+  fs::create_directory(small);
+  if (run_cmd("mount -t tmpfs -o size=40k tmpfs " + quote(small.string())).code != 0)
+    GTEST_SKIP() << "needs to mount a tmpfs (root)";
+  struct Unmount {
+    fs::path p;
+    ~Unmount() { run_cmd("umount " + quote(p.string())); }
+  } unmount{small};
+  const fs::path run = small / "run";
+  const Outcome full = run_fdem(run_args(scene, run));
+  EXPECT_EQ(full.code, 4) << full.text;
+  EXPECT_TRUE(has(full.text, "output failed: HDF5 output")) << full.text;
+  ASSERT_EQ(run_cmd("mount -o remount,size=4m " + quote(small.string())).code, 0);
+  const Outcome again = run_fdem(run_args(scene, run) + " --restart " + quote(run.string()));
+  ASSERT_EQ(again.code, 0) << again.text;
+  EXPECT_TRUE(has(again.text, "frames before the checkpoint were copied into a new fields.h5")) << again.text;
+  expect_same_run(ref, run);
+}
+
 TEST(Restart, AnInterruptedSeriesContinuesFromItsCheckpoint) {
   TempDir tmp("restart_series");
   const fs::path scene =
