@@ -605,6 +605,10 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
     return reason;
   };
 
+  if (!options.restart.empty() && fs::is_directory(out.folder, ec) && ::access(out.folder.c_str(), W_OK) != 0)
+    throw InputError("--restart: cannot write in " + out.folder + " (" + std::strerror(errno) +
+                     "), where the run goes on; nothing was changed. Fix: make the folder writable, or copy it "
+                     "somewhere writable and restart there (with -o)");
   if (!options.restart.empty()) {
     // The newest checkpoint that reads and matches the files here; a damaged one, or one whose
     // monitors.csv is not the one in this folder, falls back to the one before.
@@ -669,9 +673,20 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
           in->finish();
           std::uint64_t hash = 0;
           const fs::path h5 = fs::path(out.folder) / (fields_name + ".h5");
-          if (root && (!hash_prefix(csv_path, csv.bytes, hash) || hash != csv.hash))
-            why = file + ": " + csv_path + " is missing, shorter than, or different from the monitors.csv of this " +
-                  "checkpoint. Fix: restart with output.folder (or -o) set to the folder of the interrupted run";
+          const std::string back =
+              ". Fix: put back the monitors.csv the run wrote, or restart in the interrupted "
+              "run's folder (output.folder or -o)";
+          if (root && !fs::is_regular_file(csv_path, ec))
+            why = file + ": " + csv_path + " is missing" + back;
+          else if (root && !hash_prefix(csv_path, csv.bytes, hash))
+            why = file + ": " + csv_path + " holds " + std::to_string(fs::file_size(csv_path, ec)) +
+                  " bytes, fewer than the " + std::to_string(csv.bytes) +
+                  " it held at this checkpoint (cut short, or another run's)" + back;
+          else if (root && hash != csv.hash)
+            why = file + ": " + csv_path + " differs in its first " + std::to_string(csv.bytes) +
+                  " bytes from the monitors.csv of this checkpoint (edited, saved again by a spreadsheet, or "
+                  "another run's)" +
+                  back;
           else if (!fs::is_regular_file(h5, ec))
             why = file + ": " + h5.string() + " is missing";
         }
@@ -707,7 +722,10 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
           << " at step " << solver.step_count() << ", t = " << solver.time() << " s" << std::endl;
       break;
     }
-    if (!csv.f.is_open()) throw InputError("--restart " + options.restart + ": no usable checkpoint:" + problems);
+    if (!csv.f.is_open())
+      throw InputError("--restart " + options.restart + ": no usable checkpoint:" + problems +
+                       "\nnothing was changed; without a usable checkpoint the run can only start afresh (without "
+                       "--restart)");
   } else {
     // A fresh run replaces an earlier run's outputs in this folder: first a check that it can
     // (on every rank), so that a failure leaves them whole; then its checkpoints, summary, plot

@@ -269,7 +269,12 @@ TEST(Restart, ADiskThatFillsWhileAFrameIsWrittenEndsWithExitFourAndTheRestartKee
   const Outcome full = run_fdem(run_args(scene, run));
   EXPECT_EQ(full.code, 4) << full.text;
   EXPECT_TRUE(has(full.text, "output failed: HDF5 output")) << full.text;
-  ASSERT_EQ(run_cmd("mount -o remount,size=4m " + quote(small.string())).code, 0);
+  // Read-only (a scratch file system mounted so): refused at once, naming why.
+  ASSERT_EQ(run_cmd("mount -o remount,ro " + quote(small.string())).code, 0);
+  const Outcome ro = run_fdem(run_args(scene, run) + " --restart " + quote(run.string()));
+  EXPECT_EQ(ro.code, 2) << ro.text;
+  EXPECT_TRUE(has(ro.text, "--restart: cannot write in " + run.string() + " (Read-only file system)")) << ro.text;
+  ASSERT_EQ(run_cmd("mount -o remount,rw,size=4m " + quote(small.string())).code, 0);
   const Outcome again = run_fdem(run_args(scene, run) + " --restart " + quote(run.string()));
   ASSERT_EQ(again.code, 0) << again.text;
   EXPECT_TRUE(has(again.text, "frames before the checkpoint were copied into a new fields.h5")) << again.text;
@@ -322,7 +327,10 @@ TEST(Restart, AFreshRunDropsOldCheckpointsAndARestartChecksItsMonitorFile) {
   const Outcome o =
       run_fdem(run_args(every50, e) + " --restart " + quote((d / "checkpoints" / "step_000000000050.ckpt").string()));
   EXPECT_EQ(o.code, 2) << o.text;
-  EXPECT_TRUE(has(o.text, "different from the monitors.csv of this checkpoint")) << o.text;
+  EXPECT_TRUE(
+      has(o.text,
+          "bytes from the monitors.csv of this checkpoint (edited, saved again by a spreadsheet, or another run's)"))
+      << o.text;
   EXPECT_EQ(slurp(e / "monitors.csv"), before);
 }
 
