@@ -863,7 +863,15 @@ Mesh read_msh(const std::string& path, real scale) {
   for (std::size_t i = 0; i < d.coords.size(); ++i)
     if (vidx[i] == 0) {
       vidx[i] = static_cast<int>(mesh.vertices.size());
-      mesh.vertices.push_back(scale * d.coords[i]);
+      const Vec3 x = scale * d.coords[i];
+      // Beyond 1000 km (after mesh.scale) no rock model lies: a slip of units, and volumes,
+      // edges and the time step would overflow.
+      if (!(std::fabs(x.x) <= 1e6 && std::fabs(x.y) <= 1e6 && std::fabs(x.z) <= 1e6))
+        throw InputError(path + ":" + std::to_string(d.node_lines[i]) + ": node " + std::to_string(d.node_tags[i]) +
+                         " lies at (" + fmt(x.x, 3) + ", " + fmt(x.y, 3) + ", " + fmt(x.z, 3) +
+                         ") m after mesh.scale " + fmt(scale) +
+                         ", more than 1000 km out. Fix: check the coordinates and mesh.scale (1e-3 for a mesh in mm)");
+      mesh.vertices.push_back(x);
       vtags.push_back(d.node_tags[i]);
     }
   mesh.tets.resize(d.tets.size());

@@ -231,7 +231,10 @@ Model build_model(const Mesh& mesh, const Scene& scene) {
     m.tet_Xinv[t] = ref.Xinv;
     m.tet_V0[t] = ref.V0;
     tet_hmin[t] = tet4_min_altitude(X);
-    m.min_altitude = std::min(m.min_altitude, tet_hmin[t]);
+    if (tet_hmin[t] < m.min_altitude) {
+      m.min_altitude = tet_hmin[t];
+      m.min_altitude_tet = m.tet_input[t];
+    }
     m.tet_eta[t] = sol.damping_scale * critical_damping(tet_hmin[t], sol.mass_scaling, mat.density, mat.youngs_modulus);
     for (int i = 0; i < 4; ++i) m.mass[m.tet_nodes[t][i]] += density * ref.V0 / 4;
   }

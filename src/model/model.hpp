@@ -59,8 +59,9 @@ struct Model {
   bool line_loaded = false;  // no flat ends (a disc): area0 is the diametral plane, height x y-extent
 
   // Statistics for the build report.
-  real min_altitude = 0;  // m
-  real mean_edge = 0;     // m
+  real min_altitude = 0;      // m
+  int min_altitude_tet = -1;  // the input's index of the tet with it (a sliver sets the time step)
+  real mean_edge = 0;         // m
   std::string source;
 };
 
@@ -74,6 +75,5 @@ struct VertexTets {
   std::vector<int> ptr, tets;
   explicit VertexTets(const Model& m);
 };
-
 
 }  // namespace fdem

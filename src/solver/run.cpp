@@ -494,6 +494,10 @@ bool run_python_script(const std::string& script, std::vector<std::string> args)
   return rc == 0 && waitpid(pid, &status, 0) == pid && WIFEXITED(status) && WEXITSTATUS(status) == 0;
 }
 
+/// A tet whose least altitude is below this fraction of the mean edge is named as a sliver: it
+/// alone sets the stable step (a gmsh mesh's least altitude is about 0.1 to 0.2 of its mean edge).
+constexpr real kSliver = 1e-2;
+
 void report_model(const Solver& solver, std::ostream& out) {
   const Model& m = solver.model();
   const StableStep& st = solver.stable_step();
@@ -512,6 +516,12 @@ void report_model(const Solver& solver, std::ostream& out) {
   }
   out << "  height " << m.height0 << " m, loaded area " << m.area0 << " m^2, mean edge " << m.mean_edge
       << " m, minimum altitude " << m.min_altitude << " m\n"
+      << (m.min_altitude < kSliver * m.mean_edge && m.min_altitude_tet >= 0
+              ? "  warning: tet " + std::to_string(m.min_altitude_tet + 1) + " of " + m.source +
+                    " is a sliver (altitude " + fmt(m.min_altitude, 3) + " m, " + fmt(m.min_altitude / m.mean_edge, 2) +
+                    " of the mean edge): it sets the stable step. Fix: remesh or optimise the mesh (gmsh "
+                    "-optimize_netgen)\n"
+              : std::string())
       << "  stable step " << solver.stable_bound() << " s limited by " << st.limit << " (TET4 " << st.dt_tet
       << " s, CE6 " << st.dt_ce6 << " s, platens " << st.dt_platen << " s, contact " << st.dt_contact << " s)\n"
       << "  backend " << backend_name(solver.backend())

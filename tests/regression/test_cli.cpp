@@ -439,6 +439,17 @@ TEST(CliExe, SeriesBadValuesExitTwoBeforeAnyRun) {
   EXPECT_EQ(slurp(tmp.path / "a_file"), "keep");
 }
 
+TEST(CliExe, CheckNamesASliverThatSetsTheTimeStep) {
+  const Outcome o = run_fdem("check " + quote((kData / "cli" / "sliver.yaml").string()));
+  EXPECT_EQ(o.code, 0) << o.text;
+  EXPECT_TRUE(has(o.text, "warning: tet 2 of ")) << o.text;
+  EXPECT_TRUE(has(o.text, "sliver_v22.msh is a sliver (altitude 1.73e-10 m, 1.5e-08 of the mean edge)")) << o.text;
+  // A gmsh box: no warning.
+  const Outcome box = run_fdem("check " + quote((kData / "cli" / "run_box.yaml").string()));
+  EXPECT_EQ(box.code, 0) << box.text;
+  EXPECT_FALSE(has(box.text, "sliver")) << box.text;
+}
+
 TEST(CliExe, OpenMpThreadsFromTheEnvironmentHaveTheSameLimitAsTheOption) {
   // libgomp crashed (exit 139, no output) at OMP_NUM_THREADS=100000.
   const Outcome o =

@@ -369,6 +369,7 @@ TEST(ReadMsh, BadFilesThrowInputErrorNamingTheFile) {
        ":50: element tag 21 is a 6-node prism (type 6), one of 1 volume elements besides the 6"},
       {"bad_unknown_type.msh", ":32: element tag 16 has type 999"},
       {"bad_node_tag_zero.msh", ":11: node tag 0: gmsh's tags start at 1"},
+      {"bad_coordinate_far_out.msh", ":10: node 5 lies at (1e+300, 0.5, 0.5) m after mesh.scale 1, more than 1000 km"},
       {"bad_no_format.msh", "$MeshFormat"},
       {"bad_garbage.msh", "not a gmsh .msh file"},
       {"bad_empty.msh", "empty"},
