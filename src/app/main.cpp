@@ -246,7 +246,8 @@ int run_main(int argc, char** argv) {
       "Run a scene for every combination of the varied parameters, skipping finished runs; writes series.csv and "
       "series_curves.png (loading-rate and specimen-size studies)");
   const char* vary_help =
-      "key=v1,v2,... (repeatable; every combination runs), SI units; keys: sigma3 (Pa), platen_velocity (m/s), "
+      "key=v1,v2,... (repeatable; every combination runs, at most 10000; a value given twice, also as 1e6 and "
+      "1000000, is an error), SI units; keys: sigma3 (Pa), platen_velocity (m/s), "
       "diameter (m, height scaled with it), element_size (m), mass_scaling, activation, time_step_safety";
   series->add_option("scene", scene_path, "Scene file (YAML)")->required();
   series->add_option("--vary", vary, vary_help)->required();
@@ -264,7 +265,7 @@ int run_main(int argc, char** argv) {
                     "activation full, the smallest mass_scaling, platen_velocity, element_size, time_step_safety)");
   study->add_option("--budget", budget,
                     "Error budget, metric=limit[,...]: peak, strain_at_peak, curve_pre, curve_post, broken (at most, "
-                    "e.g. 2%), jaccard (at least, e.g. 0.8)");
+                    "e.g. 2% or 0.02; a fraction above 1 needs %), jaccard (at least, e.g. 0.8)");
   for (auto* sub : {triaxial, series, study}) {
     sub->add_option("-o,--output", output,
                     sub == study ? "Study folder (default: <output.folder>/study of the scene)"

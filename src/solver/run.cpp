@@ -615,11 +615,11 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
     return reason;
   };
 
-  if (!options.restart.empty() && fs::is_directory(out.folder, ec) && ::access(out.folder.c_str(), W_OK) != 0)
-    throw InputError("--restart: cannot write in " + out.folder + " (" + std::strerror(errno) +
-                     "), where the run goes on; nothing was changed. Fix: make the folder writable, or copy it "
-                     "somewhere writable and restart there (with -o)");
   if (!options.restart.empty()) {
+    if (fs::is_directory(out.folder, ec) && ::access(out.folder.c_str(), W_OK) != 0)
+      throw InputError("--restart: cannot write in " + out.folder + " (" + std::strerror(errno) +
+                       "), where the run goes on; nothing was changed. Fix: make the folder writable, or copy it "
+                       "somewhere writable and restart there (with -o)");
     // The newest checkpoint that reads and matches the files here; a damaged one, or one whose
     // monitors.csv is not the one in this folder, falls back to the one before.
     // Several ranks: rank 0's steps are the candidates, and each rank reads its own file of one.
