@@ -642,6 +642,49 @@ class Reader {
   std::vector<std::string> errors_;
 };
 
+/// The scene's YAML document: the text with the empty documents before it blanked (line numbers
+/// kept), for YAML::Load, which reads only the first. A second document that holds something is
+/// an InputError. Documents are told apart by their markers, '---' or '...' at the start of a
+/// line, which YAML forbids inside scalars; not by YAML::LoadAll, which hangs on some inputs
+/// (yaml-cpp 0.7: a lone ',').
+std::string one_document(const std::string& text, const std::string& label) {
+  std::vector<std::string> lines;
+  for (std::size_t at = 0; at <= text.size();) {
+    const std::size_t end = std::min(text.find('\n', at), text.size());
+    lines.push_back(text.substr(at, end - at));
+    at = end + 1;
+  }
+  // A line's content, without a document marker that starts it; blank, comments and directives
+  // hold nothing.
+  auto marker = [](const std::string& l) {
+    return (l.rfind("---", 0) == 0 || l.rfind("...", 0) == 0) && (l.size() == 3 || std::isspace((unsigned char)l[3]));
+  };
+  auto holds_something = [&](const std::string& l) {
+    const std::string rest = marker(l) ? l.substr(3) : l;
+    const std::size_t c = rest.find_first_not_of(" \t\r");
+    return c != std::string::npos && rest[c] != '#' && !(c == 0 && rest[0] == '%');
+  };
+  long doc_start = 0, scene_start = -1;  // line of the current document's marker; of the scene's
+  bool counted = false;                  // the current document holds something
+  for (std::size_t i = 0; i < lines.size(); ++i) {
+    if (marker(lines[i])) {
+      doc_start = long(i);
+      counted = false;
+    }
+    if (!holds_something(lines[i]) || counted) continue;
+    counted = true;
+    if (scene_start >= 0)
+      throw InputError(label + ": line " + std::to_string(i + 1) +
+                       ": a second YAML document (after a '---' or '...' line); a scene is one document. Fix: "
+                       "merge them, put each scene in a file of its own, or make notes comments (#)");
+    scene_start = doc_start;
+  }
+  std::string out;
+  for (std::size_t i = 0; i < lines.size(); ++i)
+    out += (long(i) < scene_start ? std::string() : lines[i]) + (i + 1 < lines.size() ? "\n" : "");
+  return out;
+}
+
 }  // namespace
 
 Scene parse_scene(const std::string& yaml_text, const std::string& file) {
@@ -652,18 +695,7 @@ Scene parse_scene(const std::string& yaml_text, const std::string& file) {
                      fs::path(label).filename().string() + "} (scenes/ucs_small.yaml is an example)");
   YAML::Node root;
   try {
-    std::vector<YAML::Node> docs = YAML::LoadAll(yaml_text);
-    // Empty documents (a '---' at the top or the end, or two of them around a comment) hold
-    // nothing; the scene is the one that is not empty.
-    std::size_t first = 0;
-    while (first < docs.size() && docs[first].IsNull()) ++first;
-    std::size_t second = first + 1;
-    while (second < docs.size() && docs[second].IsNull()) ++second;
-    if (second < docs.size())
-      throw InputError(label + ": line " + std::to_string(docs[second].Mark().line + 1) +
-                       ": a second YAML document (after a '---' or '...' line); a scene is one document. Fix: " +
-                       "merge them, put each scene in a file of its own, or make notes comments (#)");
-    if (first < docs.size()) root = docs[first];
+    root = YAML::Load(one_document(yaml_text, label));
   } catch (const YAML::Exception& e) {
     std::string where;
     if (!e.mark.is_null())

@@ -359,6 +359,26 @@ TEST(Scene, OneDocumentWithoutTagsAndAliasesWalkedOnce) {
   // Empty documents around the scene are no second scene.
   EXPECT_EQ(parse_scene("---\nname: n\n" + body + "---\n", "a.yaml").name, "n");
   EXPECT_EQ(parse_scene("---\n# notes\n---\nname: n\n" + body + "...\n", "a.yaml").name, "n");
+  EXPECT_EQ(parse_scene("%YAML 1.2\r\n--- # scene\r\nname: n\r\n" + body, "a.yaml").name, "n");
+  EXPECT_EQ(parse_scene("--- {name: n, mesh: {generate: {shape: box, size: [0.01, 0.01, 0.02], element_size: "
+                        "0.004}}, solver: {end: {steps: 10}}}\n",
+                        "a.yaml")
+                .name,
+            "n");
+  // Notes after a '...' are a second document, named at their line; '---' inside a block scalar
+  // (indented) is text.
+  auto refusal = [](const std::string& text) {
+    try {
+      parse_scene(text, "doc.yaml");
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  EXPECT_NE(refusal(body + "...\nnotes: dry\n").find("doc.yaml: line 4: a second YAML document"), std::string::npos);
+  EXPECT_NE(refusal(body + "notes: |\n  ---\n  dry\n").find("doc.yaml: notes: unknown key"), std::string::npos);
+  // A lone ',' (from the fuzzing corpus): yaml-cpp's LoadAll never returned; an error now.
+  EXPECT_NE(refusal(",").find("doc.yaml: "), std::string::npos);
   // An alias that holds itself, and aliases nested ten deep (10^10 nodes if each were walked):
   // the unknown key is named at once (a stack overflow, and minutes, before).
   auto message = [](const std::string& text) {
