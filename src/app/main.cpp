@@ -224,11 +224,7 @@ int run_main(int argc, char** argv) {
                     "mean edge lengths, or 2.5 times the platen travel to the end condition if larger")
         ->check([](const std::string& v) -> std::string {
           // CLI::PositiveNumber lets nan through (nan <= 0 is false), and nan meant "the default".
-          char* end = nullptr;
-          const double x = std::strtod(v.c_str(), &end);
-          return end != v.c_str() && *end == '\0' && std::isfinite(x) && x > 0
-                     ? ""
-                     : "Value " + v + " is not a finite length > 0 (m)";
+          return fdem::decimal(v) > 0 ? "" : "Value " + v + " is not a finite length > 0 (m)";
         });
 
   std::string sigma3;
@@ -374,8 +370,7 @@ int run_main(int argc, char** argv) {
                              "). Fix: fdem partition this scene again, or run with --contact none");
     if (contact_reach > 0)
       throw fdem::InputError("--contact-reach " + fdem::fmt(contact_reach) +
-                             " with --partitioned: the rank files hold " + "their own reach (" +
-                             fdem::fmt(rm.dd.reach) +
+                             " with --partitioned: the rank files hold their own reach (" + fdem::fmt(rm.dd.reach) +
                              " m). Fix: give --contact-reach to fdem "
                              "partition, or leave it out here");
     model = std::move(rm.model);

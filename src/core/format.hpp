@@ -1,5 +1,7 @@
 #pragma once
 // Numbers in messages: short, with a chosen number of significant digits. CSV fields.
+#include <cmath>
+#include <cstdlib>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -11,6 +13,15 @@ inline std::string fmt(double v, int digits = 6) {
   s.precision(digits);
   s << v;
   return s.str();
+}
+
+/// The value of s if all of it is one finite decimal number (what users give on command lines);
+/// NaN for "", "2%", "1e400", "nan" and hexadecimal ("0x10", which strtod reads as 16).
+inline double decimal(const std::string& s) {
+  char* end = nullptr;
+  const double x = std::strtod(s.c_str(), &end);
+  const bool whole = !s.empty() && *end == '\0' && s.find_first_of("xX") == std::string::npos;
+  return whole && std::isfinite(x) ? x : std::nan("");
 }
 
 /// One CSV field (RFC 4180): quoted when it holds a comma, a quote, a space or a line break,

@@ -30,15 +30,8 @@ std::string read_text(const std::string& path) {
 }
 
 real number(const std::string& key, const std::string& value) {
-  std::size_t used = 0;
-  double v = 0;
-  try {
-    v = std::stod(value, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  // Decimal only: std::stod also reads hexadecimal (0x10 = 16), which no one means for SI values.
-  if (used != value.size() || value.empty() || !std::isfinite(v) || value.find_first_of("xX") != std::string::npos)
+  const double v = decimal(value);
+  if (std::isnan(v))
     throw InputError(key + "=" + value + ": not a number; give SI values such as 5e6 (Pa) or 0.1 (m/s)");
   return v;
 }
@@ -90,11 +83,7 @@ SeriesAxis parse_series_axis(const std::string& arg) {
   if (!known) throw InputError("--vary " + arg + ": unknown key '" + a.key + "'; allowed: " + keys);
   // The same value twice (also spelled differently: 1 and 1.0, 1e6 and 1000000) would run twice
   // and, in fdem triaxial, count twice in the Mohr-Coulomb fit.
-  auto same = [](const std::string& x, const std::string& y) {
-    char *ex = nullptr, *ey = nullptr;
-    const double vx = std::strtod(x.c_str(), &ex), vy = std::strtod(y.c_str(), &ey);
-    return x == y || (*ex == '\0' && *ey == '\0' && vx == vy);
-  };
+  auto same = [](const std::string& x, const std::string& y) { return x == y || decimal(x) == decimal(y); };
   std::stringstream in(arg.substr(eq + 1));
   for (std::string v; std::getline(in, v, ',');) {
     if (v.empty()) throw InputError("--vary " + arg + ": an empty value; separate values by single commas");

@@ -510,11 +510,12 @@ void Solver::check_step_count() const {
   const SolverSettings& sol = scene_.solver;
   const real bound = stable_bound();
   if (sol.time_step > SolverSettings::kMaxSafety * bound)
-    throw TimeStepBeyondBound(file + ": solver.time_step: " + fmt(sol.time_step, 6) + " s is " + fmt(sol.time_step / bound, 3) +
-                     " x the stable-step bound " + fmt(bound, 3) + " s (limited by " + stable_.limit + "); beyond " +
-                     fmt(SolverSettings::kMaxSafety) +
-                     " x it no run is stable (the limit of time_step_safety). Fix: lower solver.time_step, or set it "
-                     "to 0 for the bound times solver.time_step_safety");
+    throw TimeStepBeyondBound(
+        file + ": solver.time_step: " + fmt(sol.time_step, 6) + " s is " + fmt(sol.time_step / bound, 3) +
+        " x the stable-step bound " + fmt(bound, 3) + " s (limited by " + stable_.limit + "); beyond " +
+        fmt(SolverSettings::kMaxSafety) +
+        " x it no run is stable (the limit of time_step_safety). Fix: lower solver.time_step, or set it "
+        "to 0 for the bound times solver.time_step_safety");
   // Beyond 1e12 steps (weeks at the fastest step rates) a run would not finish: a slip of units.
   const EndSteps e = end_steps();
   if (e.steps > 1e12 && std::isfinite(e.steps))

@@ -19,18 +19,11 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// A decimal number, all of v (not "2%" or "0x1"); NaN otherwise.
-real value_of(const std::string& v) {
-  char* end = nullptr;
-  const double x = std::strtod(v.c_str(), &end);
-  return v.empty() || *end != '\0' || v.find_first_of("xX") != std::string::npos ? NAN : x;
-}
-
 // How exact a value of an axis is: larger is more exact; NaN where there is no order.
 real exactness(const std::string& key, const std::string& value) {
   if (key == "activation") return value == "full" ? 2 : value == "adaptive" ? 1 : 0;
   if (key == "mass_scaling" || key == "platen_velocity" || key == "element_size" || key == "time_step_safety")
-    return -value_of(value);
+    return -decimal(value);
   return NAN;
 }
 
@@ -68,7 +61,7 @@ std::map<std::string, real> parse_budget(const std::vector<std::string>& args) {
       std::string v = item.substr(eq + 1);
       const bool pct = !v.empty() && v.back() == '%';
       if (pct) v.pop_back();
-      real x = value_of(v);
+      real x = decimal(v);
       if (pct) x /= 100;
       if (!(x >= 0) || (key == "jaccard" && x > 1))
         throw InputError("--budget " + arg + ": '" + item + "' needs a limit >= 0 such as 2% or 0.02" +
