@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
+#include <cstring>
 #include <memory>
 #include <string>
 #include <vector>
@@ -75,6 +76,11 @@ inline std::unique_ptr<Solver> backend_gravity_solver(const std::string& backend
   solver->prescribe(0, 0b011, Vec3{0.01, -0.02, 0});
   solver->prescribe(0, 0b001, Vec3{0.015, 7, 7});  // the 7s are not prescribed
   return solver;
+}
+
+/// True when two node arrays hold the same bits.
+inline bool same_bits(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
+  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(Vec3)) == 0;
 }
 
 /// Largest |a - b| / max(|a|, |b|, floor) over the components of two node arrays.

@@ -17,14 +17,6 @@
 using namespace fdem;
 using namespace fdem::test;
 
-namespace {
-
-bool same_bits(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
-  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(Vec3)) == 0;
-}
-
-}  // namespace
-
 // The schedules of the device loop's element passes: "auto" fuses TET4 and CE6 in one pass (a
 // CE6 on every internal face: every node is one tet's) that takes the forces contact, platens
 // and pressure put on its nodes and does the step too (one rank), "fused" the same pass without
