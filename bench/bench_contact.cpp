@@ -15,6 +15,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <stdexcept>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -67,7 +68,7 @@ Result run(real h, const std::string& activation, const Options& opt) {
   scene.platens.velocity = opt.velocity;
   scene.solver.mass_scaling = opt.mass_scaling;
   scene.solver.threads = opt.threads;
-  scene.contact.activation = activation;
+  if (!choice_named(activation, scene.contact.activation)) throw std::invalid_argument(activation);
   fdem::Solver s(scene, fdem::build_model(fdem::generate_mesh(spec), scene));
   Result r;
   r.activation = activation;

@@ -146,6 +146,11 @@ int main(int argc, char** argv) {
   }
   MPI_Init(&argc, &argv);
   const Backend b = parse_backend(backend, "--backend");
+  Activation activation = Activation::adaptive;
+  if (!choice_named(contact, activation)) {
+    std::fprintf(stderr, "--contact %s: allowed: %s\n", contact.c_str(), choice_list<Activation>(", ").c_str());
+    return 2;
+  }
   const double device_free = double(device::memory_available(b)),
                host_free = double(device::memory_available(Backend::cpu));
   // The debug backend scrambles the order of each pass's iterations to expose races
@@ -203,9 +208,9 @@ int main(int argc, char** argv) {
     s.name = "bench_device";
     s.file = "(bench_device)";
     s.platens.velocity = 0.02;
-    s.contact.activation = contact;
+    s.contact.activation = activation;
     s.solver.mass_scaling = mass_scaling;
-    s.solver.backend = backend;
+    s.solver.backend = b;
     s.solver.max_energy_error = 0;
     s.output.progress_interval = 0;
     for (const auto& [schedule, blocks] : variants) {

@@ -53,7 +53,7 @@ Scene bench_scene(bool contact) {
   s.output.plot = false;
   s.solver.mass_scaling = 5;
   s.platens.velocity = 0.1;
-  if (!contact) s.contact.activation = "none";
+  if (!contact) s.contact.activation = Activation::none;
   return s;
 }
 

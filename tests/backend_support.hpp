@@ -20,10 +20,10 @@ namespace fdem::test {
 /// elastic over the first steps.
 inline Scene backend_elastic_scene(const std::string& backend) {
   Scene s = test_scene();
-  s.solver.backend = backend;
+  s.solver.backend = named<Backend>(backend);
   s.solver.threads = 1;
   s.platens.velocity = 0.5;
-  s.contact.activation = "none";
+  s.contact.activation = Activation::none;
   return s;
 }
 
@@ -34,10 +34,10 @@ inline Scene backend_fracture_scene(const std::string& backend) {
   s.platens.velocity = 4.0;
   s.material.tensile_strength = 0.3e6;
   s.material.cohesion = 1.0e6;
-  s.contact.activation = "adaptive";
+  s.contact.activation = Activation::adaptive;
   s.confinement.enabled = true;
   s.confinement.pressure = 0.2e6;
-  s.confinement.path = "constant";
+  s.confinement.path = ConfinementPath::constant;
   s.solver.max_energy_error = 0;  // violent on purpose (see test_determinism)
   return s;
 }
@@ -71,7 +71,7 @@ inline std::unique_ptr<Solver> backend_gravity_solver(const std::string& backend
   s.gravity = {0, 0, -9.81};
   s.confinement.enabled = true;
   s.confinement.pressure = 2e6;
-  s.confinement.path = path;
+  s.confinement.path = named<ConfinementPath>(path);
   auto solver = backend_solver(s);
   solver->prescribe(0, 0b011, Vec3{0.01, -0.02, 0});
   solver->prescribe(0, 0b001, Vec3{0.015, 7, 7});  // the 7s are not prescribed
@@ -125,7 +125,7 @@ inline FractureResult run_fracture(Solver& s, int steps) {
 /// has broken (ContactSet::activate_ce6). `run` synchronised to the host (sync_host).
 inline std::vector<std::uint8_t> flags_from_breaks(const Solver& run) {
   Scene scene = run.scene();
-  scene.solver.backend = "cpu";
+  scene.solver.backend = Backend::cpu;
   std::unique_ptr<Solver> start = backend_solver(scene);
   for (std::size_t c = 0; c < run.ce6.size(); ++c)
     if (run.ce6[c].mode != 0) start->contacts.activate_ce6(start->model(), int(c));

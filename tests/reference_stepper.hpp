@@ -16,6 +16,7 @@
 
 #include "contact/broad_phase.hpp"
 #include "model/model.hpp"
+#include "model/laws.hpp"
 #include "physics/cohesive6.hpp"
 #include "physics/contact.hpp"
 #include "physics/integrate.hpp"
@@ -153,7 +154,7 @@ class ReferenceStepper {
   void pressure_forces() {
     const Confinement& cf = s_.confinement;
     real p = ramped_speed(time, cf.pressure, pressure_ramp_);
-    if (cf.path == "hydrostatic") {
+    if (cf.path == ConfinementPath::hydrostatic) {
       const real axial = m_.area0 > 0 ? 0.5 * (-force_top + force_bottom) / m_.area0 : 0;
       p = std::min(cf.pressure, std::max(real(0), axial));
     }
@@ -167,11 +168,11 @@ class ReferenceStepper {
     if (!s_.contact.enabled()) return;
     buffer_ = s_.contact.buffer > 0 ? s_.contact.buffer : 0.1 * m_.mean_edge;
     const int nt = int(m_.tet_nodes.size());
-    active.assign(nt, s_.contact.activation == "full" ? 1 : 0);
+    active.assign(nt, s_.contact.activation == Activation::full ? 1 : 0);
     std::vector<char> loaded(x.size(), 0);
     for (int n : m_.top_nodes) loaded[n] = 1;
     for (int n : m_.bottom_nodes) loaded[n] = 1;
-    if (s_.contact.activation != "full" && s_.platens.enabled)  // adaptive: the loaded ends from the start
+    if (s_.contact.activation != Activation::full && s_.platens.enabled)  // adaptive: the loaded ends from the start
       for (int t = 0; t < nt; ++t)
         for (int n : m_.tet_nodes[t])
           if (loaded[n]) active[t] = 1;

@@ -1,5 +1,7 @@
 #pragma once
 // Shared helpers for the regression tests: scenes built in code, quasi-static loading runs.
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "model/model.hpp"
@@ -7,6 +9,14 @@
 #include "solver/solver.hpp"
 
 namespace fdem::test {
+
+/// The value of E whose scene-file word is `word` (tests name choices by their words).
+template <class E>
+E named(const std::string& word) {
+  E e{};
+  if (!choice_named(word, e)) throw std::invalid_argument("not a choice: " + word);
+  return e;
+}
 
 /// A scene with the Table 2 limestone and no output, for tests.
 inline Scene test_scene() {

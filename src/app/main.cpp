@@ -350,8 +350,8 @@ int run_main(int argc, char** argv) {
   if (!output.empty()) scene.output.folder = output;
   if (threads > 0) scene.solver.threads = threads;
   if (quiet) scene.output.progress_interval = 0;
-  if (!activation.empty()) scene.contact.activation = activation;
-  if (!backend.empty()) scene.solver.backend = backend;
+  if (!activation.empty()) fdem::choice_named(activation, scene.contact.activation);
+  if (!backend.empty()) scene.solver.backend = fdem::parse_backend(backend, "--backend");
   fdem::Model model;
   fdem::Decomposition dd;
   if (!partitioned.empty()) {
@@ -366,7 +366,7 @@ int run_main(int argc, char** argv) {
     if (size > 1 && scene.contact.enabled() && !(rm.dd.reach > 0))
       throw fdem::InputError(rank_file(partitioned, rank) +
                              ": written for a scene without contact (contact reach 0 m); " + scene.file +
-                             " has contact (" + scene.contact.activation +
+                             " has contact (" + fdem::name_of(scene.contact.activation) +
                              "). Fix: fdem partition this scene again, or run with --contact none");
     if (contact_reach > 0)
       throw fdem::InputError("--contact-reach " + fdem::fmt(contact_reach) +
@@ -458,7 +458,7 @@ int run_main(int argc, char** argv) {
   if (s.fracture.broken >= 3)
     std::cout << "  main failure plane at " << s.fracture.plane_angle_deg << " deg to the loading axis (planarity "
               << s.fracture.planarity << "; facets " << s.fracture.mean_facet_angle_deg << " deg on average)\n";
-  std::cout << "  contact " << scene.contact.activation;
+  std::cout << "  contact " << fdem::name_of(scene.contact.activation);
   if (solver.contacts.enabled()) {
     const fdem::ContactTimes& ct = solver.contacts.times;
     const long tets = solver.distributed() ? solver.decomposition().global_tets : long(solver.model().tet_nodes.size());

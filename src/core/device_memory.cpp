@@ -82,22 +82,9 @@ std::size_t memory_free() {
 }  // namespace cuda_impl
 #endif
 
-const char* backend_name(Backend b) {
-  switch (b) {
-    case Backend::cpu:
-      return "cpu";
-    case Backend::debug:
-      return "debug";
-    case Backend::cuda:
-      return "cuda";
-  }
-  return "?";
-}
-
 Backend parse_backend(const std::string& name, const std::string& where) {
-  if (name == "cpu") return Backend::cpu;
-  if (name == "debug") return Backend::debug;
-  if (name == "cuda") return Backend::cuda;
+  Backend b = Backend::cpu;
+  if (choice_named(name, b)) return b;
   throw InputError(where + ": unknown backend '" + name + "'. Fix: give cpu, cuda, or debug (the device loop on the " +
                    "CPU with separate device memory, for checking)");
 }

@@ -13,12 +13,10 @@
 #include <utility>
 #include <vector>
 
+#include "core/backend.hpp"
+
 namespace fdem {
 
-enum class Backend { cpu, debug, cuda };
-
-/// "cpu", "debug" or "cuda".
-const char* backend_name(Backend b);
 /// The backend named `name`; throws InputError naming `where` and the choices.
 Backend parse_backend(const std::string& name, const std::string& where);
 /// True when this build has the CUDA backend (nvcc was found at build time).

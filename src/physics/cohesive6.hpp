@@ -34,11 +34,10 @@
 #include "core/config.hpp"
 #include "core/portable_math.hpp"
 #include "core/vec.hpp"
-#include "scene/scene.hpp"
 
 namespace fdem {
 
-/// CE6 parameters, derived once on the host from Material (make_ce6_params).
+/// CE6 parameters, derived once on the host from the scene's material (model/laws.hpp).
 struct Ce6Params {
   real ft, cohesion, tan_phi, GI, GII, P_open, P_tan, P_overlap, mu_rock;
   int softening;     // 0 = Munjiza (a=0.63, b=1.8, c=6), 1 = linear z = 1 - D
@@ -98,24 +97,6 @@ FDEM_HD real softening_integral(int softening) {
   real sum = softening_z(0, softening) + softening_z(1, softening);
   for (int i = 1; i < n; ++i) sum += real(i % 2 ? 4 : 2) * softening_z(i * dq, softening);
   return sum * dq / 3;
-}
-
-/// Host only (Material holds std::string).
-inline Ce6Params make_ce6_params(const Material& m) {
-  Ce6Params p;
-  p.ft = m.tensile_strength;
-  p.cohesion = m.cohesion;
-  p.tan_phi = std::tan(m.friction_angle * real(3.14159265358979323846) / 180);
-  p.GI = m.fracture_energy_I;
-  p.GII = m.fracture_energy_II;
-  p.P_open = m.cohesive_penalty_open;
-  p.P_tan = m.cohesive_penalty_tangential;
-  p.P_overlap = m.cohesive_penalty_overlap;
-  p.mu_rock = m.friction_rock;
-  p.softening = m.softening == "linear" ? 1 : 0;
-  p.Z = softening_integral(p.softening);
-  p.broken_inert = 0;  // set by the solver when tet-tet contact is on
-  return p;
 }
 
 FDEM_HD bool ce6_broken(const Ce6Damage& s) {

@@ -241,6 +241,14 @@ class Reader {
     return true;
   }
 
+  /// Reads one of the words of E (ChoiceNames). Returns true if assigned.
+  template <class E>
+  bool choice(const YAML::Node& n, const std::string& path, const std::string& key, E& out) {
+    const auto& words = ChoiceNames<E>::words;
+    std::string s;
+    return choice(n, path, key, std::vector<std::string>(words.begin(), words.end()), s) && choice_named(s, out);
+  }
+
   bool boolean(const YAML::Node& n, const std::string& path, const std::string& key, bool& out) {
     const YAML::Node v = n[key];
     if (!v) return false;
@@ -304,7 +312,7 @@ class Reader {
     number(n, p, "cohesive_penalty_overlap", up_to(1e17), m.cohesive_penalty_overlap);
     number(n, p, "friction_platen", closed(0, 10), m.friction_platen);
     number(n, p, "friction_rock", closed(0, 10), m.friction_rock);
-    choice(n, p, "softening", {"munjiza", "linear"}, m.softening);
+    choice(n, p, "softening", m.softening);
   }
 
   void mesh(const YAML::Node& n, const std::string& scene_dir, MeshSpec& m) {
@@ -472,9 +480,9 @@ class Reader {
     if (!none_or_map(n, p, {"pressure", "path", "ramp_time"}, c.enabled)) return;
     if (!n["pressure"]) error(p + ".pressure", "missing", "give the confining stress sigma_3 in Pa, e.g. 5e6");
     number(n, p, "pressure", Range{0, Confinement::kMaxPressure, true, false}, c.pressure);
-    choice(n, p, "path", {"hydrostatic", "constant"}, c.path);
+    choice(n, p, "path", c.path);
     number(n, p, "ramp_time", at_least(0), c.ramp_time);
-    if (c.path == "hydrostatic" && !platens_on)
+    if (c.path == ConfinementPath::hydrostatic && !platens_on)
       error(p + ".path", "hydrostatic follows the axial stress of the platens, and `platens: none` is set",
             "use path: constant, or enable the platens");
   }
@@ -482,7 +490,7 @@ class Reader {
   void contact(const YAML::Node& n, ContactSettings& c) {
     const std::string p = "contact";
     if (!check_map(n, p, {"activation", "buffer"})) return;
-    choice(n, p, "activation", {"adaptive", "full", "none"}, c.activation);
+    choice(n, p, "activation", c.activation);
     number(n, p, "buffer", closed(0, 1e3), c.buffer);
   }
 
@@ -497,7 +505,7 @@ class Reader {
     number(n, p, "mass_scaling", closed(1, SolverSettings::kMaxMassScaling), s.mass_scaling);
     number(n, p, "damping_scale", closed(0, 100), s.damping_scale);
     number(n, p, "threads", count_at_least(0, SolverSettings::kMaxThreads), s.threads);
-    choice(n, p, "backend", {"cpu", "cuda", "debug"}, s.backend);
+    choice(n, p, "backend", s.backend);
     number(n, p, "max_energy_error", closed(0, 1e3), s.max_energy_error);
     const std::string need = "give at least one of axial_strain, post_peak_fraction, time, steps > 0";
     const YAML::Node e = n["end"];

@@ -1,11 +1,36 @@
 #pragma once
 // A validated scene: everything a run needs, in SI units. Parsed by scene/parse.cpp.
+#include <array>
 #include <string>
 #include <vector>
 
+#include "core/backend.hpp"
+#include "core/choice.hpp"
 #include "core/vec.hpp"
 
 namespace fdem {
+
+/// The CE6's softening curve past the peak: Munjiza's (a = 0.63, b = 1.8, c = 6) or linear.
+enum class Softening { munjiza, linear };
+template <>
+struct ChoiceNames<Softening> {
+  static constexpr std::array<const char*, 2> words{"munjiza", "linear"};
+};
+
+/// How a confining pressure is applied: following the measured axial stress up to sigma_3
+/// (hydrostatic), or ramped to sigma_3 on its own (constant).
+enum class ConfinementPath { hydrostatic, constant };
+template <>
+struct ChoiceNames<ConfinementPath> {
+  static constexpr std::array<const char*, 2> words{"hydrostatic", "constant"};
+};
+
+/// Which tets are contact candidates (ContactSettings::activation).
+enum class Activation { adaptive, full, none };
+template <>
+struct ChoiceNames<Activation> {
+  static constexpr std::array<const char*, 3> words{"adaptive", "full", "none"};
+};
 
 /// Rock and interface parameters. Defaults are the reference paper's Table 2 limestone.
 struct Material {
@@ -23,7 +48,7 @@ struct Material {
   real cohesive_penalty_overlap = 12200e9;    // Pa (P_overlap, 1000 E)
   real friction_platen = 0.1;                 // platen-rock Coulomb coefficient
   real friction_rock = 0.5;                   // rock-rock (broken CE6 faces)
-  std::string softening = "munjiza";          // "munjiza" (a=0.63, b=1.8, c=6) or "linear"
+  Softening softening = Softening::munjiza;
 
   real lame_lambda() const { return youngs_modulus * poisson_ratio / ((1 + poisson_ratio) * (1 - 2 * poisson_ratio)); }
   real lame_mu() const { return youngs_modulus / (2 * (1 + poisson_ratio)); }
@@ -78,7 +103,7 @@ struct Platens {
 struct Confinement {
   bool enabled = false;
   real pressure = 0;                          // Pa, the target confining stress sigma_3
-  std::string path = "hydrostatic";           // "hydrostatic": p = min(sigma_3, measured axial stress); "constant"
+  ConfinementPath path = ConfinementPath::hydrostatic;  // hydrostatic: p = min(sigma_3, measured axial stress)
   real ramp_time = 0;                         // s, constant path: smooth rise to sigma_3; 0 = automatic (10 transits)
   static constexpr real kMaxPressure = 1e10;  // Pa: confinement.pressure and --sigma3 / --vary sigma3
 };
@@ -88,9 +113,9 @@ struct ContactSettings {
   /// "adaptive": tets at the platens from the start, and the vicinity of every broken CE6
   /// (all tets sharing a vertex of its face) as it breaks; "full": every tet from step 0;
   /// "none": no tet-tet contact (broken CE6 faces then keep their own overlap penalty and friction).
-  std::string activation = "adaptive";
+  Activation activation = Activation::adaptive;
   real buffer = 0;  // m, box inflation of the broad phase; 0 = automatic (0.1 x mean edge length)
-  bool enabled() const { return activation != "none"; }
+  bool enabled() const { return activation != Activation::none; }
 };
 
 struct EndCondition {
@@ -113,9 +138,9 @@ struct SolverSettings {
   /// The most threads a run takes (solver.threads, -t): a node's cores many times over. OpenMP
   /// fails to start tens of thousands (libgomp crashed at 65,536 on the dev VM).
   static constexpr int kMaxThreads = 1024;
-  // Time loop: "cpu" (OpenMP), "cuda" (one GPU per rank) or "debug" (the device loop on the CPU
+  // Time loop: cpu (OpenMP), cuda (one GPU per rank) or debug (the device loop on the CPU
   // with separate device memory, for checking that every copy is in place).
-  std::string backend = "cpu";
+  Backend backend = Backend::cpu;
   /// Stop the run when the energy balance error (monitors.csv energy_error) exceeds this once
   /// the work put in is above the noise floor; 0 = never. A stable run stays below a few 0.01.
   real max_energy_error = 0.1;

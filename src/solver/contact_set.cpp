@@ -47,7 +47,7 @@ ContactSet::ContactSet(const Model& m, const Scene& s) {
     }
 
   active_.assign(nt, 0);
-  if (s.contact.activation == "full") {
+  if (s.contact.activation == Activation::full) {
     std::fill(active_.begin(), active_.end(), 1);
   } else if (s.platens.enabled) {
     // Adaptive: the tets at the loaded ends are candidates from the start.

@@ -98,8 +98,7 @@ SeriesAxis parse_series_axis(const std::string& arg) {
 
 void apply_series_value(Scene& s, const std::string& key, const std::string& value) {
   if (key == "activation") {
-    require(value == "adaptive" || value == "full" || value == "none", key, value, "allowed: adaptive, full, none");
-    s.contact.activation = value;
+    require(choice_named(value, s.contact.activation), key, value, "allowed: " + choice_list<Activation>(", "));
     return;
   }
   const real v = number(key, value);
@@ -110,7 +109,7 @@ void apply_series_value(Scene& s, const std::string& key, const std::string& val
             "values are in Pa: a confining pressure below 1 kPa is surely a slip (did you mean " + value + "e6?)");
     s.confinement.enabled = v > 0;
     s.confinement.pressure = v;
-    require(v == 0 || s.platens.enabled || s.confinement.path == "constant", key, value,
+    require(v == 0 || s.platens.enabled || s.confinement.path == ConfinementPath::constant, key, value,
             "the hydrostatic path follows the axial stress, which needs platens; enable platens or set "
             "confinement.path: constant in " +
                 s.file);

@@ -10,6 +10,7 @@
 #include "core/format.hpp"
 #include "core/gather.hpp"
 #include "io/checkpoint.hpp"
+#include "model/laws.hpp"
 #include "partition/grow.hpp"
 #include "physics/integrate.hpp"
 #include "physics/platen.hpp"
@@ -22,7 +23,7 @@ Solver::Solver(const Scene& scene, Model model, Decomposition dd, MPI_Comm comm)
     : scene_(scene), model_(std::move(model)), dd_(std::move(dd)), comm_(comm) {
   setup();
   compute_forces();  // on the host; the first step uploads the state
-  backend_ = parse_backend(scene_.solver.backend, scene_.file + ": solver.backend");
+  backend_ = scene_.solver.backend;
   if (backend_ != Backend::cpu) {
     dev_ = make_device_loop(backend_, *this);
   }
@@ -115,7 +116,7 @@ void Solver::setup() {
   const real c = std::sqrt(M / rho);
   ramp_ = scene_.platens.ramp_time > 0 ? scene_.platens.ramp_time : 10 * model_.height0 / c;
   confine_ramp_ = scene_.confinement.ramp_time > 0 ? scene_.confinement.ramp_time : 10 * model_.height0 / c;
-  hydrostatic_ = scene_.confinement.path == "hydrostatic";
+  hydrostatic_ = scene_.confinement.path == ConfinementPath::hydrostatic;
   lateral_faces_.clear();
   if (scene_.confinement.enabled) {
     // Lateral faces: surface faces not lying on the top or bottom end.
@@ -972,7 +973,8 @@ std::uint64_t physics_fingerprint(const Scene& s, const Model& m, real dt) {
                          s.solver.damping_scale,
                          dt};
   h = fnv1a64(values, sizeof values, h);
-  const std::string words = a.softening + "|" + s.confinement.path + "|" + s.contact.activation;
+  const std::string words = std::string(name_of(a.softening)) + "|" + name_of(s.confinement.path) + "|" +
+                            name_of(s.contact.activation);
   return fnv1a64(words.data(), words.size(), h);
 }
 

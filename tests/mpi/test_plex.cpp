@@ -148,7 +148,7 @@ TEST_P(PlexCheck, DistributionWithOverlapOneHoldsTheRankModelsTetsAndCe6s) {
   // of the box (faces with a tet outside join their nodes, no CE6 there).
   const bool everywhere = GetParam();
   Scene scene = test::test_scene();
-  scene.contact.activation = "none";  // no contact ghosts: the held tets are own + one layer
+  scene.contact.activation = Activation::none;  // no contact ghosts: the held tets are own + one layer
   if (!everywhere) {
     scene.fracture.everywhere = false;
     scene.fracture.boxes.push_back({{-1, -1, -1}, {1, 1, 0.01}});
@@ -211,7 +211,7 @@ TEST_P(PlexDistribute, GivesEveryRankTheModelOfTheCut) {
   const DistributeCase& c = GetParam();
   const int rank = rank_in(MPI_COMM_WORLD), size = size_of(MPI_COMM_WORLD);
   Scene scene = test::test_scene();
-  scene.contact.activation = c.contact ? "full" : "none";
+  scene.contact.activation = c.contact ? Activation::full : Activation::none;
   if (!c.everywhere) {
     scene.fracture.everywhere = false;
     scene.fracture.boxes.push_back({{-1, -1, -1}, {1, 1, 0.01}});

@@ -79,7 +79,7 @@ Scene fracturing_scene() {
   scene.platens.ramp_time = 2e-5;
   scene.confinement.enabled = true;
   scene.confinement.pressure = 1e6;
-  scene.confinement.path = "constant";
+  scene.confinement.path = ConfinementPath::constant;
   scene.confinement.ramp_time = 2e-5;
   scene.solver.time_step_safety = 0.9;
   return scene;
@@ -98,7 +98,7 @@ Mesh two_blocks(real gap = 0) {
 Scene two_blocks_scene() {
   Scene scene = box_scene();
   scene.platens.enabled = false;
-  scene.contact.activation = "full";
+  scene.contact.activation = Activation::full;
   scene.fracture.everywhere = false;  // two continuous blocks: contact only between them
   return scene;
 }
@@ -122,7 +122,7 @@ TEST_P(RanksElastic, CurveAndNodesMatchOneRank) {
   // Before any CE6 is damaged: the same curve and node positions to round-off. Without
   // contact a rank receives only the ghost nodes its elements read; with it, all it holds.
   Scene scene = box_scene();
-  scene.contact.activation = GetParam();
+  scene.contact.activation = test::named<Activation>(GetParam());
   const Model global = build_model(structured_box_mesh({0.01, 0.01, 0.02}, 3, 3, 6), scene);
   Solver ref(scene, global);
   auto d = decomposed(scene, global);
@@ -174,7 +174,7 @@ TEST(Ranks, FracturingBoxMatchesOneRank) {
   for (auto o : d->owned_nodes()) ghosts += !o;
   ghosts = sum_over_ranks(ghosts);
   Scene full = scene;
-  full.contact.activation = "full";
+  full.contact.activation = Activation::full;
   const double received_full = received(*decomposed(full, global)), received_start = received(*d);
   double peak_r = 0, peak_d = 0;
   Monitors mr, md;
@@ -241,7 +241,7 @@ TEST_P(RanksDevice, DeviceLoopGivesTheCpuBackendsRun) {
   test::EnvSetting env_guard("FDEM_GPU_AWARE_MPI", direct ? "1" : nullptr);
   const Scene scene = fracturing_scene();
   Scene dscene = scene;
-  dscene.solver.backend = backend;
+  dscene.solver.backend = test::named<Backend>(backend);
   const Model global = build_model(structured_box_mesh({0.01, 0.01, 0.02}, 3, 3, 6), scene);
   auto c = decomposed(scene, global);
   auto g = decomposed(dscene, global);
@@ -302,7 +302,7 @@ TEST(Ranks, GpuAwareMpiSettingIsReadAndCheckedAtTheStart) {
   // error naming the variable, raised when the solver is made (not at the first exchange).
   const Scene scene = fracturing_scene();
   Scene dscene = scene;
-  dscene.solver.backend = "debug";
+  dscene.solver.backend = Backend::debug;
   const Model global = build_model(structured_box_mesh({0.01, 0.01, 0.02}, 3, 3, 6), scene);
   unsetenv("FDEM_GPU_AWARE_MPI");
   EXPECT_FALSE(device_buffers_to_mpi(false)) << "auto stages the debug backend's buffers";
@@ -387,7 +387,7 @@ TEST(Ranks, FragmentsTravellingBeyondTheReachGatherTheirContactGhosts) {
       continue;
     }
     Scene scene = two_blocks_scene();
-    scene.solver.backend = backend;
+    scene.solver.backend = test::named<Backend>(backend);
     scene.fracture.everywhere = true;  // CE6s inside each block: the ghosts bring them, with their damage
     const Model global = build_model(two_blocks(gap), scene);
     Solver ref(scene, global);
@@ -513,7 +513,7 @@ TEST(Ranks, ContactReachGuardStopsARunBeforeAPartnerIsMissed) {
   // debug backend, whose check runs in its integration on the device.
   for (const std::string backend : {"cpu", "debug"}) {
     Scene scene = two_blocks_scene();
-    scene.solver.backend = backend;
+    scene.solver.backend = test::named<Backend>(backend);
     const Model global = build_model(two_blocks(), scene);
     RankModel rm = extract_rank(global, block_per_rank(global), world_rank(), 1e-5);
     Solver d(scene, std::move(rm.model), std::move(rm.dd), MPI_COMM_WORLD);
@@ -639,7 +639,7 @@ TEST(Ranks, DefaultContactReachCoversThePlatenTravelToTheEnd) {
   // gathered again each time a node has moved a quarter of the reach: the travel alone does
   // that at most once): axial strain x height, velocity x time, the smaller.
   Scene scene = box_scene();
-  scene.contact.activation = "adaptive";
+  scene.contact.activation = Activation::adaptive;
   const Model g = build_model(structured_box_mesh({0.01, 0.01, 0.02}, 3, 3, 6), scene);
   const real edges = 2 * g.mean_edge;
   scene.solver.end = {};
@@ -655,7 +655,7 @@ TEST(Ranks, DefaultContactReachCoversThePlatenTravelToTheEnd) {
   EXPECT_DOUBLE_EQ(default_reach(g, scene), 2.5 * 0.005);
   scene.platens.enabled = false;  // no platen: no travel to bound
   EXPECT_EQ(default_reach(g, scene), edges);
-  scene.contact.activation = "none";
+  scene.contact.activation = Activation::none;
   EXPECT_EQ(default_reach(g, scene), 0);
 }
 
@@ -710,7 +710,7 @@ TEST(Ranks, PartitionBalancesTheWorkWhenFractureRegionsCoverPartOfTheModel) {
   // partition boundary's on both sides) is balanced by the cost weights; equal tet counts
   // would give the fracturing part's rank far more.
   Scene scene = box_scene();
-  scene.contact.activation = "none";
+  scene.contact.activation = Activation::none;
   scene.fracture.everywhere = false;
   scene.fracture.boxes.push_back({{-1, -1, -1}, {1, 1, 0.0125}});
   const Model global = build_model(structured_box_mesh({0.01, 0.01, 0.05}, 4, 4, 20), scene);
@@ -767,11 +767,11 @@ TEST(Ranks, DeviceLoopCopiesToTheHostAFewTimesAStep) {
     for (const bool direct : {false, true}) {
       test::EnvSetting env("FDEM_GPU_AWARE_MPI", direct ? "1" : nullptr);
       Scene scene = box_scene();
-      scene.solver.backend = "debug";
+      scene.solver.backend = Backend::debug;
       if (path != "none") {
         scene.confinement.enabled = true;
         scene.confinement.pressure = 1e6;
-        scene.confinement.path = path;
+        scene.confinement.path = test::named<ConfinementPath>(path);
       }
       const Model global = build_model(structured_box_mesh({0.01, 0.01, 0.02}, 3, 3, 6), scene);
       auto d = decomposed(scene, global);

@@ -29,7 +29,7 @@ Outcome run(const std::string& activation) {
   Scene scene = test::test_scene();
   scene.solver.mass_scaling = 5;
   scene.platens.velocity = 0.2;
-  scene.contact.activation = activation;
+  scene.contact.activation = test::named<Activation>(activation);
   Solver s(scene, build_model(generate_mesh(spec), scene));
   Outcome o;
   Monitors row = s.measure();

@@ -60,7 +60,7 @@ TEST_P(DebugSchedule, ANodeMovingHalfTheBufferRebuildsTheListAsOnTheCpu) {
   Scene s = backend_fracture_scene("cpu");
   s.contact.buffer = 2e-6;  // m
   auto cpu = backend_solver(s);
-  s.solver.backend = "debug";
+  s.solver.backend = Backend::debug;
   auto dbg = backend_solver(s);
   for (int i = 0; i < 1500; ++i) {  // at the same steps
     cpu->step(), dbg->step();
@@ -251,7 +251,7 @@ TEST(DebugBackend, NodesSharedByTetsKeepTheColourPasses) {
   elastic.fracture.everywhere = false;
   elastic.fracture.boxes.push_back({{-1, -1, -1}, {1, 1, 0.006}});
   Scene cpu_scene = elastic;
-  cpu_scene.solver.backend = "cpu";
+  cpu_scene.solver.backend = Backend::cpu;
   auto cpu = backend_solver(cpu_scene);
   auto dbg = backend_solver(elastic);
   ASSERT_GT(dbg->model().ce6_nodes.size(), 0u);

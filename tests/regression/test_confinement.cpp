@@ -18,9 +18,9 @@ TEST(Confinement, LateralPressureGivesTheAnalyticRadialStrain) {
   Scene scene = test::test_scene();
   scene.fracture.everywhere = false;
   scene.platens.enabled = false;
-  scene.contact.activation = "none";
+  scene.contact.activation = Activation::none;
   scene.confinement.enabled = true;
-  scene.confinement.path = "constant";
+  scene.confinement.path = ConfinementPath::constant;
   scene.confinement.pressure = 5e6;
   scene.solver.mass_scaling = 10;
   Solver s(scene, build_model(generate_mesh(test::cylinder(0.02, 0.04, 0.003)), scene));
@@ -42,10 +42,10 @@ TEST(Confinement, LateralPressureGivesTheAnalyticRadialStrain) {
 TEST(Confinement, HydrostaticPathThenHeldWhileTheAxialLoadGrows) {
   Scene scene = test::test_scene();
   scene.fracture.everywhere = false;
-  scene.contact.activation = "none";
+  scene.contact.activation = Activation::none;
   scene.material.friction_platen = 0;  // no end restraint: the hydrostatic stage is uniform
   scene.confinement.enabled = true;
-  scene.confinement.path = "hydrostatic";
+  scene.confinement.path = ConfinementPath::hydrostatic;
   scene.confinement.pressure = 2e6;
   scene.solver.mass_scaling = 10;
   scene.platens.velocity = 0.1;

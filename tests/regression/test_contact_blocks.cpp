@@ -31,7 +31,7 @@ Scene block_scene() {
   Scene s = test::test_scene();
   s.platens.enabled = false;
   s.fracture.everywhere = false;  // no CE6: each block is one continuous body
-  s.contact.activation = "full";
+  s.contact.activation = Activation::full;
   return s;
 }
 
@@ -217,7 +217,7 @@ std::unique_ptr<Solver> mid_plane_bar(const std::string& activation, std::vector
   const real h = 0.01;
   Scene scene = test::test_scene();
   scene.platens.enabled = false;
-  scene.contact.activation = activation;
+  scene.contact.activation = test::named<Activation>(activation);
   scene.fracture.everywhere = false;
   scene.fracture.boxes.push_back({{-1, -1, h - 0.3 * h / 2}, {1, 1, h + 0.3 * h / 2}});
   auto s = std::make_unique<Solver>(scene, build_model(structured_box_mesh({h, h, 2 * h}, 2, 2, 4), scene));

@@ -61,7 +61,7 @@ class Reference : public ::testing::TestWithParam<Leg> {
   Reference() : schedule_("FDEM_DEVICE_SCHEDULE", GetParam().schedule), order_(GetParam().order) {}
 
   Scene scene(Scene s) const {
-    s.solver.backend = GetParam().backend;
+    s.solver.backend = named<Backend>(GetParam().backend);
     return s;
   }
 
@@ -182,7 +182,7 @@ TEST_P(Reference, TwoBlocksCollideAndSlide) {
   Scene s = scene(test_scene());
   s.platens.enabled = false;
   s.fracture.everywhere = false;
-  s.contact.activation = "full";
+  s.contact.activation = Activation::full;
   s.contact.buffer = 2e-5;  // m: the moving block leaves the list's boxes, so the list is rebuilt
   Solver solver(s, build_model(two_blocks(), s));
   ReferenceStepper ref(solver.scene(), solver.model(), solver.dt());

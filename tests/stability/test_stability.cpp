@@ -92,7 +92,7 @@ Scene confined_box_scene(real pressure, real ramp) {
   Scene s = box_scene();
   s.confinement.enabled = true;
   s.confinement.pressure = pressure;
-  s.confinement.path = "constant";
+  s.confinement.path = ConfinementPath::constant;
   s.confinement.ramp_time = ramp;
   return s;
 }
@@ -145,7 +145,7 @@ TEST(Stability, TimeStepAtPointNineAndOnePointOneOfTheTrueLimit) {
   Scene scene = test::test_scene();
   scene.platens.enabled = false;
   scene.fracture.everywhere = false;
-  scene.contact.activation = "none";
+  scene.contact.activation = Activation::none;
   scene.solver.damping_scale = 0;
   scene.solver.time_step_safety = 1;
   scene.solver.end = {0, 100000, 0, 0};
@@ -442,7 +442,7 @@ TEST(Stability, AFragmentFlyingFarKeepsTheBroadPhaseSmall) {
   Scene s = test::test_scene();
   s.platens.enabled = false;
   s.fracture.everywhere = false;
-  s.contact.activation = "full";
+  s.contact.activation = Activation::full;
   s.solver.threads = 1;
   Mesh a = structured_box_mesh({0.01, 0.01, 0.01}, 2, 2, 2);
   const Mesh b = structured_box_mesh({0.01, 0.01, 0.01}, 2, 2, 2);

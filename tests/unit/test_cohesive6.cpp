@@ -8,7 +8,9 @@
 #include <cstring>
 #include <limits>
 
+#include "model/laws.hpp"
 #include "physics/cohesive6.hpp"
+#include "support.hpp"
 
 using namespace fdem;
 
@@ -131,7 +133,7 @@ TEST(Cohesive6, SofteningCurves) {
   Material m;
   EXPECT_EQ(make_ce6_params(m).softening, 0);
   EXPECT_NEAR(make_ce6_params(m).tan_phi, std::tan(25 * M_PI / 180), 1e-15);
-  m.softening = "linear";
+  m.softening = Softening::linear;
   EXPECT_EQ(make_ce6_params(m).softening, 1);
   EXPECT_DOUBLE_EQ(make_ce6_params(m).Z, 0.5);
 }
@@ -141,7 +143,7 @@ TEST(Cohesive6, ModeIDissipatesGI) {
   for (const char* soft : {"munjiza", "linear"}) {
     SCOPED_TRACE(soft);
     Material m;
-    m.softening = soft;
+    m.softening = test::named<Softening>(soft);
     Driver dr(m);
     const real op = o_peak(dr.p), orr = o_final(dr.p);
     ASSERT_GT(orr, 100 * op);
@@ -170,7 +172,7 @@ TEST(Cohesive6, ModeIIDissipatesGII) {
   for (const char* soft : {"munjiza", "linear"}) {
     SCOPED_TRACE(soft);
     Material m;
-    m.softening = soft;
+    m.softening = test::named<Softening>(soft);
     Driver dr(m);
     const real sp = s_peak(dr.p, m.cohesion), sr = s_final(dr.p, m.cohesion);
     dr.move_to(2 * sp * dr.tri.t1, 2000);

@@ -74,7 +74,7 @@ TEST(Scene, DefaultSceneParses) {
   EXPECT_DOUBLE_EQ(s.material.density, def.density);
   EXPECT_DOUBLE_EQ(s.material.youngs_modulus, 12.2e9);
   EXPECT_DOUBLE_EQ(s.material.cohesive_penalty_overlap, 12200e9);
-  EXPECT_EQ(s.material.softening, "munjiza");
+  EXPECT_EQ(s.material.softening, Softening::munjiza);
   EXPECT_EQ(s.mesh.shape, "cylinder");
   EXPECT_TRUE(s.mesh.file.empty());
   EXPECT_DOUBLE_EQ(s.mesh.diameter, 0.02);
@@ -85,7 +85,7 @@ TEST(Scene, DefaultSceneParses) {
   EXPECT_TRUE(s.platens.enabled);
   EXPECT_DOUBLE_EQ(s.platens.velocity, 0.1);
   EXPECT_DOUBLE_EQ(s.platens.ramp_time, 0);
-  EXPECT_EQ(s.contact.activation, "adaptive");
+  EXPECT_EQ(s.contact.activation, Activation::adaptive);
   EXPECT_DOUBLE_EQ(s.contact.buffer, 0);
   EXPECT_DOUBLE_EQ(s.gravity.z, 0);
   EXPECT_DOUBLE_EQ(s.solver.mass_scaling, 5);
@@ -118,7 +118,7 @@ TEST(Scene, MinimalSceneGetsTable2Defaults) {
   EXPECT_DOUBLE_EQ(m.cohesive_penalty_overlap, 12200e9);
   EXPECT_DOUBLE_EQ(m.friction_platen, 0.1);
   EXPECT_DOUBLE_EQ(m.friction_rock, 0.5);
-  EXPECT_EQ(m.softening, "munjiza");
+  EXPECT_EQ(m.softening, Softening::munjiza);
   EXPECT_DOUBLE_EQ(s.mesh.optimize_threshold, 0.3);  // gmsh's own default
   EXPECT_EQ(s.mesh.smoothing, 5);
   const Platens pl;
@@ -400,7 +400,7 @@ TEST(Scene, ContactAndGravityAreRead) {
       "platens: none\n"
       "solver: {end: {steps: 10}}\n",
       "inline.yaml");
-  EXPECT_EQ(s.contact.activation, "full");
+  EXPECT_EQ(s.contact.activation, Activation::full);
   EXPECT_TRUE(s.contact.enabled());
   EXPECT_DOUBLE_EQ(s.contact.buffer, 2.5e-4);
   EXPECT_DOUBLE_EQ(s.gravity.x, 0);
@@ -417,7 +417,7 @@ TEST(Scene, ContactAndGravityAreRead) {
       "inline.yaml");
   EXPECT_TRUE(tri.confinement.enabled);
   EXPECT_DOUBLE_EQ(tri.confinement.pressure, 5e6);
-  EXPECT_EQ(tri.confinement.path, "hydrostatic");
+  EXPECT_EQ(tri.confinement.path, ConfinementPath::hydrostatic);
 }
 
 TEST(Scene, InvalidYamlReportsLineAndColumn) {
