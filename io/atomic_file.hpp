@@ -9,4 +9,8 @@ namespace fdem {
 /// removing the temporary file.
 void write_file_atomically(const std::string& path, const std::string& text);
 
+/// Why writing `path` failed with errno `err`, for messages: the system's reason and, where the
+/// file system holding it has no room left, that the disk is full, how much is free and the fix.
+std::string write_failure(const std::string& path, int err);
+
 }  // namespace fdem

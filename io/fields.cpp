@@ -43,8 +43,11 @@ std::string h5_detail() {
 }
 
 [[noreturn]] void h5_fail(const std::string& file, const std::string& what) {
+  const int err = errno;  // (HDF5 keeps the system's reason of a failed write there)
   std::string d = h5_detail();
-  throw OutputError("HDF5 output " + file + ": " + what + " failed" + (d.empty() ? "" : " (" + d + ")"));
+  const std::string why = write_failure(file, err);
+  throw OutputError("HDF5 output " + file + ": " + what + " failed" + (d.empty() ? "" : " (" + d + ")") +
+                    (why.find("disk is full") != std::string::npos ? ": " + why : ""));
 }
 
 /// Owns one HDF5 handle and closes it with the matching H5?close.

@@ -20,6 +20,7 @@
 #include "io/checkpoint.hpp"
 #include "io/fields.hpp"
 #include "io/mesh_io.hpp"
+#include "io/run_lock.hpp"
 #include "model/model.hpp"
 #include "partition/halo.hpp"
 #include "partition/partition.hpp"
@@ -37,7 +38,8 @@ int run_series_command(const std::string& scene_path, const std::vector<fdem::Se
   namespace fs = std::filesystem;
   const fdem::Scene scene = fdem::load_scene(scene_path);
   if (folder.empty()) folder = scene.output.folder;
-  const auto rows = fdem::run_series(scene_path, axes, folder, threads, quiet, std::cout);
+  std::unique_ptr<fdem::RunLock> lock;  // the folder's, held to the end of the command
+  const auto rows = fdem::run_series(scene_path, axes, folder, threads, quiet, std::cout, &lock);
   const std::string csv = (fs::path(folder) / "series.csv").string();
   fdem::write_series_csv(csv, rows);
   std::cout << "series: " << rows.size() << " runs in " << folder << "; table " << csv << "\n";
@@ -167,7 +169,9 @@ int run_main(int argc, char** argv) {
   bool quiet = false;
   auto* run = app.add_subcommand("run", "Run a scene: writes monitors.csv, stress_strain.png and fields.xdmf/.h5");
   run->add_option("scene", scene_path, "Scene file (YAML)")->required();
-  run->add_option("-o,--output", output, "Output folder (overrides output.folder)");
+  run->add_option("-o,--output", output,
+                  "Output folder (overrides output.folder); one run at a time: a folder another run is writing is "
+                  "refused (docs/restart.md)");
   run->add_option("-t,--threads", threads, "OpenMP threads (overrides solver.threads)")
       ->check(CLI::Range(0, fdem::SolverSettings::kMaxThreads));
   run->add_flag("-q,--quiet", quiet, "No progress lines");
@@ -333,7 +337,9 @@ int run_main(int argc, char** argv) {
     }
     const auto limits = fdem::parse_budget(budget);
     if (output.empty()) output = fdem::load_scene(scene_path).output.folder + "/study";
-    const fdem::StudyResult r = fdem::run_study(scene_path, axes, ref, limits, output, threads, quiet, std::cout);
+    std::unique_ptr<fdem::RunLock> lock;  // the folder's, held to the end of the command
+    const fdem::StudyResult r =
+        fdem::run_study(scene_path, axes, ref, limits, output, threads, quiet, std::cout, &lock);
     const bool plotted = fdem::write_study(output, r);
     std::ifstream md(output + "/study.md");
     std::cout << md.rdbuf() << "\nstudy: " << output << "/study.csv, study.md"

@@ -27,6 +27,7 @@
 #include "io/atomic_file.hpp"
 #include "io/checkpoint.hpp"
 #include "io/fields.hpp"
+#include "io/run_lock.hpp"
 
 namespace fdem {
 
@@ -547,6 +548,28 @@ namespace {
 /// Before a fresh run removes or truncates anything of an earlier run in its folder: each of
 /// `names` there is absent or a file it can replace ("checkpoints" a folder), and the folder can
 /// be written. "" if so, else what stands in the way.
+/// Rank 0 takes the lock of the run's folder for the whole job; where it cannot, every rank
+/// throws its InputError.
+std::unique_ptr<RunLock> lock_run_folder(const std::string& folder, const Solver& solver, std::ostream& log) {
+  std::unique_ptr<RunLock> lock;
+  std::string refused;
+  if (solver.rank() == 0) {
+    try {
+      lock = std::make_unique<RunLock>(folder, this_command(), log);
+    } catch (const InputError& e) {
+      refused = e.what();
+    }
+  }
+  if (solver.distributed()) {
+    int n = int(refused.size());
+    MPI_Bcast(&n, 1, MPI_INT, 0, solver.comm());
+    refused.resize(std::size_t(n));
+    MPI_Bcast(refused.data(), n, MPI_CHAR, 0, solver.comm());
+  }
+  if (!refused.empty()) throw InputError(refused);
+  return lock;
+}
+
 std::string replace_problem(const std::string& folder, const std::vector<std::string>& names) {
   namespace fs = std::filesystem;
   std::error_code ec;
@@ -615,11 +638,15 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
     return reason;
   };
 
+  if (!options.restart.empty() && fs::is_directory(out.folder, ec) && ::access(out.folder.c_str(), W_OK) != 0)
+    throw InputError("--restart: cannot write in " + out.folder + " (" + std::strerror(errno) +
+                     "), where the run goes on; nothing was changed. Fix: make the folder writable, or copy it "
+                     "somewhere writable and restart there (with -o)");
+  // One run at a time in the folder (a restart's folder that does not exist is named below).
+  std::unique_ptr<RunLock> lock;
+  if (!options.folder_locked && (options.restart.empty() || all_ranks(fs::is_directory(out.folder, ec))))
+    lock = lock_run_folder(out.folder, solver, log);
   if (!options.restart.empty()) {
-    if (fs::is_directory(out.folder, ec) && ::access(out.folder.c_str(), W_OK) != 0)
-      throw InputError("--restart: cannot write in " + out.folder + " (" + std::strerror(errno) +
-                       "), where the run goes on; nothing was changed. Fix: make the folder writable, or copy it "
-                       "somewhere writable and restart there (with -o)");
     // The newest checkpoint that reads and matches the files here; a damaged one, or one whose
     // monitors.csv is not the one in this folder, falls back to the one before.
     // Several ranks: rank 0's steps are the candidates, and each rank reads its own file of one.
@@ -783,7 +810,7 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
   const long first_step = solver.step_count();
   auto checkpoint = [&](const std::string& why) {
     csv.f.flush();
-    if (!csv.f) throw OutputError("cannot write " + csv_path + " (disk full or file removed?)");
+    if (!csv.f) throw OutputError("cannot write " + csv_path + ": " + write_failure(csv_path, errno));
     // The files the checkpoint refers to reach the disk before it does.
     sync_path(csv_path);
     sync_path(fields->h5_path());
@@ -845,7 +872,7 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
           growths_seen = g;
         }
         csv.f.flush();
-        if (!csv.f) throw OutputError("cannot write " + csv_path + " (disk full or file removed?)");
+        if (!csv.f) throw OutputError("cannot write " + csv_path + ": " + write_failure(csv_path, errno));
         if (mon.axial_stress > sum.peak_stress) {
           sum.peak_stress = mon.axial_stress;
           sum.strain_at_peak = mon.axial_strain;
@@ -930,7 +957,7 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
     throw;
   }
   csv.f.close();
-  if (!csv.f) throw OutputError("cannot write " + csv_path + " (disk full or file removed?)");
+  if (!csv.f) throw OutputError("cannot write " + csv_path + ": " + write_failure(csv_path, errno));
   write_frame(*fields, solver, "final");
   merge_index();
   sum.steps = solver.step_count();

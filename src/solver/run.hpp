@@ -28,12 +28,16 @@ struct RunOptions {
   /// Continue from a checkpoint: a checkpoint file, a run's output folder or its checkpoints/
   /// folder (the newest readable checkpoint is used). Empty: start from step 0.
   std::string restart;
+  /// The caller holds the output folder's lock (RunLock) already, as a series does for each of
+  /// its runs; otherwise run_scene takes it (rank 0, for every rank).
+  bool folder_locked = false;
 };
 
 /// One line per quantity: counts, the minimum altitude, the stable step and what limits it.
 void report_model(const Solver& solver, std::ostream& out);
 
-/// Run the solver to the scene's end condition, writing <folder>/monitors.csv,
+/// Run the solver to the scene's end condition, holding the lock of the output folder
+/// (io/run_lock.hpp: a second run into it is refused with InputError, nothing written there), writing <folder>/monitors.csv,
 /// <folder>/fields.{h5,xdmf}, <folder>/stress_strain.png and, last and atomically,
 /// <folder>/summary.csv (one row: kSummaryHeader), whose presence marks a finished run. Rethrows RunError after
 /// writing the monitor row and a field frame labelled "diagnostic" where possible.

@@ -14,6 +14,7 @@
 #include "io/atomic_file.hpp"
 #include "io/checkpoint.hpp"
 #include "io/mesh_io.hpp"
+#include "io/run_lock.hpp"
 #include "model/model.hpp"
 #include "solver/run.hpp"
 
@@ -191,8 +192,22 @@ std::map<std::string, std::string> read_summary(const std::string& path) {
   return m;
 }
 
+namespace {
+
+void make_series_folder(const std::string& folder) {
+  std::error_code made;
+  fs::create_directories(folder, made);
+  if (made || !fs::is_directory(folder))
+    throw InputError("-o " + folder + ": cannot create the folder for the runs" +
+                     (made ? ": " + made.message() : std::string()) +
+                     ". Fix: give -o a folder (new or existing) where you may write, not a file");
+}
+
+}  // namespace
+
 std::vector<SeriesRow> run_series(const std::string& scene_path, const std::vector<SeriesAxis>& axes,
-                                  const std::string& folder, int threads, bool quiet, std::ostream& log) {
+                                  const std::string& folder, int threads, bool quiet, std::ostream& log,
+                                  std::unique_ptr<RunLock>* hold) {
   const Scene base = load_scene(scene_path);
   const std::string text = read_text(scene_path);
   // All checked before anything runs.
@@ -211,12 +226,8 @@ std::vector<SeriesRow> run_series(const std::string& scene_path, const std::vect
     std::snprintf(h, sizeof h, "%016llx", static_cast<unsigned long long>(fnv1a64(bytes.data(), bytes.size())));
     mesh_line = "mesh " + fs::path(base.mesh.file).filename().string() + " FNV-1a " + h + "\n";
   }
-  std::error_code made;
-  fs::create_directories(folder, made);
-  if (made || !fs::is_directory(folder))
-    throw InputError("-o " + folder + ": cannot create the folder for the runs" +
-                     (made ? ": " + made.message() : std::string()) +
-                     ". Fix: give -o a folder (new or existing) where you may write, not a file");
+  make_series_folder(folder);
+  std::unique_ptr<RunLock> lock = std::make_unique<RunLock>(folder, this_command(), log);
   std::vector<SeriesRow> rows;
   const SignalGuard signals;  // a SIGTERM between runs stops the series before the next one
   for (std::size_t i = 0; i < combos.size(); ++i) {
@@ -251,6 +262,10 @@ std::vector<SeriesRow> run_series(const std::string& scene_path, const std::vect
       if (threads > 0) s.solver.threads = threads;
       if (quiet) s.output.progress_interval = 0;
       std::error_code ec;
+      fs::create_directories(row.folder, ec);
+      // The variant's folder is this run's before anything in it changes.
+      const RunLock lock(row.folder, this_command(), log);
+      run_options.folder_locked = true;
       fs::remove(summary_path, ec);
       if (run_options.restart.empty()) fs::remove_all(fs::path(row.folder) / "checkpoints", ec);
       fs::create_directories(row.folder, ec);
@@ -292,6 +307,7 @@ std::vector<SeriesRow> run_series(const std::string& scene_path, const std::vect
     if (row.summary.empty()) throw OutputError(summary_path + ": missing or unreadable after the run");
     rows.push_back(std::move(row));
   }
+  if (hold) *hold = std::move(lock);
   return rows;
 }
 

@@ -10,12 +10,15 @@
 // <folder>/series.csv, one row per run: the varied values, then the columns of summary.csv.
 #include <iosfwd>
 #include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "scene/scene.hpp"
 
 namespace fdem {
+
+class RunLock;
 
 /// One varied parameter and its values as typed (SI units). Keys:
 ///   sigma3           Pa   confining pressure (0 = unconfined); the path is the scene's
@@ -65,8 +68,13 @@ struct SeriesRow {
 /// Runs every combination of the axes' values (the last axis varying fastest) in turn,
 /// skipping finished runs. All values are checked before the first run starts. threads > 0
 /// overrides solver.threads; quiet silences the progress lines of each run.
+/// The series' folder is locked (io/run_lock.hpp) once the values are checked, before anything
+/// is written there, and so is each run's folder, so a second command into them is refused
+/// (InputError naming the run that holds it). The folder's lock goes to *hold, for a caller that
+/// writes there after the runs (series.csv, study.csv); without hold it is released on return.
 std::vector<SeriesRow> run_series(const std::string& scene_path, const std::vector<SeriesAxis>& axes,
-                                  const std::string& folder, int threads, bool quiet, std::ostream& log);
+                                  const std::string& folder, int threads, bool quiet, std::ostream& log,
+                                  std::unique_ptr<RunLock>* hold = nullptr);
 
 /// Writes <path> (atomically): the varied keys, then the summary columns.
 void write_series_csv(const std::string& path, const std::vector<SeriesRow>& rows);

@@ -81,7 +81,7 @@ std::map<std::string, real> parse_budget(const std::vector<std::string>& args) {
 StudyResult run_study(const std::string& scene_path, const std::vector<SeriesAxis>& axes,
                       const std::vector<std::pair<std::string, std::string>>& reference,
                       const std::map<std::string, real>& budget, const std::string& folder, int threads, bool quiet,
-                      std::ostream& log) {
+                      std::ostream& log, std::unique_ptr<RunLock>* hold) {
   const std::vector<SeriesValues> combos = series_combinations(axes);
   // The reference, found before anything runs.
   int ref = -1;
@@ -121,7 +121,7 @@ StudyResult run_study(const std::string& scene_path, const std::vector<SeriesAxi
   res.budget = budget;
   res.reference = ref;
   res.plotted = budget.empty() ? "peak" : budget.begin()->first;
-  const std::vector<SeriesRow> runs = run_series(scene_path, axes, folder, threads, quiet, log);
+  const std::vector<SeriesRow> runs = run_series(scene_path, axes, folder, threads, quiet, log, hold);
   const SeriesRow& r0 = runs[ref];
   if (r0.summary.count("end_reason") && r0.summary.at("end_reason").rfind("unstable", 0) == 0)
     throw RunError("the reference variant (" + label_of(r0.values) + ") was unstable: " + r0.summary.at("end_reason") +

@@ -44,10 +44,11 @@ struct StudyResult {
 /// reference: key=value pairs naming one variant; empty = for each axis its most exact value
 /// (activation full; the smallest mass_scaling, platen_velocity, element_size,
 /// time_step_safety); sigma3 and diameter have no most exact value and need it named.
+/// hold: as run_series's (the folder's lock, for writing study.csv after the runs).
 StudyResult run_study(const std::string& scene_path, const std::vector<SeriesAxis>& axes,
                       const std::vector<std::pair<std::string, std::string>>& reference,
                       const std::map<std::string, real>& budget, const std::string& folder, int threads, bool quiet,
-                      std::ostream& log);
+                      std::ostream& log, std::unique_ptr<RunLock>* hold = nullptr);
 
 /// study.csv and study.md in folder (atomically), and study.png through scripts/plot_study.py
 /// (false when the plot could not be made).

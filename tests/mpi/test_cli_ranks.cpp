@@ -88,6 +88,25 @@ TEST(CliRanks, TwoRanksWriteTheOneRankResults) {
   EXPECT_EQ(tets(r0) + tets(r1), tets(slurp(one / "fields.xdmf")));
 }
 
+TEST(CliRanks, ASecondJobIntoAFolderInUseIsRefused) {
+  // Rank 0 holds the folder's lock for the whole job: a second two-rank job into it ends with
+  // exit 2 on every rank before writing, and the first finishes with the two-rank results.
+  if (mpiexec(2).empty()) GTEST_SKIP() << "mpiexec not found";
+  TempDir tmp("ranks_lock");
+  const fs::path x = tmp.path / "x", alone = tmp.path / "alone";
+  const std::string job = mpiexec(2) + quote(kExe) + " run " + quote(kScene) + " -q -o ";
+  ASSERT_EQ(run_cmd(job + quote(alone.string())).code, 0);
+  const std::string script = job + quote(x.string()) + " & pid=$!; for i in $(seq 1500); do [ \"$(cat " +
+                             quote((x / "monitors.csv").string()) +
+                             " 2>/dev/null | wc -l)\" -ge 3 ] && break; sleep 0.02; done; " + job +
+                             quote(x.string()) + "; echo second=$?; wait $pid; echo first=$?";
+  const Outcome o = run_cmd("bash -c " + quote(script));
+  EXPECT_TRUE(has(o.text, "second=2")) << o.text;
+  EXPECT_TRUE(has(o.text, "first=0")) << o.text;
+  EXPECT_TRUE(has(o.text, "is the output folder of a run still going on")) << o.text;
+  EXPECT_EQ(slurp(x / "monitors.csv"), slurp(alone / "monitors.csv"));
+}
+
 TEST(CliRanks, RankFilesFromPartitionGiveTheSameRun) {
   if (mpiexec(2).empty()) GTEST_SKIP() << "mpiexec not found";
   TempDir tmp("partition");

@@ -4,9 +4,12 @@
 // fields.h5); a damaged newest checkpoint falls back to the one before; a checkpoint of another
 // scene, or one already past the scene's end, is refused with exit 2; an interrupted `fdem
 // series` continues its run from its checkpoint; a checkpoint that cannot be written is a
-// warning, not the end of the run.
+// warning, not the end of the run. A second run into a folder in use is refused, and a killed
+// run's folder is taken over by its restart.
 #include <unistd.h>
 
+#include <ctime>
+#include <fstream>
 #include <regex>
 
 #include "cli_support.hpp"
@@ -246,10 +249,11 @@ TEST(Restart, ACheckpointThatCannotBeOpenedStopsItAndIsKept) {
 }
 
 TEST(Restart, ADiskThatFillsWhileAFrameIsWrittenEndsWithExitFourAndTheRestartKeepsTheFrames) {
-  // A 40 kB file system fills while a ParaView frame is written: HDF5's shutdown crashed on the
-  // file it could not close (exit 139), and every restart failed to remove the frame cut short.
-  // Now exit 4, and the restart (with room again) copies the frames the checkpoint holds into a
-  // new fields.h5 and ends as the uninterrupted run does, bit for bit.
+  // A 44 kB file system (40 kB and a page for the run's lock file) fills while a ParaView frame
+  // is written: HDF5's shutdown crashed on the file it could not close (exit 139), and every
+  // restart failed to remove the frame cut short. Now exit 4, naming the disk as full, and the
+  // restart (with room again) copies the frames the checkpoint holds into a new fields.h5 and
+  // ends as the uninterrupted run does, bit for bit.
   TempDir tmp("restart_disk_full");
   const fs::path scene = tmp.path / "tiny.yaml", small = tmp.path / "small";
   std::ofstream(scene) << "name: tiny\nmesh: {file: " << (kData / "meshes" / "cube6_v22.msh").string()
@@ -259,7 +263,7 @@ TEST(Restart, ADiskThatFillsWhileAFrameIsWrittenEndsWithExitFourAndTheRestartKee
   const fs::path ref = tmp.path / "ref";
   ASSERT_EQ(run_fdem(run_args(scene, ref)).code, 0);
   fs::create_directory(small);
-  if (run_cmd("mount -t tmpfs -o size=40k tmpfs " + quote(small.string())).code != 0)
+  if (run_cmd("mount -t tmpfs -o size=44k tmpfs " + quote(small.string())).code != 0)
     GTEST_SKIP() << "needs to mount a tmpfs (root)";
   struct Unmount {
     fs::path p;
@@ -269,6 +273,7 @@ TEST(Restart, ADiskThatFillsWhileAFrameIsWrittenEndsWithExitFourAndTheRestartKee
   const Outcome full = run_fdem(run_args(scene, run));
   EXPECT_EQ(full.code, 4) << full.text;
   EXPECT_TRUE(has(full.text, "output failed: HDF5 output")) << full.text;
+  EXPECT_TRUE(has(full.text, "the disk is full")) << full.text;
   // Read-only (a scratch file system mounted so): refused at once, naming why.
   ASSERT_EQ(run_cmd("mount -o remount,ro " + quote(small.string())).code, 0);
   const Outcome ro = run_fdem(run_args(scene, run) + " --restart " + quote(run.string()));
@@ -349,4 +354,126 @@ TEST(Restart, ACheckpointThatCannotBeWrittenWarnsAndTheRunGoesOn) {
   EXPECT_TRUE(has(o.text, "warning: checkpoint (every 500 steps) not written, the run goes on")) << o.text;
   EXPECT_TRUE(fs::exists(f / "summary.csv"));
   EXPECT_EQ(first_difference(reference_run() / "monitors.csv", f / "monitors.csv"), "");
+}
+
+// One run at a time in an output folder (io/run_lock.hpp).
+
+namespace {
+
+/// Runs `first` in the background until its monitors.csv in `folder` has `rows` rows, then
+/// `second` (both whole fdem argument strings), then waits for the first. The output holds
+/// "pid=<first's PID>", "second=<exit code>" and "first=<exit code>", with what both printed.
+Outcome overlapping_runs(const std::string& first, const fs::path& folder, int rows, const std::string& second) {
+  const std::string script = kEnv + quote(kExe) + " " + first + " & pid=$!; echo pid=$pid; for i in $(seq 1500); do " +
+                             "[ \"$(cat " + quote((folder / "monitors.csv").string()) +
+                             " 2>/dev/null | wc -l)\" -ge " + std::to_string(rows + 1) + " ] && break; sleep 0.02; " +
+                             "done; " + kEnv + quote(kExe) + " " + second + "; echo second=$?; wait $pid; echo first=$?";
+  return run_cmd("bash -c " + quote(script));
+}
+
+/// The value after "<key>=" in text, or "".
+std::string value_after(const std::string& text, const std::string& key) {
+  std::smatch m;
+  return std::regex_search(text, m, std::regex(key + "=([0-9]+)")) ? m[1].str() : "";
+}
+
+}  // namespace
+
+TEST(RunLock, ASecondRunIntoAFolderInUseIsRefusedAndTheFirstRunsAsAlone) {
+  // Two runs of one folder: the second exits 2 at once, naming the first's PID, and writes
+  // nothing; the first's outputs are those of a run alone (before, both exited 0 and the folder
+  // held a mix of the two).
+  const fs::path& alone = reference_run();
+  TempDir tmp("lock_two_runs");
+  const fs::path x = tmp.path / "x";
+  const Outcome o = overlapping_runs(run_args(kScene, x), x, 2, run_args(kScene, x) + " -q");
+  const std::string pid = value_after(o.text, "pid");
+  ASSERT_FALSE(pid.empty()) << o.text;
+  EXPECT_EQ(value_after(o.text, "second"), "2") << o.text;
+  EXPECT_EQ(value_after(o.text, "first"), "0") << o.text;
+  EXPECT_TRUE(has(o.text, "PID " + pid + ", started ")) << o.text;
+  EXPECT_TRUE(has(o.text, "nothing was written")) << o.text;
+  expect_same_run(alone, x);
+  // The folder is free again: a third run goes.
+  EXPECT_EQ(run_fdem(run_args(kScene, x) + " -q").code, 0);
+}
+
+TEST(RunLock, AKilledRunLeavesNoLockAndItsRestartEqualsTheUninterruptedRun) {
+  // kill -9 leaves the holder's record but the kernel drops its lock: the restart takes the folder
+  // over with a note and continues bit for bit.
+  const fs::path& a = reference_run();
+  TempDir tmp("lock_kill9");
+  const fs::path scene = checkpointed(tmp.path, "every500", 3000, 500), c = tmp.path / "c";
+  const std::string script = kEnv + quote(kExe) + " " + run_args(scene, c) + " & pid=$!; for i in $(seq 1500); do " +
+                             "[ \"$(ls " + quote((c / "checkpoints").string()) +
+                             " 2>/dev/null | grep -c 'ckpt$')\" -ge 1 ] && break; sleep 0.02; done; kill -KILL $pid; "
+                             "wait $pid; echo killed=$?";
+  Outcome o = run_cmd("bash -c " + quote(script));
+  ASSERT_EQ(value_after(o.text, "killed"), "137") << o.text;
+  ASSERT_FALSE(fs::exists(c / "summary.csv")) << "killed before the end";
+  ASSERT_GT(slurp(c / ".fdem.lock").size(), 0u) << "the killed run's record stays";
+  o = run_fdem(run_args(kScene, c) + " --restart " + quote(c.string()));
+  ASSERT_EQ(o.code, 0) << o.text;
+  EXPECT_TRUE(has(o.text, "ended without releasing it")) << o.text;
+  expect_same_run(a, c);
+  EXPECT_EQ(slurp(c / ".fdem.lock"), "") << "a finished run leaves the folder free";
+}
+
+TEST(RunLock, AStaleRecordIsTakenOverAndALiveOneRefusedAlsoWithoutFileLocks) {
+  // A record of a process that does not exist (this host) is taken over, with or without file
+  // locks (FDEM_RUN_LOCK=record: the record alone, as on file systems without working locks); a
+  // live process's record, or another host's renewed within 5 minutes, is refused.
+  TempDir tmp("lock_stale");
+  char host[256] = {};
+  gethostname(host, sizeof host - 1);
+  const fs::path scene = checkpointed(tmp.path, "short", 100, 1000);
+  const double now = double(std::time(nullptr));
+  auto record = [&](const fs::path& dir, const std::string& on, long pid, double heartbeat) {
+    fs::create_directories(dir);
+    std::ofstream(dir / ".fdem.lock") << "host " << on << "\npid " << pid << "\nstarted 2026-01-01 00:00:00 UTC\n"
+                                      << "heartbeat " << std::to_string(heartbeat) << "\ncommand fdem run old.yaml\n";
+  };
+  const long gone = 999999999;  // above Linux's PID limit
+  for (const std::string mode : {"", "FDEM_RUN_LOCK=record "}) {
+    SCOPED_TRACE(mode);
+    const fs::path d = tmp.path / ("stale" + std::to_string(mode.size()));
+    record(d, host, gone, now);
+    Outcome o = run_cmd(mode + kEnv + quote(kExe) + " " + run_args(scene, d));
+    EXPECT_EQ(o.code, 0) << o.text;
+    EXPECT_TRUE(has(o.text, "PID " + std::to_string(gone)) && has(o.text, "taking it over")) << o.text;
+    EXPECT_TRUE(fs::exists(d / "summary.csv"));
+  }
+  // The record alone: this test's own process is alive on this host; another host's record is
+  // refused while renewed, taken over once 5 minutes old.
+  const fs::path live = tmp.path / "live", other = tmp.path / "other", old = tmp.path / "old";
+  record(live, host, long(getpid()), now);
+  record(other, "node-elsewhere", 4242, now);
+  record(old, "node-elsewhere", 4242, now - 600);
+  const std::string record_only = "FDEM_RUN_LOCK=record " + kEnv + quote(kExe) + " ";
+  Outcome o = run_cmd(record_only + run_args(scene, live));
+  EXPECT_EQ(o.code, 2) << o.text;
+  EXPECT_TRUE(has(o.text, "PID " + std::to_string(getpid()) + ", started")) << o.text;
+  EXPECT_FALSE(fs::exists(live / "monitors.csv"));
+  o = run_cmd(record_only + run_args(scene, other));
+  EXPECT_EQ(o.code, 2) << o.text;
+  EXPECT_TRUE(has(o.text, "host node-elsewhere") && has(o.text, "renewed")) << o.text;
+  o = run_cmd(record_only + run_args(scene, old));
+  EXPECT_EQ(o.code, 0) << o.text;
+  EXPECT_TRUE(has(o.text, "not renewed for")) << o.text;
+  // An unknown way of locking is an input error.
+  o = run_cmd("FDEM_RUN_LOCK=maybe " + kEnv + quote(kExe) + " " + run_args(scene, tmp.path / "maybe"));
+  EXPECT_EQ(o.code, 2) << o.text;
+  EXPECT_TRUE(has(o.text, "FDEM_RUN_LOCK=maybe")) << o.text;
+}
+
+TEST(RunLock, ASecondSeriesIntoAFolderInUseIsRefused) {
+  TempDir tmp("lock_series");
+  const fs::path scene = checkpointed(tmp.path, "series", 3000, 100000), s = tmp.path / "s";
+  const std::string series = "series " + quote(scene.string()) + " --vary platen_velocity=1.0 -q -o " + quote(s.string());
+  // The first series' run folder fills while the second starts.
+  const Outcome o = overlapping_runs(series, s / "platen_velocity_1.0", 2, series);
+  EXPECT_EQ(value_after(o.text, "second"), "2") << o.text;
+  EXPECT_EQ(value_after(o.text, "first"), "0") << o.text;
+  EXPECT_TRUE(has(o.text, "PID " + value_after(o.text, "pid"))) << o.text;
+  EXPECT_TRUE(fs::exists(s / "series.csv"));
 }
