@@ -17,15 +17,14 @@
 #include "core/error.hpp"
 #include "core/format.hpp"
 #include "io/atomic_file.hpp"
-#include "io/checkpoint.hpp"
 #include "io/fields.hpp"
-#include "io/mesh_io.hpp"
 #include "io/run_lock.hpp"
 #include "model/model.hpp"
 #include "partition/halo.hpp"
 #include "partition/partition.hpp"
 #include "partition/plex.hpp"
 #include "scene/scene.hpp"
+#include "solver/pipeline.hpp"
 #include "solver/run.hpp"
 #include "solver/series.hpp"
 #include "solver/study.hpp"
@@ -94,92 +93,34 @@ int world_size() {
   return fdem::size_of(MPI_COMM_WORLD);
 }
 
-/// The mesh and model of a scene, InputError naming the scene and the mesh. `write_mesh`: also
-/// write the mesh there as a .msh file (fdem check --write-mesh), once the model is built.
-fdem::Model build_scene_model(const fdem::Scene& scene, const std::string& write_mesh = "") {
-  if (!write_mesh.empty()) {  // before minutes of meshing
-    const std::filesystem::path folder = std::filesystem::absolute(write_mesh).parent_path();
-    std::error_code ec;
-    if (!std::filesystem::is_directory(folder, ec) || std::filesystem::is_directory(write_mesh, ec))
-      throw fdem::OutputError(
-          "cannot write the mesh to " + write_mesh + ": " +
-          (std::filesystem::is_directory(write_mesh, ec) ? "it is a folder" : folder.string() + " is not a folder") +
-          ". Fix: give --write-mesh a file name in a folder that exists, e.g. mesh.msh");
-    // Not over what this run reads, nor over a device or other special file (renamed over it).
-    for (const auto& [what, input] : {std::pair<const char*, std::string>{"the scene file", scene.file},
-                                      std::pair<const char*, std::string>{"the scene's mesh.file", scene.mesh.file}})
-      if (!input.empty() && std::filesystem::equivalent(write_mesh, input, ec))
-        throw fdem::InputError("--write-mesh " + write_mesh + " is " + what + " (" + input +
-                               "), which writing would replace. Fix: give --write-mesh another file name");
-    if (std::filesystem::exists(write_mesh, ec) && !std::filesystem::is_regular_file(write_mesh, ec))
-      throw fdem::OutputError("cannot write the mesh to " + write_mesh +
-                              ": it exists and is not a regular file (a device, socket or pipe). Fix: give "
-                              "--write-mesh a file name in a folder that exists, e.g. mesh.msh");
-  }
-  fdem::Mesh mesh;
-  fdem::Model model;
-  try {
-    mesh = fdem::load_mesh(scene.mesh);
-    model = fdem::build_model(mesh, scene);
-  } catch (const fdem::InputError& e) {
-    // Name the scene too: the mesh message names the mesh file and the element.
-    throw fdem::InputError(scene.file + ": mesh: " + e.what());
-  }
-  if (!write_mesh.empty()) {
-    try {
-      fdem::write_msh(mesh, write_mesh);
-    } catch (const fdem::OutputError& e) {
-      throw fdem::OutputError("cannot write the mesh to " + write_mesh + " (" + e.what() +
-                              "). Fix: give --write-mesh a file in a folder that can be written, with space");
-    }
-    std::cout << "mesh written: " << write_mesh << " (" << mesh.vertices.size() << " vertices, " << mesh.tets.size()
-              << " tets, gmsh .msh 2.2, m; give it as mesh.file)\n";
-  }
-  return model;
-}
-
-/// The METIS partition of a scene's model for `size` ranks and its plan (contact reach: the
-/// option's, else the default); InputError naming the scene.
-fdem::PartitionPlan plan_scene(const fdem::Scene& scene, const fdem::Model& global, int size, double contact_reach) {
-  std::vector<int> part;
-  try {
-    part = fdem::partition_tets(global, size);
-  } catch (const fdem::InputError& e) {
-    throw fdem::InputError(scene.file + ": " + e.what());
-  }
-  const double reach = !scene.contact.enabled() ? 0
-                       : contact_reach > 0      ? contact_reach
-                                                : fdem::default_reach(global, scene);
-  return fdem::plan_partition(global, part, reach);
-}
-
-std::string rank_file(const std::string& folder, int rank) {
-  return (std::filesystem::path(folder) / ("rank_" + std::to_string(rank) + ".fdp")).string();
-}
-
-int run_main(int argc, char** argv) {
-  CLI::App app{"fdem " FDEM_VERSION
-               ": 3D combined finite-discrete element modelling of rock fracture (TET4 + CE6 cohesive elements). "
-               "All quantities in SI units."};
-  app.set_version_flag("--version", "fdem " FDEM_VERSION);
-  app.require_subcommand(1);
-
+/// Every option of every command, as given.
+struct CliOptions {
   std::string scene_path, output;
   int threads = 0;
   bool quiet = false;
-  auto* run = app.add_subcommand("run", "Run a scene: writes monitors.csv, stress_strain.png and fields.xdmf/.h5");
-  run->add_option("scene", scene_path, "Scene file (YAML)")->required();
-  run->add_option("-o,--output", output,
+  std::string activation, backend, partitioned, distribute, write_mesh;
+  double contact_reach = 0;  // m
+  fdem::RunOptions run_options;
+  int parts = 0;
+  std::string sigma3, reference;
+  std::vector<std::string> vary, budget;
+};
+
+struct Commands {
+  CLI::App *run, *check, *partition, *triaxial, *series, *study;
+};
+
+void define_run(CLI::App* run, CliOptions& o) {
+  run->add_option("scene", o.scene_path, "Scene file (YAML)")->required();
+  run->add_option("-o,--output", o.output,
                   "Output folder (overrides output.folder); one run at a time: a folder another run is writing is "
                   "refused (docs/restart.md)");
-  run->add_option("-t,--threads", threads, "OpenMP threads (overrides solver.threads)")
+  run->add_option("-t,--threads", o.threads, "OpenMP threads (overrides solver.threads)")
       ->check(CLI::Range(0, fdem::SolverSettings::kMaxThreads));
-  run->add_flag("-q,--quiet", quiet, "No progress lines");
-  std::string activation;
-  run->add_option("--contact", activation, "Contact activation (overrides contact.activation)")
+  run->add_flag("-q,--quiet", o.quiet, "No progress lines");
+  run->add_option("--contact", o.activation, "Contact activation (overrides contact.activation)")
       ->check(CLI::IsMember({"adaptive", "full", "none"}));
-  std::string backend;
-  run->add_option("--backend", backend,
+  run->add_option("--backend", o.backend,
                   "Time loop (overrides solver.backend): cpu (OpenMP), cuda (the GPU), or debug (the GPU's loop on "
                   "the CPU with separate device memory and each pass's iterations scrambled, for checking; "
                   "FDEM_DEBUG_ORDER=forward keeps index order; FDEM_DEVICE_SCHEDULE=colour computes TET4 and CE6 "
@@ -188,272 +129,170 @@ int run_main(int argc, char** argv) {
                   "to a CUDA-aware MPI, else stages them through host memory; FDEM_GPU_AWARE_MPI=auto|1|0 overrides "
                   "(docs/cluster.md)")
       ->check(CLI::IsMember({"cpu", "cuda", "debug"}));
-  std::string partitioned;
-  double contact_reach = 0;
-  run->add_option("--partitioned", partitioned,
+  run->add_option("--partitioned", o.partitioned,
                   "Folder of rank files written by fdem partition (one per MPI rank): no mesh reading, model build, "
                   "METIS or PETSc at start");
-  std::string distribute;
-  run->add_option("--distribute", distribute,
+  run->add_option("--distribute", o.distribute,
                   "Several ranks without --partitioned: how rank 0's model reaches the ranks. plex: METIS's "
                   "partition through PETSc DMPlex (DMPlexDistribute, overlap 1, the tet data as cell data; the "
                   "default where fdem is built with PETSc); root: rank 0 sends each rank its part (the default "
                   "without PETSc). Both give the same rank models")
       ->check(CLI::IsMember({"plex", "root"}));
-  fdem::RunOptions run_options;
-  run->add_option("--restart", run_options.restart,
+  run->add_option("--restart", o.run_options.restart,
                   "Continue an interrupted run from its newest checkpoint: the run's output folder, its "
                   "checkpoints/ folder or a .ckpt file (same scene and mesh; solver.end and output may change)");
+}
 
-  auto* check = app.add_subcommand("check", "Validate a scene, build its model and report counts and the time step");
-  check->add_option("scene", scene_path, "Scene file (YAML)")->required();
-  std::string write_mesh;
-  check->add_option("--write-mesh", write_mesh,
+void define_check_and_partition(CLI::App* check, CLI::App* partition, CliOptions& o) {
+  check->add_option("scene", o.scene_path, "Scene file (YAML)")->required();
+  check->add_option("--write-mesh", o.write_mesh,
                     "Also write the scene's mesh (generated or read) to this gmsh .msh file (ASCII 2.2, coordinates "
                     "in m, the same mesh bit for bit when read back): give it as mesh.file where fdem has no gmsh");
+  partition->add_option("scene", o.scene_path, "Scene file (YAML)")->required();
+  partition->add_option("-n,--ranks", o.parts, "Number of MPI ranks")->required()->check(CLI::PositiveNumber);
+  partition->add_option("-o,--output", o.output, "Folder for rank_<r>.fdp (default: <output.folder>/partition_<N>)");
+}
 
-  int parts = 0;
-  auto* partition = app.add_subcommand(
-      "partition",
-      "Partition a scene's model for N MPI ranks (METIS) and write one rank file per rank, for fdem run "
-      "--partitioned on machines without METIS or to skip the build at start");
-  partition->add_option("scene", scene_path, "Scene file (YAML)")->required();
-  partition->add_option("-n,--ranks", parts, "Number of MPI ranks")->required()->check(CLI::PositiveNumber);
-  partition->add_option("-o,--output", output, "Folder for rank_<r>.fdp (default: <output.folder>/partition_<N>)");
-  for (auto* sub : {run, partition})
-    sub->add_option("--contact-reach", contact_reach,
-                    "m: each rank also holds the tets within this distance of its own, for contact across ranks "
-                    "(reference positions, gathered again with the current ones whenever a node has moved a "
-                    "quarter of it; it must exceed twice a node's motion in one step). Default with contact: two "
-                    "mean edge lengths, or 2.5 times the platen travel to the end condition if larger")
-        ->check([](const std::string& v) -> std::string {
-          // CLI::PositiveNumber lets nan through (nan <= 0 is false), and nan meant "the default".
-          return fdem::decimal(v) > 0 ? "" : "Value " + v + " is not a finite length > 0 (m)";
-        });
+void define_contact_reach(CLI::App* sub, CliOptions& o) {
+  sub->add_option("--contact-reach", o.contact_reach,
+                  "m: each rank also holds the tets within this distance of its own, for contact across ranks "
+                  "(reference positions, gathered again with the current ones whenever a node has moved a "
+                  "quarter of it; it must exceed twice a node's motion in one step). Default with contact: two "
+                  "mean edge lengths, or 2.5 times the platen travel to the end condition if larger")
+      ->check([](const std::string& v) -> std::string {
+        // CLI::PositiveNumber lets nan through (nan <= 0 is false), and nan meant "the default".
+        return fdem::decimal(v) > 0 ? "" : "Value " + v + " is not a finite length > 0 (m)";
+      });
+}
 
-  std::string sigma3;
-  auto* triaxial = app.add_subcommand(
-      "triaxial",
-      "Run a scene at several confining pressures (along the scene's confinement.path, hydrostatic by default), one "
-      "after another, skipping finished "
-      "ones; writes series.csv, series_curves.png, mohr_coulomb.csv and mohr_circles.png");
-  triaxial->add_option("scene", scene_path, "Scene file (YAML)")->required();
-  triaxial->add_option("--sigma3", sigma3, "Confining pressures in Pa, comma-separated, e.g. 0,2.5e6,5e6,10e6")
+void define_series_commands(const Commands& c, CliOptions& o) {
+  c.triaxial->add_option("scene", o.scene_path, "Scene file (YAML)")->required();
+  c.triaxial->add_option("--sigma3", o.sigma3, "Confining pressures in Pa, comma-separated, e.g. 0,2.5e6,5e6,10e6")
       ->required();
-  std::vector<std::string> vary;
-  auto* series = app.add_subcommand(
-      "series",
-      "Run a scene for every combination of the varied parameters, skipping finished runs; writes series.csv and "
-      "series_curves.png (loading-rate and specimen-size studies)");
   const char* vary_help =
       "key=v1,v2,... (repeatable; every combination runs, at most 10000; a value given twice, also as 1e6 and "
       "1000000, is an error), SI units; keys: sigma3 (Pa), platen_velocity (m/s), "
       "diameter (m, height scaled with it), element_size (m), mass_scaling, activation, time_step_safety";
-  series->add_option("scene", scene_path, "Scene file (YAML)")->required();
-  series->add_option("--vary", vary, vary_help)->required();
-  std::vector<std::string> budget;
-  std::string reference;
-  auto* study = app.add_subcommand(
+  c.series->add_option("scene", o.scene_path, "Scene file (YAML)")->required();
+  c.series->add_option("--vary", o.vary, vary_help)->required();
+  c.study->add_option("scene", o.scene_path, "Scene file (YAML)")->required();
+  c.study->add_option("--vary", o.vary, vary_help)->required();
+  c.study->add_option("--reference", o.reference,
+                      "The reference variant, key=value[,key=value] (default: the most exact value of each axis: "
+                      "activation full, the smallest mass_scaling, platen_velocity, element_size, time_step_safety)");
+  c.study->add_option("--budget", o.budget,
+                      "Error budget, metric=limit[,...]: peak, strain_at_peak, curve_pre, curve_post, broken (at "
+                      "most, e.g. 2% or 0.02; a fraction above 1 needs %), jaccard (at least, e.g. 0.8)");
+  for (auto* sub : {c.triaxial, c.series, c.study}) {
+    sub->add_option("-o,--output", o.output,
+                    sub == c.study ? "Study folder (default: <output.folder>/study of the scene)"
+                                   : "Series folder (default: the scene's output.folder)");
+    sub->add_option("-t,--threads", o.threads, "OpenMP threads per run")
+        ->check(CLI::Range(0, fdem::SolverSettings::kMaxThreads));
+    sub->add_flag("-q,--quiet", o.quiet, "No progress lines");
+  }
+}
+
+Commands define_commands(CLI::App& app, CliOptions& o) {
+  Commands c;
+  c.run = app.add_subcommand("run", "Run a scene: writes monitors.csv, stress_strain.png and fields.xdmf/.h5");
+  c.check = app.add_subcommand("check", "Validate a scene, build its model and report counts and the time step");
+  c.partition = app.add_subcommand(
+      "partition",
+      "Partition a scene's model for N MPI ranks (METIS) and write one rank file per rank, for fdem run "
+      "--partitioned on machines without METIS or to skip the build at start");
+  c.triaxial = app.add_subcommand(
+      "triaxial",
+      "Run a scene at several confining pressures (along the scene's confinement.path, hydrostatic by default), one "
+      "after another, skipping finished "
+      "ones; writes series.csv, series_curves.png, mohr_coulomb.csv and mohr_circles.png");
+  c.series = app.add_subcommand(
+      "series",
+      "Run a scene for every combination of the varied parameters, skipping finished runs; writes series.csv and "
+      "series_curves.png (loading-rate and specimen-size studies)");
+  c.study = app.add_subcommand(
       "study",
       "Speed against error: run variants of a scene, compare each with a reference variant (peak, strain at peak, "
       "curve before/after the peak, broken CE6, fracture overlap) and recommend the fastest within a budget; writes "
       "study.csv, study.md, study.png");
-  study->add_option("scene", scene_path, "Scene file (YAML)")->required();
-  study->add_option("--vary", vary, vary_help)->required();
-  study->add_option("--reference", reference,
-                    "The reference variant, key=value[,key=value] (default: the most exact value of each axis: "
-                    "activation full, the smallest mass_scaling, platen_velocity, element_size, time_step_safety)");
-  study->add_option("--budget", budget,
-                    "Error budget, metric=limit[,...]: peak, strain_at_peak, curve_pre, curve_post, broken (at most, "
-                    "e.g. 2% or 0.02; a fraction above 1 needs %), jaccard (at least, e.g. 0.8)");
-  for (auto* sub : {triaxial, series, study}) {
-    sub->add_option("-o,--output", output,
-                    sub == study ? "Study folder (default: <output.folder>/study of the scene)"
-                                 : "Series folder (default: the scene's output.folder)");
-    sub->add_option("-t,--threads", threads, "OpenMP threads per run")
-        ->check(CLI::Range(0, fdem::SolverSettings::kMaxThreads));
-    sub->add_flag("-q,--quiet", quiet, "No progress lines");
-  }
+  define_run(c.run, o);
+  define_check_and_partition(c.check, c.partition, o);
+  for (auto* sub : {c.run, c.partition}) define_contact_reach(sub, o);
+  define_series_commands(c, o);
+  return c;
+}
 
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    const int code = app.exit(e);
-    return code == 0 ? 0 : 2;
+int partition_command(CliOptions o) {
+  fdem::Scene scene = fdem::load_scene(o.scene_path);
+  const fdem::Model model = fdem::build_scene_model(scene, "", std::cout);
+  const fdem::PartitionPlan plan = fdem::plan_scene(scene, model, o.parts, o.contact_reach);
+  if (o.output.empty()) o.output = scene.output.folder + "/partition_" + std::to_string(o.parts);
+  std::error_code ec;
+  std::filesystem::create_directories(o.output, ec);
+  if (ec)
+    throw fdem::OutputError(
+        "cannot create the folder '" + o.output + "' for the rank files: " + ec.message() +
+        (ec == std::errc::not_a_directory || ec == std::errc::file_exists
+             ? ". Fix: give -o a folder (new or existing), not a file"
+             : ". Fix: give -o a folder where you may write (check its permissions and free space)"));
+  std::cout << "partition of " << model.tet_nodes.size() << " tets, " << model.ce6_nodes.size() << " CE6, "
+            << model.X.size() << " nodes for " << o.parts << " ranks, contact reach " << plan.reach << " m:\n";
+  for (int r = 0; r < o.parts; ++r) {
+    const fdem::RankModel rm = fdem::extract_rank(model, plan, r);
+    const std::string path = fdem::rank_file_path(o.output, r);
+    fdem::write_rank_file(path, rm, fdem::model_key(scene));
+    long own = 0, ghost_nodes = 0;
+    for (auto t : rm.dd.tet_owned) own += t;
+    for (const auto& nb : rm.dd.neighbours) ghost_nodes += long(nb.recv_nodes.size());
+    std::cout << "  rank " << r << ": " << own << " tets own, " << rm.model.tet_nodes.size() - own << " ghost, "
+              << rm.dd.neighbours.size() << " neighbour(s), " << ghost_nodes << " ghost nodes -> " << path << "\n";
   }
+  std::cout << "run with: mpiexec -n " << o.parts << " fdem run " << o.scene_path << " --partitioned " << o.output
+            << "\n";
+  return 0;
+}
 
-  // OpenMP's own limit is far above what it survives: libgomp crashed at 100000 threads before
-  // the first line of output.
-  if (omp_get_max_threads() > fdem::SolverSettings::kMaxThreads)
-    throw fdem::InputError(
-        "OMP_NUM_THREADS=" + std::string(std::getenv("OMP_NUM_THREADS") ? std::getenv("OMP_NUM_THREADS") : "?") +
-        ": more than " + std::to_string(fdem::SolverSettings::kMaxThreads) +
-        " OpenMP threads. Fix: set OMP_NUM_THREADS to the cores of one rank, or unset it");
-  const int size = world_size(), rank = world_rank();
-  if (size > 1 && !run->parsed())
-    throw fdem::InputError("fdem " + app.get_subcommands().front()->get_name() + " runs on one MPI rank (got " +
-                           std::to_string(size) + "); only fdem run uses several. Fix: run it without mpiexec");
-  if (partition->parsed()) {
-    fdem::Scene scene = fdem::load_scene(scene_path);
-    const fdem::Model model = build_scene_model(scene);
-    const fdem::PartitionPlan plan = plan_scene(scene, model, parts, contact_reach);
-    const double reach = plan.reach;
-    if (output.empty()) output = scene.output.folder + "/partition_" + std::to_string(parts);
-    std::error_code ec;
-    std::filesystem::create_directories(output, ec);
-    if (ec)
-      throw fdem::OutputError(
-          "cannot create the folder '" + output + "' for the rank files: " + ec.message() +
-          (ec == std::errc::not_a_directory || ec == std::errc::file_exists
-               ? ". Fix: give -o a folder (new or existing), not a file"
-               : ". Fix: give -o a folder where you may write (check its permissions and free space)"));
-    std::cout << "partition of " << model.tet_nodes.size() << " tets, " << model.ce6_nodes.size() << " CE6, "
-              << model.X.size() << " nodes for " << parts << " ranks, contact reach " << reach << " m:\n";
-    for (int r = 0; r < parts; ++r) {
-      const fdem::RankModel rm = fdem::extract_rank(model, plan, r);
-      const std::string path = rank_file(output, r);
-      fdem::write_rank_file(path, rm, fdem::model_key(scene));
-      long own = 0, ghost_nodes = 0;
-      for (auto o : rm.dd.tet_owned) own += o;
-      for (const auto& nb : rm.dd.neighbours) ghost_nodes += long(nb.recv_nodes.size());
-      std::cout << "  rank " << r << ": " << own << " tets own, " << rm.model.tet_nodes.size() - own << " ghost, "
-                << rm.dd.neighbours.size() << " neighbour(s), " << ghost_nodes << " ghost nodes -> " << path << "\n";
-    }
-    std::cout << "run with: mpiexec -n " << parts << " fdem run " << scene_path << " --partitioned " << output << "\n";
-    return 0;
+int study_command(CliOptions o) {
+  std::vector<fdem::SeriesAxis> axes;
+  for (const std::string& a : o.vary) axes.push_back(fdem::parse_series_axis(a));
+  std::vector<std::pair<std::string, std::string>> ref;
+  std::stringstream in(o.reference);
+  for (std::string kv; std::getline(in, kv, ',');) {
+    const std::size_t eq = kv.find('=');
+    if (eq == std::string::npos)
+      throw fdem::InputError("--reference " + o.reference + ": expected key=value[,key=value]");
+    ref.push_back({kv.substr(0, eq), kv.substr(eq + 1)});
   }
-  if (triaxial->parsed())
-    return run_series_command(scene_path, {fdem::parse_series_axis("sigma3=" + sigma3)}, output, threads, quiet, true);
-  if (study->parsed()) {
-    std::vector<fdem::SeriesAxis> axes;
-    for (const std::string& a : vary) axes.push_back(fdem::parse_series_axis(a));
-    std::vector<std::pair<std::string, std::string>> ref;
-    std::stringstream in(reference);
-    for (std::string kv; std::getline(in, kv, ',');) {
-      const std::size_t eq = kv.find('=');
-      if (eq == std::string::npos)
-        throw fdem::InputError("--reference " + reference + ": expected key=value[,key=value]");
-      ref.push_back({kv.substr(0, eq), kv.substr(eq + 1)});
-    }
-    const auto limits = fdem::parse_budget(budget);
-    if (output.empty()) output = fdem::load_scene(scene_path).output.folder + "/study";
-    std::unique_ptr<fdem::RunLock> lock;  // the folder's, held to the end of the command
-    const fdem::StudyResult r =
-        fdem::run_study(scene_path, axes, ref, limits, output, threads, quiet, std::cout, &lock);
-    const bool plotted = fdem::write_study(output, r);
-    std::ifstream md(output + "/study.md");
-    std::cout << md.rdbuf() << "\nstudy: " << output << "/study.csv, study.md"
-              << (plotted ? ", study.png" : " (no plot: needs python3-matplotlib)") << "\n";
-    return 0;
-  }
-  if (series->parsed()) {
-    std::vector<fdem::SeriesAxis> axes;
-    for (const std::string& a : vary) axes.push_back(fdem::parse_series_axis(a));
-    return run_series_command(scene_path, axes, output, threads, quiet, false);
-  }
+  const auto limits = fdem::parse_budget(o.budget);
+  if (o.output.empty()) o.output = fdem::load_scene(o.scene_path).output.folder + "/study";
+  std::unique_ptr<fdem::RunLock> lock;  // the folder's, held to the end of the command
+  const fdem::StudyResult r =
+      fdem::run_study(o.scene_path, axes, ref, limits, o.output, o.threads, o.quiet, std::cout, &lock);
+  const bool plotted = fdem::write_study(o.output, r);
+  std::ifstream md(o.output + "/study.md");
+  std::cout << md.rdbuf() << "\nstudy: " << o.output << "/study.csv, study.md"
+            << (plotted ? ", study.png" : " (no plot: needs python3-matplotlib)") << "\n";
+  return 0;
+}
 
-  fdem::Scene scene = fdem::load_scene(scene_path);
-  if (!output.empty()) scene.output.folder = output;
-  if (threads > 0) scene.solver.threads = threads;
-  if (quiet) scene.output.progress_interval = 0;
-  if (!activation.empty()) fdem::choice_named(activation, scene.contact.activation);
-  if (!backend.empty()) scene.solver.backend = fdem::parse_backend(backend, "--backend");
-  fdem::Model model;
-  fdem::Decomposition dd;
-  if (!partitioned.empty()) {
-    fdem::RankModel rm = fdem::read_rank_file(rank_file(partitioned, rank), fdem::model_key(scene));
-    if (rm.dd.size != size || rm.dd.rank != rank)
-      throw fdem::InputError(rank_file(partitioned, rank) + ": written for rank " + std::to_string(rm.dd.rank) +
-                             " of " + std::to_string(rm.dd.size) + ", run as rank " + std::to_string(rank) + " of " +
-                             std::to_string(size) + ". Fix: mpiexec -n " + std::to_string(rm.dd.size) +
-                             ", or fdem partition -n " + std::to_string(size));
-    // The contact reach is the rank files': a partition made without contact holds no ghosts for
-    // it, and the run would lose contacts across ranks without a word.
-    if (size > 1 && scene.contact.enabled() && !(rm.dd.reach > 0))
-      throw fdem::InputError(rank_file(partitioned, rank) +
-                             ": written for a scene without contact (contact reach 0 m); " + scene.file +
-                             " has contact (" + fdem::name_of(scene.contact.activation) +
-                             "). Fix: fdem partition this scene again, or run with --contact none");
-    if (contact_reach > 0)
-      throw fdem::InputError("--contact-reach " + fdem::fmt(contact_reach) +
-                             " with --partitioned: the rank files hold their own reach (" + fdem::fmt(rm.dd.reach) +
-                             " m). Fix: give --contact-reach to fdem "
-                             "partition, or leave it out here");
-    model = std::move(rm.model);
-    dd = std::move(rm.dd);
-  } else if (size == 1) {
-    model = build_scene_model(scene, write_mesh);
-  } else {
-    // Rank 0 builds the model and partitions it with METIS; DMPlex distributes it (or rank 0
-    // sends every rank its part): the other ranks never hold the whole model. (A failure on
-    // rank 0 ends the job, MPI_Abort.)
-    const bool plex = distribute.empty() ? fdem::plex_available() : distribute == "plex";
-    if (plex) fdem::require_plex();  // before rank 0 spends minutes on the model
-    const std::uint64_t key = fdem::model_key(scene);
-    fdem::RankModel mine;
-    if (plex) {
-      fdem::Model global;
-      fdem::PartitionPlan plan;
-      if (rank == 0) {
-        global = build_scene_model(scene);
-        plan = plan_scene(scene, global, size, contact_reach);
-      }
-      fdem::PlexReport report;
-      const double start = MPI_Wtime();
-      mine = fdem::distribute_with_plex(MPI_COMM_WORLD, rank == 0 ? &global : nullptr, rank == 0 ? &plan : nullptr,
-                                        &report);
-      if (rank == 0)
-        std::cout << "distribution: PETSc DMPlex (shell partitioner with METIS's partition, overlap 1): "
-                  << report.overlap_tets << " held tets as plex cells"
-                  << (report.contact_ghosts > 0 ? ", " + std::to_string(report.contact_ghosts) +
-                                                      " contact ghosts beyond the overlap sent beside"
-                                                : std::string())
-                  << " (" << fdem::fmt(MPI_Wtime() - start, 3) << " s)\n";
-    } else if (rank == 0) {
-      const fdem::Model global = build_scene_model(scene);
-      const fdem::PartitionPlan plan = plan_scene(scene, global, size, contact_reach);
-      const double start = MPI_Wtime();
-      for (int r = 1; r < size; ++r) {
-        fdem::CheckpointOut o;
-        fdem::put_rank_model(o, fdem::extract_rank(global, plan, r), key);
-        fdem::send_bytes(MPI_COMM_WORLD, o.payload(), r);
-      }
-      mine = fdem::extract_rank(global, plan, 0);
-      std::cout << "distribution: rank 0 cut every rank's part and sent it (" << fdem::fmt(MPI_Wtime() - start, 3)
-                << " s)\n";
-    } else {
-      fdem::CheckpointIn in(fdem::receive_bytes(MPI_COMM_WORLD, 0), "the model part sent by rank 0");
-      mine = fdem::get_rank_model(in, key);
-      in.finish();
-    }
-    model = std::move(mine.model);
-    dd = std::move(mine.dd);
-  }
-  NullBuffer null_buffer;
-  std::ostream null_stream(&null_buffer);
-  std::ostream& log = rank == 0 ? std::cout : null_stream;
-  fdem::Solver solver(scene, std::move(model), std::move(dd), MPI_COMM_WORLD);
-  fdem::report_model(solver, log);
-  if (check->parsed()) return 0;
+/// The command that continues a run stopped by a signal: every option that changes the run, so
+/// that the checkpoint matches (and, with -t, bit for bit).
+std::string continue_command(const CliOptions& o, int size, const std::string& folder) {
+  auto q = [](const std::string& a) { return "'" + a + "'"; };
+  std::string cmd =
+      (size > 1 ? "mpiexec -n " + std::to_string(size) + " " : std::string()) + "fdem run " + q(o.scene_path);
+  if (!o.output.empty()) cmd += " -o " + q(o.output);
+  if (!o.partitioned.empty()) cmd += " --partitioned " + q(o.partitioned);
+  if (o.contact_reach > 0) cmd += " --contact-reach " + fdem::fmt(o.contact_reach, 10);
+  if (o.threads > 0) cmd += " -t " + std::to_string(o.threads);
+  if (!o.activation.empty()) cmd += " --contact " + o.activation;
+  if (!o.backend.empty()) cmd += " --backend " + o.backend;
+  if (!o.distribute.empty()) cmd += " --distribute " + o.distribute;
+  return cmd + " --restart " + q(folder);
+}
 
-  fdem::RunSummary s;
-  try {
-    s = fdem::run_scene(solver, log, run_options);
-  } catch (const fdem::Interrupted& e) {
-    // Every option that changes the run, so that the checkpoint matches (and, with -t, bit for bit).
-    auto q = [](const std::string& a) { return "'" + a + "'"; };
-    std::string cmd =
-        (size > 1 ? "mpiexec -n " + std::to_string(size) + " " : std::string()) + "fdem run " + q(scene_path);
-    if (!output.empty()) cmd += " -o " + q(output);
-    if (!partitioned.empty()) cmd += " --partitioned " + q(partitioned);
-    if (contact_reach > 0) cmd += " --contact-reach " + fdem::fmt(contact_reach, 10);
-    if (threads > 0) cmd += " -t " + std::to_string(threads);
-    if (!activation.empty()) cmd += " --contact " + activation;
-    if (!backend.empty()) cmd += " --backend " + backend;
-    if (!distribute.empty()) cmd += " --distribute " + distribute;
-    throw fdem::Interrupted(std::string(e.what()) + "; continue with: " + cmd + " --restart " + q(scene.output.folder));
-  }
-  if (rank != 0) return 0;
+/// The end of a run: its end, peak, breaks, fracture plane, contact and outputs.
+void report_run(const fdem::RunSummary& s, const fdem::Solver& solver) {
   std::cout << "finished: " << s.end_reason << " after " << s.steps << " steps, t = " << s.time << " s, "
             << s.wall_seconds << " s wall\n"
             << "  peak axial stress " << s.peak_stress / 1e6 << " MPa at axial strain " << s.strain_at_peak
@@ -464,7 +303,7 @@ int run_main(int argc, char** argv) {
   if (s.fracture.broken >= 3)
     std::cout << "  main failure plane at " << s.fracture.plane_angle_deg << " deg to the loading axis (planarity "
               << s.fracture.planarity << "; facets " << s.fracture.mean_facet_angle_deg << " deg on average)\n";
-  std::cout << "  contact " << fdem::name_of(scene.contact.activation);
+  std::cout << "  contact " << fdem::name_of(solver.scene().contact.activation);
   if (solver.contacts.enabled()) {
     const fdem::ContactTimes& ct = solver.contacts.times;
     const long tets = solver.distributed() ? solver.decomposition().global_tets : long(solver.model().tet_nodes.size());
@@ -480,7 +319,68 @@ int run_main(int argc, char** argv) {
   std::cout << "\n  outputs in " << s.folder
             << ": monitors.csv, summary.csv, stress_strain.png, fields.xdmf (open in ParaView; frames labelled "
                "pre-peak, peak, post-peak)\n";
+}
+
+/// fdem run and fdem check (check_only: the model and its report, no run).
+int run_command(const CliOptions& o, bool check_only) {
+  const int size = world_size(), rank = world_rank();
+  fdem::Scene scene = fdem::load_scene(o.scene_path);
+  if (!o.output.empty()) scene.output.folder = o.output;
+  if (o.threads > 0) scene.solver.threads = o.threads;
+  if (o.quiet) scene.output.progress_interval = 0;
+  if (!o.activation.empty()) fdem::choice_named(o.activation, scene.contact.activation);
+  if (!o.backend.empty()) scene.solver.backend = fdem::parse_backend(o.backend, "--backend");
+  NullBuffer null_buffer;
+  std::ostream null_stream(&null_buffer);
+  std::ostream& log = rank == 0 ? std::cout : null_stream;
+  const std::unique_ptr<fdem::Solver> solver =
+      fdem::make_solver(scene, {o.partitioned, o.distribute, o.contact_reach, o.write_mesh}, MPI_COMM_WORLD, log);
+  fdem::report_model(*solver, log);
+  if (check_only) return 0;
+  fdem::RunSummary s;
+  try {
+    s = fdem::run_scene(*solver, log, o.run_options);
+  } catch (const fdem::Interrupted& e) {
+    throw fdem::Interrupted(std::string(e.what()) +
+                            "; continue with: " + continue_command(o, size, scene.output.folder));
+  }
+  if (rank == 0) report_run(s, *solver);
   return 0;
+}
+
+int run_main(int argc, char** argv) {
+  CLI::App app{"fdem " FDEM_VERSION
+               ": 3D combined finite-discrete element modelling of rock fracture (TET4 + CE6 cohesive elements). "
+               "All quantities in SI units."};
+  app.set_version_flag("--version", "fdem " FDEM_VERSION);
+  app.require_subcommand(1);
+  CliOptions o;
+  const Commands c = define_commands(app, o);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int code = app.exit(e);
+    return code == 0 ? 0 : 2;
+  }
+  // OpenMP's own limit is far above what it survives: libgomp crashed at 100000 threads before
+  // the first line of output.
+  if (omp_get_max_threads() > fdem::SolverSettings::kMaxThreads)
+    throw fdem::InputError(
+        "OMP_NUM_THREADS=" + std::string(std::getenv("OMP_NUM_THREADS") ? std::getenv("OMP_NUM_THREADS") : "?") +
+        ": more than " + std::to_string(fdem::SolverSettings::kMaxThreads) +
+        " OpenMP threads. Fix: set OMP_NUM_THREADS to the cores of one rank, or unset it");
+  const int size = world_size();
+  if (size > 1 && !c.run->parsed())
+    throw fdem::InputError("fdem " + app.get_subcommands().front()->get_name() + " runs on one MPI rank (got " +
+                           std::to_string(size) + "); only fdem run uses several. Fix: run it without mpiexec");
+  if (c.partition->parsed()) return partition_command(o);
+  if (c.study->parsed()) return study_command(o);
+  std::vector<fdem::SeriesAxis> axes;
+  if (c.triaxial->parsed()) axes.push_back(fdem::parse_series_axis("sigma3=" + o.sigma3));
+  for (const std::string& a : o.vary) axes.push_back(fdem::parse_series_axis(a));
+  if (c.triaxial->parsed() || c.series->parsed())
+    return run_series_command(o.scene_path, axes, o.output, o.threads, o.quiet, c.triaxial->parsed());
+  return run_command(o, c.check->parsed());
 }
 
 }  // namespace

@@ -589,6 +589,16 @@ std::string replace_problem(const std::string& folder, const std::vector<std::st
 }
 }  // namespace
 
+real end_progress(const EndCondition& end, long step, real time, real axial_strain, real peak, real stress) {
+  real p = 0;
+  if (end.steps > 0) p = std::max(p, real(step) / real(end.steps));
+  if (end.time > 0) p = std::max(p, time / end.time);
+  if (end.axial_strain > 0) p = std::max(p, axial_strain / end.axial_strain);
+  if (end.post_peak_fraction > 0 && end.post_peak_fraction < 1 && peak > 0 && stress < peak)
+    p = std::max(p, (peak - stress) / (peak * (1 - end.post_peak_fraction)));
+  return std::min(p, real(1));
+}
+
 RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& options) {
   namespace fs = std::filesystem;
   const Scene& scene = solver.scene();
@@ -798,7 +808,7 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
   };
   merge_index();
 
-  // Expected number of steps, for the ETA and the automatic field interval.
+  // Expected number of steps, for the automatic field interval.
   const real end_steps = solver.end_steps().steps;
   const real expected = std::isfinite(end_steps) ? end_steps : 0;
   const long field_interval = out.field_interval > 0 ? out.field_interval : std::max<long>(1, long(expected / 20));
@@ -808,6 +818,9 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
   real next_progress = out.progress_interval;
   real last_checkpoint_wall = 0;
   const long first_step = solver.step_count();
+  // The progress towards the end where this session starts (a restart's: where it left off).
+  const real progress0 = end_progress(end, first_step, solver.time(), solver.top_offset / solver.model().height0,
+                                      sum.peak_stress, mon.axial_stress);
   auto checkpoint = [&](const std::string& why) {
     csv.f.flush();
     if (!csv.f) throw OutputError("cannot write " + csv_path + ": " + write_failure(csv_path, errno));
@@ -894,14 +907,15 @@ RunSummary run_scene(Solver& solver, std::ostream& log, const RunOptions& option
       const std::string reason = end_reason(monitor_now);
       const real wall = elapsed();
       if (!reason.empty() || (out.progress_interval > 0 && wall >= next_progress)) {
-        real frac = expected > 0 ? n / expected : 0;
+        // The ETA extrapolates the progress made since this session started at the pace so far.
+        const real done = end_progress(end, n, solver.time(), strain, sum.peak_stress, mon.axial_stress) - progress0;
         char line[256];
         const real rate = (n - first_step) / std::max(wall, 1e-9);
         std::snprintf(line, sizeof line,
                       "step %ld  t %.4g s  axial strain %.3e  stress %.3f MPa  broken CE6 %ld  %.0f steps/s  ETA %s", n,
                       solver.time(), strain, mon.axial_stress / 1e6, mon.broken, rate,
                       !reason.empty() ? "done"
-                      : frac > 0      ? duration((expected - n) / std::max(rate, 1e-9)).c_str()
+                      : done > 0      ? duration(wall * (1 - done - progress0) / done).c_str()
                                       : "?");
         log << line << std::endl;
         next_progress = wall + out.progress_interval;

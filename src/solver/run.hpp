@@ -82,6 +82,13 @@ std::string checkpoint_suffix(int rank, int size);
 /// silenced; true when it exited with 0.
 bool run_python_script(const std::string& script, std::vector<std::string> args);
 
+/// How far a run is towards its end, 0 to 1: the furthest of its end conditions, each by its
+/// own measure (steps, time, axial strain; after the peak, the fall of the stress from the peak
+/// towards end.post_peak_fraction of it). The progress lines' ETA extrapolates it, so that the
+/// estimate falls as the stress falls after the peak, where the steps slow down (contact) and
+/// the run ends long before the axial strain; 0 where no condition measures progress.
+real end_progress(const EndCondition& end, long step, real time, real axial_strain, real peak, real stress);
+
 /// Columns of summary.csv.
 extern const char* const kSummaryHeader;
 

@@ -13,9 +13,8 @@
 #include "core/format.hpp"
 #include "io/atomic_file.hpp"
 #include "io/checkpoint.hpp"
-#include "io/mesh_io.hpp"
 #include "io/run_lock.hpp"
-#include "model/model.hpp"
+#include "solver/pipeline.hpp"
 #include "solver/run.hpp"
 
 namespace fdem {
@@ -268,17 +267,10 @@ std::vector<SeriesRow> run_series(const std::string& scene_path, const std::vect
       run_options.folder_locked = true;
       fs::remove(summary_path, ec);
       if (run_options.restart.empty()) fs::remove_all(fs::path(row.folder) / "checkpoints", ec);
-      fs::create_directories(row.folder, ec);
       write_file_atomically(fp_path, fp.str());
-      Model model;
-      try {
-        model = build_model(load_mesh(s.mesh), s);
-      } catch (const InputError& e) {
-        throw InputError(scene_path + " (" + label + "): mesh: " + e.what());
-      }
       std::unique_ptr<Solver> solver;
       try {
-        solver = std::make_unique<Solver>(s, std::move(model));
+        solver = make_solver(s, {}, MPI_COMM_SELF, log);
       } catch (const TimeStepBeyondBound& e) {
         // A fixed solver.time_step that this variant's mesh or mass scaling cannot take: an
         // unstable variant, not the end of the series.
