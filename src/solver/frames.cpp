@@ -1,0 +1,266 @@
+#include "solver/frames.hpp"
+
+#include <mpi.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <filesystem>
+#include <sstream>
+
+#include "core/error.hpp"
+#include "io/atomic_file.hpp"
+#include "io/checkpoint.hpp"
+
+namespace fdem {
+namespace {
+
+/// Every field of a FrameState in checkpoint order, for one visitor (put or get).
+template <class F, class S>
+void frame_state_fields(F&& f, S& s) {
+  f(s.time), f(s.stress), f(s.step), f(s.x), f(s.v), f(s.ce6), f(s.active);
+}
+/// One ParaView frame of the state (x, v, ce6, activation flags). `more` adds per-tet fields; a
+/// diagnostic frame shows a stress that is not finite (an inverted tet) as zero instead of
+/// refusing the frame.
+void write_frame(FieldWriter& w, const Solver& s, real time, long step, const std::vector<Vec3>& x,
+                 const std::vector<Vec3>& v, const std::vector<Ce6State>& ce6, const std::vector<std::uint8_t>* flags,
+                 const std::string& label, const std::vector<TetField>& more = {}, bool diagnostic = false) {
+  std::vector<Vec3> u(x.size());
+  for (std::size_t n = 0; n < u.size(); ++n) u[n] = x[n] - s.model().X[n];
+  std::vector<Sym3> stress;
+  std::vector<real> vm;
+  s.tet_stress(x, v, stress, vm);
+  if (diagnostic)
+    for (std::size_t t = 0; t < vm.size(); ++t)
+      if (!std::isfinite(vm[t])) stress[t] = Sym3{}, vm[t] = 0;
+  std::vector<std::array<int, 3>> faces;
+  std::vector<real> damage;
+  std::vector<int> mode;
+  s.crack_faces(ce6, faces, damage, mode);
+  FieldFrame fr;
+  fr.time = time;
+  fr.step = step;
+  fr.label = label;
+  fr.x = &x;
+  fr.u = &u;
+  fr.v = &v;
+  fr.tets = &s.model().tet_nodes;
+  fr.stress = &stress;
+  fr.von_mises = &vm;
+  fr.crack_faces = &faces;
+  fr.crack_damage = &damage;
+  fr.crack_mode = &mode;
+  std::vector<real> active;
+  if (flags) {
+    active.assign(flags->begin(), flags->end());
+    fr.extra.push_back({"active", &active});
+  }
+  fr.extra.insert(fr.extra.end(), more.begin(), more.end());
+  if (!s.distributed()) {
+    w.write(fr);
+    return;
+  }
+  // Several ranks: this rank's own tets only (ghosts are written by their owners), and the
+  // rank of each tet as a field.
+  const std::vector<std::uint8_t>& own = s.owned_tets();
+  std::vector<std::array<int, 4>> tets;
+  std::vector<Sym3> st;
+  std::vector<real> vm_own, rank;
+  std::vector<std::vector<real>> extra(fr.extra.size());
+  for (std::size_t t = 0; t < own.size(); ++t) {
+    if (!own[t]) continue;
+    tets.push_back(s.model().tet_nodes[t]);
+    st.push_back(stress[t]);
+    vm_own.push_back(vm[t]);
+    for (std::size_t k = 0; k < extra.size(); ++k) extra[k].push_back((*fr.extra[k].values)[t]);
+  }
+  rank.assign(tets.size(), real(s.rank()));
+  fr.tets = &tets;
+  fr.stress = &st;
+  fr.von_mises = &vm_own;
+  for (std::size_t k = 0; k < extra.size(); ++k) fr.extra[k].values = &extra[k];
+  fr.extra.push_back({"rank", &rank});
+  w.write(fr);
+}
+
+}  // namespace
+
+FrameState frame_state_now(const Solver& s, real stress) {
+  s.sync_host();
+  FrameState f;
+  f.time = s.time();
+  f.step = s.step_count();
+  f.stress = stress;
+  f.x = s.x;
+  f.v = s.v;
+  f.ce6 = s.ce6;
+  if (s.contacts.enabled()) f.active = s.contacts.active();
+  return f;
+}
+
+void save_frame_state(CheckpointOut& o, const FrameState& f) {
+  frame_state_fields([&](const auto& v) { o.put(v); }, f);
+}
+void load_frame_state(CheckpointIn& in, FrameState& f) {
+  frame_state_fields([&](auto& v) { in.get(v); }, f);
+}
+
+void write_frame(FieldWriter& w, const Solver& s, const std::string& label) {
+  s.sync_host();
+  write_frame(w, s, s.time(), s.step_count(), s.x, s.v, s.ce6, s.contacts.enabled() ? &s.contacts.active() : nullptr,
+              label);
+}
+
+void write_frame(FieldWriter& w, const Solver& s, const FrameState& f, const std::string& label) {
+  if (f.x.size() < s.x.size() || f.ce6.size() < s.ce6.size() ||
+      (!f.active.empty() && f.active.size() < s.model().tet_nodes.size())) {
+    // The contact ghosts grew since the frame was kept: the ghosts appended since take their
+    // present state (this rank writes its own tets only, and their nodes are the old ones).
+    s.sync_host();
+    FrameState g = f;
+    g.x.insert(g.x.end(), s.x.begin() + f.x.size(), s.x.end());
+    g.v.insert(g.v.end(), s.v.begin() + f.v.size(), s.v.end());
+    g.ce6.insert(g.ce6.end(), s.ce6.begin() + f.ce6.size(), s.ce6.end());
+    if (!g.active.empty())
+      g.active.insert(g.active.end(), s.contacts.active().begin() + f.active.size(), s.contacts.active().end());
+    write_frame(w, s, g, label);
+    return;
+  }
+  write_frame(w, s, f.time, f.step, f.x, f.v, f.ce6, f.active.empty() ? nullptr : &f.active, label);
+}
+
+void write_diagnostic(FieldWriter& w, const Solver& s) {
+  try {
+    s.sync_host();
+    const Model& m = s.model();
+    std::vector<Vec3> x = s.x, v = s.v;
+    std::vector<char> bad(x.size(), 0);
+    for (std::size_t n = 0; n < x.size(); ++n)
+      if (!std::isfinite(x[n].x + x[n].y + x[n].z + v[n].x + v[n].y + v[n].z)) {
+        bad[n] = 1;
+        x[n] = m.X[n];
+        v[n] = {0, 0, 0};
+      }
+    const std::size_t nt = m.tet_nodes.size();
+    std::vector<real> non_finite(nt, 0), inverted(nt, 0);
+    for (std::size_t t = 0; t < nt; ++t) {
+      const auto& q = m.tet_nodes[t];
+      for (int n : q) non_finite[t] = std::max(non_finite[t], real(bad[n]));
+      const real vol = dot(cross(x[q[1]] - x[q[0]], x[q[2]] - x[q[0]]), x[q[3]] - x[q[0]]) / 6;
+      inverted[t] = non_finite[t] == 0 && !(vol / m.tet_V0[t] > 0);
+    }
+    write_frame(w, s, s.time(), s.step_count(), x, v, s.ce6, s.contacts.enabled() ? &s.contacts.active() : nullptr,
+                "diagnostic", {{"non_finite", &non_finite}, {"inverted", &inverted}}, true);
+  } catch (const std::exception&) {
+    // Nothing more to show; the frames written before remain valid.
+  }
+}
+
+void write_merged_index(const FieldWriter& w, const Solver& s, const std::string& folder) {
+  std::string mine;
+  for (const std::string& g : w.state().grids) mine += g + '\x1e';
+  int len = int(mine.size());
+  const int size = s.decomposition().size, root = s.rank() == 0;
+  std::vector<int> lens(size), offs(size + 1, 0);
+  MPI_Gather(&len, 1, MPI_INT, lens.data(), 1, MPI_INT, 0, s.comm());
+  for (int r = 0; r < size; ++r) offs[r + 1] = offs[r] + lens[r];
+  std::string all(root ? offs[size] : 0, '\0');
+  MPI_Gatherv(mine.data(), len, MPI_CHAR, all.data(), lens.data(), offs.data(), MPI_CHAR, 0, s.comm());
+  if (!root) return;
+  std::vector<std::vector<std::string>> grids(size);  // [rank][frame]
+  for (int r = 0; r < size; ++r) {
+    std::stringstream in(all.substr(offs[r], lens[r]));
+    for (std::string g; std::getline(in, g, '\x1e');) grids[r].push_back(g);
+  }
+  std::string text =
+      "<?xml version=\"1.0\" encoding=\"utf-8\"?>\n"
+      "<Xdmf xmlns:xi=\"http://www.w3.org/2001/XInclude\" Version=\"3.0\">\n"
+      "  <Domain>\n"
+      "  <Grid Name=\"fdem\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
+  for (std::size_t i = 0; i < grids[0].size(); ++i) {
+    // Head (the frame's collection, time, step, label) from rank 0; the inner grids of all.
+    const std::string& g0 = grids[0][i];
+    std::size_t head = 0;
+    for (int l = 0; l < 4; ++l) head = g0.find('\n', head) + 1;
+    text += g0.substr(0, head);
+    for (int r = 0; r < size; ++r) {
+      if (i >= grids[r].size())
+        throw OutputError("field output: rank " + std::to_string(r) + " lacks frame " + std::to_string(i) +
+                          " of the merged index");
+      const std::string& g = grids[r][i];
+      std::size_t b = 0;
+      for (int l = 0; l < 4; ++l) b = g.find('\n', b) + 1;
+      const std::size_t e = g.rfind("    </Grid>");
+      std::string inner = g.substr(b, e - b);
+      for (const char* name : {"rock", "cracks"}) {
+        const std::string from = std::string("<Grid Name=\"") + name + "\"";
+        const std::size_t at = inner.find(from);
+        if (at != std::string::npos)
+          inner.replace(at, from.size(), std::string("<Grid Name=\"") + name + "_rank" + std::to_string(r) + "\"");
+      }
+      text += inner;
+    }
+    text += "    </Grid>\n";
+  }
+  text += "  </Grid>\n  </Domain>\n</Xdmf>\n";
+  write_file_atomically((std::filesystem::path(folder) / "fields.xdmf").string(), text);
+}
+
+void PeakFrames::observe(const Solver& s, real stress) {
+  if (stress <= max_) return;
+  max_ = stress;
+  peak_ = frame_state_now(s, stress);
+  if (ladder_.empty() || stress >= real(1.05) * ladder_.back().stress) ladder_.push_back(peak_);
+  while (ladder_.size() > 1 && ladder_.front().stress < real(0.7) * max_) ladder_.pop_front();
+}
+
+void PeakFrames::write(FieldWriter& w, const Solver& s) {
+  for (const auto& [index, label] : written_) w.relabel(index, "local-" + label);
+  written_.clear();
+  const FrameState* pre = nullptr;
+  for (const FrameState& f : ladder_)
+    if (f.step < peak_.step &&
+        (!pre || std::fabs(f.stress - kPrePeak * max_) < std::fabs(pre->stress - kPrePeak * max_)))
+      pre = &f;
+  if (pre) {
+    write_frame(w, s, *pre, "pre-peak");
+    written_.push_back({w.frames() - 1, "pre-peak"});
+  }
+  if (max_ > 0) {
+    write_frame(w, s, peak_, "peak");
+    written_.push_back({w.frames() - 1, "peak"});
+  }
+  write_frame(w, s, "post-peak");
+  written_.push_back({w.frames() - 1, "post-peak"});
+}
+
+void PeakFrames::save(CheckpointOut& o) const {
+  o.put(max_);
+  save_frame_state(o, peak_);
+  o.put(std::uint64_t(ladder_.size()));
+  for (const FrameState& f : ladder_) save_frame_state(o, f);
+  o.put(std::uint64_t(written_.size()));
+  for (const auto& [index, label] : written_) {
+    o.put(index);
+    o.put(label);
+  }
+}
+
+void PeakFrames::load(CheckpointIn& in) {
+  in.get(max_);
+  load_frame_state(in, peak_);
+  std::uint64_t n = 0;
+  in.get(n);
+  ladder_.clear();
+  for (std::uint64_t i = 0; i < n; ++i) load_frame_state(in, ladder_.emplace_back());
+  in.get(n);
+  written_.clear();
+  for (std::uint64_t i = 0; i < n; ++i) {
+    auto& [index, label] = written_.emplace_back();
+    in.get(index);
+    in.get(label);
+  }
+}
+
+}  // namespace fdem

@@ -1,0 +1,72 @@
+#pragma once
+// The run's ParaView frames (run_scene): the state now, states kept for the frames before and at
+// the peak, the diagnostic frame of an unstable run, and the merged index of several ranks' files.
+#include <deque>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "io/fields.hpp"
+#include "solver/solver.hpp"
+
+namespace fdem {
+
+class CheckpointOut;
+class CheckpointIn;
+
+/// The state a ParaView frame shows. Frames before and at the peak are written from saved
+/// copies once the peak is known (the stress has fallen 5 % below it).
+struct FrameState {
+  real time = 0, stress = 0;
+  long step = 0;
+  std::vector<Vec3> x, v;
+  std::vector<Ce6State> ce6;
+  std::vector<std::uint8_t> active;
+};
+
+/// The solver's state now (synchronised to the host), at axial stress `stress` (Pa).
+FrameState frame_state_now(const Solver& s, real stress);
+/// A kept state in a checkpoint, and back.
+void save_frame_state(CheckpointOut& o, const FrameState& f);
+void load_frame_state(CheckpointIn& in, FrameState& f);
+
+/// A frame of the state now, labelled (ParaView sees the label in the frame's name).
+void write_frame(FieldWriter& w, const Solver& s, const std::string& label);
+/// A frame of a kept state (the ghosts gathered since it was kept take their present state).
+void write_frame(FieldWriter& w, const Solver& s, const FrameState& f, const std::string& label);
+
+/// The frame of an unstable run, labelled "diagnostic": non-finite positions and velocities are
+/// replaced by the reference positions and zero (so no file holds NaN), and two per-tet fields
+/// show where it went wrong: "non_finite" (a node of the tet had a non-finite value) and
+/// "inverted" (volume ratio J <= 0). Never throws: the frames written before stay valid.
+void write_diagnostic(FieldWriter& w, const Solver& s);
+
+/// Several ranks: each writes its own tets to fields_rank<r>.{h5,xdmf}; rank 0 writes fields.xdmf,
+/// which shows every rank's grids in each frame (the per-rank "rock" and "cracks" grids of a
+/// frame side by side, renamed rock_rank<r> and cracks_rank<r>). Collective; the frames must be
+/// the same on every rank (they are: their labels and steps follow the global monitors).
+void write_merged_index(const FieldWriter& w, const Solver& s, const std::string& folder);
+
+/// Keeps what the pre-peak and peak frames need: the state at the running maximum of the axial
+/// stress, and a ladder of states 5 % apart in stress between 0.7 and 1 of that maximum, from
+/// which the one nearest kPrePeak of the peak is written as "pre-peak". At most 8 in the ladder
+/// (0.7 x 1.05^7 < 1) and the peak: 9 copies.
+class PeakFrames {
+ public:
+  static constexpr real kPrePeak = 0.8;
+  /// A monitor row at `stress` (Pa): kept where it is a new maximum.
+  void observe(const Solver& s, real stress);
+  /// Writes "pre-peak", "peak" and (the current state) "post-peak" frames; call once the stress
+  /// has fallen past the peak. The frames of an earlier, lower peak are relabelled "local-...".
+  void write(FieldWriter& w, const Solver& s);
+  void save(CheckpointOut& o) const;
+  void load(CheckpointIn& in);
+
+ private:
+  real max_ = 0;
+  FrameState peak_;
+  std::deque<FrameState> ladder_;
+  std::vector<std::pair<int, std::string>> written_;  // frame index and label of the last set
+};
+
+}  // namespace fdem
