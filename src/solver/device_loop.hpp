@@ -45,6 +45,29 @@ struct AdvanceSums {
   std::array<real, 10> more{};
 };
 
+/// One rank's sums for a monitor row; Solver::measure sums them over the ranks.
+struct MonitorSums {
+  real lateral_ratio = 0;          // owned lateral nodes' radial displacement over their radius, summed
+  real lateral_nodes = 0;          // owned lateral nodes
+  real kinetic = 0;                // J
+  real strain = 0;                 // J, TET4 strain energy
+  real lateral_stress_volume = 0;  // N m, -(s_xx + s_yy)/2 x volume over the tets of the middle third
+  real middle_volume = 0;          // m^3, of those tets
+  real cohesive_stored = 0;        // J, CE6s not broken
+  real friction_stored = 0;        // J, friction springs of broken CE6s
+  real damaged = 0, broken = 0, broken_I = 0, broken_II = 0, broken_mixed = 0;  // CE6 counts
+  real platen_stored = 0;                                                       // J
+  real active_tets = 0, contact_pairs = 0;
+  /// f(field) for every field, in the order above (the reduction over the ranks packs them so).
+  template <class F>
+  void for_each(F&& f) {
+    for (real* p : {&lateral_ratio, &lateral_nodes, &kinetic, &strain, &lateral_stress_volume, &middle_volume,
+                    &cohesive_stored, &friction_stored, &damaged, &broken, &broken_I, &broken_II, &broken_mixed,
+                    &platen_stored, &active_tets, &contact_pairs})
+      f(*p);
+  }
+};
+
 class DeviceLoop {
  public:
   virtual ~DeviceLoop() = default;
@@ -104,11 +127,8 @@ class DeviceLoop {
   /// Forget what settle() would bring: the host copy was written (a checkpoint loaded, a
   /// prescription) and is the state now; the next step uploads it.
   virtual void discard_pending() = 0;
-  /// A monitor row's sums from the device state, without copying it to the host: lateral
-  /// displacement ratio, lateral node count, kinetic energy, strain energy, lateral stress x
-  /// volume and volume (middle third), CE6 stored energy (intact, broken), damaged, broken,
-  /// broken in mode I, II, mixed, platen stored energy, active tets, candidate pairs.
-  virtual std::array<real, 16> measure_sums(const Solver& s) = 0;
+  /// A monitor row's sums from the device state, without copying it to the host.
+  virtual MonitorSums measure_sums(const Solver& s) = 0;
   /// Wait for the device before each pass's clock (benchmarks).
   virtual void set_timing(bool on) = 0;
   virtual const DeviceTimes& times() const = 0;

@@ -960,14 +960,14 @@ class DeviceLoopImpl final : public DeviceLoop {
   }
 
  public:
-  std::array<real, 16> measure_sums(const Solver& s) override {
+  MonitorSums measure_sums(const Solver& s) override {
     materialize();
     const auto t0 = now();
     const Model& m = s.model_;
     const Vec3* x = x_.data();
     const Vec3* v = v_.data();
     const Vec3* X = X_.data();
-    std::array<real, 16> out{};
+    MonitorSums out;
     const Vec3 axis = m.axis_point;
     const bool disc = m.line_loaded;
     const int* ln = lateral_nodes_.data();
@@ -984,8 +984,8 @@ class DeviceLoopImpl final : public DeviceLoop {
       const real r2 = dot(rr, rr);
       if (r2 > 0) acc[0] += dot(x[n] - X[n], rr) / r2;
     });
-    out[0] = lat[0], out[1] = lat[1];
-    out[2] = 0.5 * kinetic2();
+    out.lateral_ratio = lat[0], out.lateral_nodes = lat[1];
+    out.kinetic = 0.5 * kinetic2();
     const int* tn = tet_nodes_.data();
     const Mat3* Xinv = Xinv_.data();
     const real* V0 = V0_.data();
@@ -1004,7 +1004,7 @@ class DeviceLoopImpl final : public DeviceLoop {
         acc[2] += vol;
       }
     });
-    out[3] = te[0], out[4] = te[1], out[5] = te[2];
+    out.strain = te[0], out.lateral_stress_volume = te[1], out.middle_volume = te[2];
     const int* cn = ce6_nodes_.data();
     const real* h = ce6_h_.data();
     const Ce6Damage* st = dmg_.data();
@@ -1032,13 +1032,14 @@ class DeviceLoopImpl final : public DeviceLoop {
         acc[2] += ce6_max_damage(st[i]) > 0;
       }
     });
-    for (int k = 0; k < 7; ++k) out[6 + k] = ce[k];
+    out.cohesive_stored = ce[0], out.friction_stored = ce[1], out.damaged = ce[2], out.broken = ce[3];
+    out.broken_I = ce[4], out.broken_II = ce[5], out.broken_mixed = ce[6];
     if (s.scene_.platens.enabled) {
       const int* pn = platen_nodes_.data();
       const real* pk = platen_k_.data();
       const Vec3* anchor = anchor_.data();
       const real ztop = s.top_z0_ - s.top_offset, zbot = s.bottom_z0_, mu_p = s.scene_.material.friction_platen;
-      out[13] = Exec::template sum<1>(int(platen_nodes_.size()), [=] FDEM_LAMBDA(int i, real* acc) {
+      out.platen_stored = Exec::template sum<1>(int(platen_nodes_.size()), [=] FDEM_LAMBDA(int i, real* acc) {
         const int n = pn[i];
         const bool near_top = x[n].z > 0.5 * (ztop + zbot);
         Vec3 a = anchor[i];
@@ -1050,9 +1051,9 @@ class DeviceLoopImpl final : public DeviceLoop {
     if (s.contacts.enabled()) {
       const std::uint8_t* active = active_.data();
       const ContactPair* pairs = pairs_.data();
-      out[14] = Exec::template sum<1>(int(active_.size()),
+      out.active_tets = Exec::template sum<1>(int(active_.size()),
                                       [=] FDEM_LAMBDA(int t, real* acc) { acc[0] += active[t] == 1 && own_t[t]; })[0];
-      out[15] = Exec::template sum<1>(int(pairs_.size()),
+      out.contact_pairs = Exec::template sum<1>(int(pairs_.size()),
                                       [=] FDEM_LAMBDA(int k, real* acc) { acc[0] += own_t[pairs[k].a]; })[0];
     }
     t_.monitor += seconds_since(t0);

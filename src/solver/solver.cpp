@@ -682,37 +682,41 @@ bool Solver::finish_step(const StepSums& st) {
   // The step's reduction over the ranks; a device loop's values ride with it (its force
   // evaluation's sums, which it hands to the Solver now, before the energies below read them:
   // one reduction a step there, where the CPU backend makes a second in compute_forces).
-  constexpr int k = StepSums::kValues;
-  real sums[k + std::tuple_size_v<decltype(st.more)>] = {st.bad, st.ke, st.w_con, st.w_pre, st.w_grav, st.far, st.lost};
-  static_assert(k == 7, "the values above");
-  std::copy(st.more.begin(), st.more.begin() + st.n_more, sums + k);
-  sum(sums, k + st.n_more);
-  if (st.n_more > 0) dev_->take_reduced(*this, sums + k);
+  StepSums all = st;  // this rank's, then the whole model's
+  if (dd_.distributed()) {
+    std::array<real, StepSums::kValues + std::tuple_size_v<decltype(st.more)>> packed{};
+    int k = 0;
+    all.for_each([&](real& v) { packed[k++] = v; });
+    std::copy(st.more.begin(), st.more.begin() + st.n_more, packed.begin() + k);
+    sum(packed.data(), k + st.n_more);
+    k = 0;
+    all.for_each([&](real& v) { v = packed[k++]; });
+    if (st.n_more > 0) dev_->take_reduced(*this, packed.data() + k);
+  }
   // Energies of the interval [t, t+dt] from the forces at t.
   w_external_ += force_top_ * (-speed * dt);
   w_viscous_ += p_viscous_ * dt;
   w_cohesive_ += p_cohesive_ * dt;
   w_friction_ += p_friction_ * dt;
-  if (sums[0] > 0 || sums[6] > 0) sync_host();
-  check_finite(long(sums[0]));
-  if (sums[6] > 0) {  // every rank stops: those with the node name it
+  if (all.bad > 0 || all.lost > 0) sync_host();
+  check_finite(long(all.bad));
+  if (all.lost > 0) {  // every rank stops: those with the node name it
     contacts.check_reach(model_, x);
     throw RunError("tet-tet contact across ranks: a node on another rank has moved half the contact reach " +
                    fmt(dd_.reach, 3) + " m since the contact ghosts were last gathered (that rank names it)");
   }
   // for the runaway check of every step (the loop is memory-bound: this is free)
-  const real ke = sums[1];
-  w_contact_ += sums[2];
-  w_external_ += sums[3] + sums[4];
+  w_contact_ += all.w_con;
+  w_external_ += all.w_pre + all.w_grav;
   // After every work of this step is counted (pressure and gravity just above).
-  check_runaway(0.5 * ke);
+  check_runaway(0.5 * all.ke);
   top_offset = top_offset_after_step();
   time_ = time_after_step();
   ++step_;
-  return sums[5] > 0;
+  return all.far > 0;
 }
 
-std::array<real, 16> Solver::measure_sums_host() const {
+MonitorSums Solver::measure_sums_host() const {
   const Model& m = model_;
   real lat = 0;
   const int nl = int(m.lateral_nodes.size());
@@ -790,23 +794,14 @@ std::array<real, 16> Solver::measure_sums_host() const {
                        .stored;
     }
   }
-  // The whole model's sums (one reduction per monitor row).
-  return {lat,
-          n_lateral,
-          ke,
-          se,
-          lat_sv,
-          lat_v,
-          coh_stored,
-          fric_stored,
-          real(damaged),
-          real(broken),
-          real(b1),
-          real(b2),
-          real(b3),
-          pl_stored,
-          real(contacts.owned_active_count()),
-          real(contacts.owned_pair_count())};
+  MonitorSums out;
+  out.lateral_ratio = lat, out.lateral_nodes = n_lateral, out.kinetic = ke, out.strain = se;
+  out.lateral_stress_volume = lat_sv, out.middle_volume = lat_v;
+  out.cohesive_stored = coh_stored, out.friction_stored = fric_stored;
+  out.damaged = real(damaged), out.broken = real(broken), out.broken_I = real(b1), out.broken_II = real(b2);
+  out.broken_mixed = real(b3), out.platen_stored = pl_stored;
+  out.active_tets = real(contacts.owned_active_count()), out.contact_pairs = real(contacts.owned_pair_count());
+  return out;
 }
 
 Monitors Solver::measure() {
@@ -820,12 +815,19 @@ Monitors Solver::measure() {
   r.force_bottom = force_bottom_;
   r.axial_stress = axial_stress();
   // This rank's sums: on the device where the state is (no copy of the state to the host).
-  std::array<real, 16> sums = dev_ && !host_current_ ? dev_->measure_sums(*this) : measure_sums_host();
-  sum(sums.data(), 16);
-  const real lat = sums[0], n_lateral = sums[1], ke = sums[2], se = sums[3], lat_sv = sums[4], lat_v = sums[5];
-  const real coh_stored = sums[6], pl_stored = sums[13];
-  const long damaged = long(sums[8]), broken = long(sums[9]), b1 = long(sums[10]), b2 = long(sums[11]),
-             b3 = long(sums[12]);
+  MonitorSums sums = dev_ && !host_current_ ? dev_->measure_sums(*this) : measure_sums_host();
+  if (dd_.distributed()) {  // the whole model's sums: one reduction per monitor row
+    std::vector<real> all;
+    sums.for_each([&](real& v) { all.push_back(v); });
+    sum(all.data(), int(all.size()));
+    std::size_t k = 0;
+    sums.for_each([&](real& v) { v = all[k++]; });
+  }
+  const real lat = sums.lateral_ratio, n_lateral = sums.lateral_nodes, ke = sums.kinetic, se = sums.strain;
+  const real lat_sv = sums.lateral_stress_volume, lat_v = sums.middle_volume;
+  const real coh_stored = sums.cohesive_stored, pl_stored = sums.platen_stored;
+  const long damaged = long(sums.damaged), broken = long(sums.broken), b1 = long(sums.broken_I),
+             b2 = long(sums.broken_II), b3 = long(sums.broken_mixed);
   r.lateral_strain = n_lateral > 0 ? -lat / n_lateral : 0;
   r.volumetric_strain = r.axial_strain + 2 * r.lateral_strain;
   if (step_ == 0) initial_kinetic_ = ke;
@@ -846,13 +848,13 @@ Monitors Solver::measure() {
   r.external_work = w_external_;
   r.contact_friction = w_contact_slip_ + contact_spring_;
   r.contact = w_contact_ - r.contact_friction;
-  r.active_tets = long(sums[14]);
-  r.contact_pairs = long(sums[15]);
+  r.active_tets = long(sums.active_tets);
+  r.contact_pairs = long(sums.contact_pairs);
   r.contacts = touching_;
   r.confining_pressure = pressure_;
   // Brazilian test: axial_stress is P / (D t) for a line-loaded disc.
   if (m.line_loaded) r.indirect_tensile = 2 / M_PI * r.axial_stress;
-  // (sums[7], the friction-spring energy of broken faces, is counted with their work)
+  // (sums.friction_stored, the friction-spring energy of broken faces, is counted with their work)
   const real internal = ke + se + w_cohesive_ + w_friction_ + w_viscous_ + pl_stored + w_platen_friction_ + w_contact_;
   const real input = w_external_ + initial_kinetic_;
   r.energy_error = std::fabs(input - internal) / std::max(std::fabs(input), energy_floor_);

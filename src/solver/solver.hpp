@@ -183,9 +183,8 @@ class Solver {
   void save_state(CheckpointOut& out) const;
   void load_state(CheckpointIn& in, const GhostState* appended = nullptr);
   void compute_forces();
-  /// This rank's sums for a monitor row from the host state, in the order of
-  /// DeviceLoop::measure_sums.
-  std::array<real, 16> measure_sums_host() const;
+  /// This rank's sums for a monitor row from the host state (DeviceLoop::measure_sums on the device).
+  MonitorSums measure_sums_host() const;
   /// The CPU backend's integration: central difference, prescribed velocities, the halo, and
   /// this rank's sums (non-finite nodes, 2 x kinetic energy, the works of contact, pressure and
   /// gravity over the step, owned nodes a quarter and half the contact reach from
@@ -196,7 +195,11 @@ class Solver {
   /// quarter and half the contact reach from ContactSet::plan_x.
   struct StepSums {
     real bad = 0, ke = 0, w_con = 0, w_pre = 0, w_grav = 0, far = 0, lost = 0;
-    static constexpr int kValues = 7;  // the values above, summed over the ranks
+    static constexpr int kValues = 7;  // the values above, summed over the ranks in this order
+    template <class F>
+    void for_each(F&& f) {
+      for (real* p : {&bad, &ke, &w_con, &w_pre, &w_grav, &far, &lost}) f(*p);
+    }
     int n_more = 0;                    // a device loop's values summed after them (AdvanceSums::more)
     std::array<real, 10> more{};
   };
