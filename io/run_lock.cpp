@@ -128,14 +128,7 @@ RunLock::RunLock(const std::string& folder, const std::string& command, std::ost
   int e = 0;
   if (!record_only && flock(fd_, LOCK_EX | LOCK_NB) != 0) e = errno;
   const LockRecord held = read_record(fd_);
-  if (!record_only && e == 0) {
-    if (!held.empty())  // the kernel dropped its lock when that run died
-      log << "note: " << folder << " was the folder of a run that ended without releasing it (" << describe(held)
-          << "); taking it over" << std::endl;
-    write_record(mine_);
-    return;
-  }
-  if (!record_only && (e == EWOULDBLOCK || !no_locks_here(e))) {
+  if (!record_only && e != 0 && (e == EWOULDBLOCK || !no_locks_here(e))) {
     ::close(fd_);
     fd_ = -1;
     if (e != EWOULDBLOCK)
@@ -143,25 +136,38 @@ RunLock::RunLock(const std::string& folder, const std::string& command, std::ost
                        "). Fix: give the run another output folder (-o)");
     refuse(folder, held, "");
   }
-  // The record alone: file locks do not work here (or were declined).
-  kernel_ = false;
-  if (!record_only)
+  kernel_ = !record_only && e == 0;
+  if (!kernel_ && !record_only)
     log << "warning: file locks do not work on the file system of " << folder << " (" << std::strerror(e)
         << "); the run guards the folder by a record of its host and PID in " << path_
         << ", renewed every 30 s (docs/restart.md)" << std::endl;
-  if (!held.empty() && !(held.host == mine_.host && held.pid == mine_.pid)) {
-    const double age = now_seconds() - held.heartbeat;
-    if (held.host == mine_.host ? alive(held.pid) : age < kStaleSeconds) {
-      ::close(fd_);
-      fd_ = -1;
-      refuse(folder, held, held.host == mine_.host ? "" : "; its record was renewed " + fmt(age, 3) + " s ago");
-    }
-    log << "note: " << folder << " was the folder of a run that is gone ("
-        << (held.host == mine_.host ? "no such process" : "its record not renewed for " + fmt(age, 3) + " s")
-        << ": " << describe(held) << "); taking it over" << std::endl;
-  }
+  take_over(folder, held, log);
   write_record(mine_);
+  // The heartbeat runs in both modes: a run that holds the kernel lock keeps its record fresh
+  // too, for a run on a file system (or in a mode) where only the record counts.
   heartbeat_ = std::thread([this] { beat(); });
+}
+
+void RunLock::take_over(const std::string& folder, const LockRecord& held, std::ostream& log) {
+  if (held.empty() || (held.host == mine_.host && held.pid == mine_.pid)) return;
+  // A record still renewed is a live run's: on this host, where its process still exists (a PID
+  // taken since by another process leaves the record stale); on another, within kStaleSeconds.
+  // With the kernel lock taken, only this host's record counts: the kernel says no run holds
+  // the lock, unless one guards the folder by its record alone (FDEM_RUN_LOCK=record).
+  const double age = now_seconds() - held.heartbeat;
+  const bool here = held.host == mine_.host;
+  const bool live = age < kStaleSeconds && (here ? alive(held.pid) : !kernel_);
+  if (live) {
+    if (kernel_) flock(fd_, LOCK_UN);
+    ::close(fd_);
+    fd_ = -1;
+    refuse(folder, held, here ? "" : "; its record was renewed " + fmt(age, 3) + " s ago");
+  }
+  const std::string why = here && !alive(held.pid) ? "no such process"
+                          : age >= kStaleSeconds   ? "its record not renewed for " + fmt(age, 3) + " s"
+                                                   : "no run holds the file lock";
+  log << "note: " << folder << " was the folder of a run that ended without releasing it (" << why << ": "
+      << describe(held) << "); taking it over" << std::endl;
 }
 
 void RunLock::write_record(const LockRecord& r) {
@@ -170,8 +176,10 @@ void RunLock::write_record(const LockRecord& r) {
   o << "host " << r.host << "\npid " << r.pid << "\nstarted " << r.started << "\nheartbeat " << r.heartbeat
     << "\ncommand " << r.command << "\n";
   const std::string text = o.str();
-  // Errors here leave the lock held but its record short; the run itself does not depend on it.
-  if (ftruncate(fd_, 0) == 0 && pwrite(fd_, text.data(), text.size(), 0) == ssize_t(text.size())) fsync(fd_);
+  // Written over the old record, then cut to length: a reader never sees it empty. Errors here
+  // leave the lock held but its record short; the run itself does not depend on it.
+  if (pwrite(fd_, text.data(), text.size(), 0) == ssize_t(text.size()) && ftruncate(fd_, off_t(text.size())) == 0)
+    fsync(fd_);
 }
 
 void RunLock::beat() {
@@ -194,7 +202,8 @@ RunLock::~RunLock() {
   if (fd_ < 0) return;
   // An empty record: the folder is free (the file stays, so that no second run locks a file
   // removed under it).
-  if (kernel_ || read_record(fd_).pid == mine_.pid) (void)!ftruncate(fd_, 0);
+  const LockRecord now = read_record(fd_);
+  if (now.pid == mine_.pid && now.host == mine_.host) (void)!ftruncate(fd_, 0);
   if (kernel_) flock(fd_, LOCK_UN);
   ::close(fd_);
 }

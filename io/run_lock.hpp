@@ -7,9 +7,9 @@
 // when its holder dies, so a killed run never blocks its restart, and in it a record of the
 // holder (host, PID, start time, command) for the message a second run gives. Where the file
 // system has no working locks (some Lustre and NFS mounts; or FDEM_RUN_LOCK=record), the record
-// alone guards the folder: the holder renews its heartbeat time every 30 s, and a record whose
-// process is gone (same host) or whose heartbeat is older than 5 minutes (another host) is
-// taken over with a note.
+// alone guards the folder. The holder renews its heartbeat time every 30 s in either mode; a
+// record whose process is gone (same host) or whose heartbeat is older than 5 minutes is taken
+// over with a note.
 #include <condition_variable>
 #include <iosfwd>
 #include <mutex>
@@ -42,6 +42,8 @@ class RunLock {
   static constexpr double kHeartbeatSeconds = 30, kStaleSeconds = 300;
 
  private:
+  /// Refuses (InputError) where `held` is a live run's record, else notes the takeover.
+  void take_over(const std::string& folder, const LockRecord& held, std::ostream& log);
   void write_record(const LockRecord& r);
   void beat();
 

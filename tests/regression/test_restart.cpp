@@ -363,11 +363,13 @@ namespace {
 /// Runs `first` in the background until its monitors.csv in `folder` has `rows` rows, then
 /// `second` (both whole fdem argument strings), then waits for the first. The output holds
 /// "pid=<first's PID>", "second=<exit code>" and "first=<exit code>", with what both printed.
-Outcome overlapping_runs(const std::string& first, const fs::path& folder, int rows, const std::string& second) {
-  const std::string script = kEnv + quote(kExe) + " " + first + " & pid=$!; echo pid=$pid; for i in $(seq 1500); do " +
+Outcome overlapping_runs(const std::string& first, const fs::path& folder, int rows, const std::string& second,
+                         const std::string& second_env = "", const std::string& first_env = "") {
+  const std::string script = first_env + kEnv + quote(kExe) + " " + first + " & pid=$!; echo pid=$pid; for i in $(seq 1500); do " +
                              "[ \"$(cat " + quote((folder / "monitors.csv").string()) +
                              " 2>/dev/null | wc -l)\" -ge " + std::to_string(rows + 1) + " ] && break; sleep 0.02; " +
-                             "done; " + kEnv + quote(kExe) + " " + second + "; echo second=$?; wait $pid; echo first=$?";
+                             "done; " + second_env + kEnv + quote(kExe) + " " + second +
+                             "; echo second=$?; wait $pid; echo first=$?";
   return run_cmd("bash -c " + quote(script));
 }
 
@@ -396,6 +398,23 @@ TEST(RunLock, ASecondRunIntoAFolderInUseIsRefusedAndTheFirstRunsAsAlone) {
   expect_same_run(alone, x);
   // The folder is free again: a third run goes.
   EXPECT_EQ(run_fdem(run_args(kScene, x) + " -q").code, 0);
+}
+
+TEST(RunLock, RunsGuardingTheFolderByTheRecordAndByTheFileLockRespectEachOther) {
+  // A run that holds the kernel lock writes its record too (and renews it), and a run that
+  // guards its folder by the record alone (FDEM_RUN_LOCK=record, as where file locks do not work)
+  // holds no kernel lock: each refuses a second run of the other kind.
+  TempDir tmp("lock_mixed");
+  for (bool record_first : {false, true}) {
+    SCOPED_TRACE(record_first ? "record, then flock" : "flock, then record");
+    const fs::path y = tmp.path / (record_first ? "record_first" : "flock_first");
+    const std::string record = "FDEM_RUN_LOCK=record ";
+    const Outcome o = overlapping_runs(run_args(kScene, y), y, 2, run_args(kScene, y) + " -q",
+                                       record_first ? "" : record, record_first ? record : "");
+    EXPECT_EQ(value_after(o.text, "second"), "2") << o.text;
+    EXPECT_EQ(value_after(o.text, "first"), "0") << o.text;
+    EXPECT_TRUE(has(o.text, "PID " + value_after(o.text, "pid") + ", started ")) << o.text;
+  }
 }
 
 TEST(RunLock, AKilledRunLeavesNoLockAndItsRestartEqualsTheUninterruptedRun) {
@@ -446,7 +465,9 @@ TEST(RunLock, AStaleRecordIsTakenOverAndALiveOneRefusedAlsoWithoutFileLocks) {
   // The record alone: this test's own process is alive on this host; another host's record is
   // refused while renewed, taken over once 5 minutes old.
   const fs::path live = tmp.path / "live", other = tmp.path / "other", old = tmp.path / "old";
+  const fs::path reused = tmp.path / "reused";
   record(live, host, long(getpid()), now);
+  record(reused, host, long(getpid()), now - 600);  // a PID taken by another process since
   record(other, "node-elsewhere", 4242, now);
   record(old, "node-elsewhere", 4242, now - 600);
   const std::string record_only = "FDEM_RUN_LOCK=record " + kEnv + quote(kExe) + " ";
@@ -458,6 +479,9 @@ TEST(RunLock, AStaleRecordIsTakenOverAndALiveOneRefusedAlsoWithoutFileLocks) {
   EXPECT_EQ(o.code, 2) << o.text;
   EXPECT_TRUE(has(o.text, "host node-elsewhere") && has(o.text, "renewed")) << o.text;
   o = run_cmd(record_only + run_args(scene, old));
+  EXPECT_EQ(o.code, 0) << o.text;
+  EXPECT_TRUE(has(o.text, "not renewed for")) << o.text;
+  o = run_cmd(record_only + run_args(scene, reused));
   EXPECT_EQ(o.code, 0) << o.text;
   EXPECT_TRUE(has(o.text, "not renewed for")) << o.text;
   // An unknown way of locking is an input error.
