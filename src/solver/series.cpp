@@ -263,7 +263,7 @@ std::vector<SeriesRow> run_series(const std::string& scene_path, const std::vect
       std::error_code ec;
       fs::create_directories(row.folder, ec);
       // The variant's folder is this run's before anything in it changes.
-      const RunLock lock(row.folder, this_command(), log);
+      const RunLock variant_lock(row.folder, this_command(), log);
       run_options.folder_locked = true;
       fs::remove(summary_path, ec);
       if (run_options.restart.empty()) fs::remove_all(fs::path(row.folder) / "checkpoints", ec);
