@@ -96,7 +96,7 @@ Traffic step_traffic(const Solver& s) {
   for (char r : reached) reached_nodes += r;
   double carrying = 0, damaged = 0;
   const fdem::Ce6Params p = s.ce6_params();
-  for (const Ce6State& c : s.ce6) {
+  for (const fdem::Ce6Damage& c : s.ce6.damage) {
     const bool carries = fdem::ce6_carries_force(p, c);
     carrying += carries;
     damaged += carries && fdem::ce6_max_damage(c) > 0;
@@ -118,8 +118,10 @@ Traffic step_traffic(const Solver& s) {
 }
 
 /// All state the model and the solver hold for the run, in bytes: every array of Model and
-/// every array of Solver (the private ones by their known sizes: 1/m per node, platen
-/// stiffness per platen node; the prescribed-node lists are empty in this scene).
+/// every array of Solver (the private ones by their known sizes: platen stiffness per platen
+/// node; the prescribed-node lists are empty in this scene), and the arrays the time loop
+/// allocates for itself (device::bytes_in_use; those it borrows from the two are not counted
+/// again).
 double state_bytes(const Solver& s) {
   const Model& m = s.model();
   double b = held(m.X) + held(m.mass) + held(m.node_vertex);
@@ -129,9 +131,9 @@ double state_bytes(const Solver& s) {
   b += held(m.ce6_colours.order) + held(m.ce6_colours.offsets);
   b += held(m.surface_faces) + held(m.surface_tet) + held(m.platen_nodes) + held(m.platen_node_area) +
        held(m.platen_node_h) + held(m.top_nodes) + held(m.bottom_nodes) + held(m.lateral_nodes);
-  b += held(s.x) + held(s.v) + held(s.f) + held(s.ce6) + held(s.platen_anchor);
-  b += double(m.X.size()) * sizeof(real);             // Solver::inv_mass_
+  b += held(s.x) + held(s.v) + held(s.f) + held(s.ce6.damage) + held(s.ce6.anchors) + held(s.platen_anchor);
   b += double(m.platen_nodes.size()) * sizeof(real);  // Solver::platen_k_
+  b += double(fdem::device::bytes_in_use());
   return b;
 }
 

@@ -178,7 +178,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "bench_device: --blocks-per-sm changes the CUDA kernels only: one row per schedule here\n");
   try {  // every value checked before a model is built
     for (const std::string& schedule : schedules)
-      setenv("FDEM_DEVICE_SCHEDULE", schedule.c_str(), 1), device_schedule();
+      setenv("FDEM_DEVICE_SCHEDULE", schedule.c_str(), 1), device_schedule(b);
     for (const std::string& blocks : blocks_per_sm)
       setenv("FDEM_CUDA_BLOCKS_PER_SM", blocks.c_str(), 1), device_blocks_per_sm();
   } catch (const InputError& e) {

@@ -44,8 +44,6 @@ Halo::Halo(MPI_Comm comm, const Decomposition& dd, const std::vector<std::array<
     flag_off_.push_back(flag_off_.back() + nbs[i].shared_tets.size());
   }
   set_offsets();
-  fsend_.resize(flag_size());
-  frecv_.resize(flag_size());
   req_.reserve(2 * k);
   active_shared_.assign(k, -1);
   if (!tet_nodes_) return;
@@ -80,8 +78,6 @@ void Halo::set_offsets() {
     send_off_.push_back(send_off_.back() + 2 * send_list_[i].size());
     recv_off_.push_back(recv_off_.back() + 2 * recv_list_[i].size());
   }
-  send_.resize(send_size());
-  recv_.resize(recv_size());
 }
 
 void Halo::follow_flags(const std::uint8_t* sent, const std::uint8_t* received) {
@@ -159,40 +155,8 @@ void Halo::exchange_flags(const std::uint8_t* send, std::uint8_t* recv) {
   MPI_Waitall(int(req_.size()), req_.data(), MPI_STATUSES_IGNORE);
 }
 
-void Halo::update_nodes(std::vector<Vec3>& x, std::vector<Vec3>& v, const std::vector<char>* only) {
-  const std::size_t k = send_list_.size();
-  for (std::size_t i = 0; i < k; ++i) {
-    if (only && !(*only)[i]) continue;
-    const auto& sn = send_list_[i];
-    Vec3* out = send_.data() + send_off_[i];
-    for (std::size_t j = 0; j < sn.size(); ++j) out[j] = x[sn[j]], out[sn.size() + j] = v[sn[j]];
-  }
-  exchange_nodes(send_.data(), recv_.data(), only);
-  for (std::size_t i = 0; i < k; ++i) {
-    if (only && !(*only)[i]) continue;
-    const auto& rn = recv_list_[i];
-    const Vec3* in = recv_.data() + recv_off_[i];
-    for (std::size_t j = 0; j < rn.size(); ++j) x[rn[j]] = in[j], v[rn[j]] = in[rn.size() + j];
-  }
-}
-
-bool Halo::merge_flags(std::vector<std::uint8_t>& flags) {
-  const auto& nbs = dd_->neighbours;
-  for (std::size_t i = 0; i < nbs.size(); ++i)
-    for (std::size_t j = 0; j < nbs[i].shared_tets.size(); ++j) fsend_[flag_off_[i] + j] = flags[nbs[i].shared_tets[j]];
-  exchange_flags(fsend_.data(), frecv_.data());
-  follow_flags(fsend_.data(), frecv_.data());
-  bool raised = false;
-  for (std::size_t i = 0; i < nbs.size(); ++i)
-    for (std::size_t j = 0; j < nbs[i].shared_tets.size(); ++j) {
-      const int t = nbs[i].shared_tets[j];
-      if (frecv_[flag_off_[i] + j] && !flags[t]) flags[t] = 1, raised = true;
-    }
-  return raised;
-}
-
 std::size_t Halo::node_bytes_sent() const {
-  return send_.size() * sizeof(Vec3);
+  return send_size() * sizeof(Vec3);
 }
 
 namespace {

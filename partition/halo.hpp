@@ -1,12 +1,13 @@
 #pragma once
 // Halo exchanges of a decomposed model (partition.hpp), non-blocking point to point with each
-// neighbour, host buffers. Every rank of the communicator must call each exchange together.
+// neighbour, on buffers the device loop packs. Every rank of the communicator must call each
+// exchange together.
 //
 // Node lists: the decomposition's lists (the nodes of the elements a rank computes) plus, with
 // contact, the nodes of the *active* tets two ranks both hold: contact reads a ghost tet's
 // nodes only while the tet is a contact candidate. The lists grow when activation flags
-// merge (merge_flags); both ranks of a pair see the same merged flags, so they grow their
-// lists alike without a message, and refresh the new ghosts at once (update_nodes with the
+// merge (follow_flags); both ranks of a pair see the same merged flags, so they grow their
+// lists alike without a message, and refresh the new ghosts at once (exchange_nodes with the
 // changed neighbours), before contact reads them.
 #include <mpi.h>
 
@@ -25,14 +26,9 @@ class Halo {
   /// tet_nodes: the rank model's tets; with it (contact) the lists follow the active tets
   /// (collective: the ranks tell each neighbour which corners of their shared tets they own).
   Halo(MPI_Comm comm, const Decomposition& dd, const std::vector<std::array<int, 4>>* tet_nodes = nullptr);
-  /// Owners send positions and velocities of their nodes to the ranks holding them as ghosts;
-  /// with `only`, to and from the neighbours i with only[i] set (both sides of a pair agree).
-  void update_nodes(std::vector<Vec3>& x, std::vector<Vec3>& v, const std::vector<char>* only = nullptr);
-  /// Activation flags: a tet flagged on any rank holding it is flagged on all of them.
-  /// Returns true when a flag was raised here. Then the node lists follow the active tets.
-  bool merge_flags(std::vector<std::uint8_t>& flags);
   /// The node lists after merged flags, given as the packed flags this rank sent and
-  /// received (the device loop merges on the device); merge_flags calls it.
+  /// received (the device loop merges the flags: a tet flagged on any rank holding it is
+  /// flagged on all of them).
   void follow_flags(const std::uint8_t* sent, const std::uint8_t* received);
   /// The neighbours whose node lists grew at the last merge (their new ghosts need a refresh
   /// now); empty when none did.
@@ -45,8 +41,10 @@ class Halo {
   const std::vector<int>& send_nodes(std::size_t i) const { return send_list_[i]; }
   const std::vector<int>& recv_nodes(std::size_t i) const { return recv_list_[i]; }
 
-  // The same exchanges on packed buffers, for backends that pack and unpack themselves (the
-  // device loop packs on the device and stages through the host). Node buffers hold, neighbour
+  // The exchanges, on packed buffers (the device loop packs on the device, and on a GPU without
+  // a CUDA-aware MPI stages them through the host): owners send positions and velocities of
+  // their nodes to the ranks holding them as ghosts (with `only`, to and from the neighbours i
+  // with only[i] set; both sides of a pair agree), and flags. Node buffers hold, neighbour
   // after neighbour, the x of its nodes then their v: neighbour i's send part starts at
   // send_offset(i) and holds 2 x neighbours[i].send_nodes.size() values (recv likewise with
   // recv_nodes). Flag buffers hold the flags of neighbours[i].shared_tets at flag_offset(i).
@@ -71,8 +69,6 @@ class Halo {
   std::vector<long> active_shared_;
   std::vector<char> grown_;
   std::vector<std::size_t> send_off_, recv_off_, flag_off_;
-  std::vector<Vec3> send_, recv_;
-  std::vector<std::uint8_t> fsend_, frecv_;
   std::vector<MPI_Request> req_;
 };
 

@@ -57,8 +57,17 @@ struct EnvSetting {
   const char* name_;
 };
 
+/// The 3 x 3 x 6 box's solver of scene s. A cpu solver runs its default schedule, the colour
+/// passes, whatever FDEM_DEVICE_SCHEDULE says, so that a debug run of another schedule is held
+/// against the colour passes.
 inline std::unique_ptr<Solver> backend_solver(const Scene& s) {
-  return std::make_unique<Solver>(s, build_model(structured_box_mesh({0.006, 0.006, 0.012}, 3, 3, 6), s));
+  const char* set = std::getenv("FDEM_DEVICE_SCHEDULE");
+  const std::string schedule = set ? set : "";
+  const bool unset = set && s.solver.backend == Backend::cpu;
+  if (unset) unsetenv("FDEM_DEVICE_SCHEDULE");
+  auto solver = std::make_unique<Solver>(s, build_model(structured_box_mesh({0.006, 0.006, 0.012}, 3, 3, 6), s));
+  if (unset) setenv("FDEM_DEVICE_SCHEDULE", schedule.c_str(), 1);
+  return solver;
 }
 
 /// The elastic box with gravity, a confining pressure on `path` (hydrostatic: it follows the

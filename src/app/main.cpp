@@ -121,10 +121,11 @@ void define_run(CLI::App* run, CliOptions& o) {
   run->add_option("--contact", o.activation, "Contact activation (overrides contact.activation)")
       ->check(CLI::IsMember({"adaptive", "full", "none"}));
   run->add_option("--backend", o.backend,
-                  "Time loop (overrides solver.backend): cpu (OpenMP), cuda (the GPU), or debug (the GPU's loop on "
-                  "the CPU with separate device memory and each pass's iterations scrambled, for checking; "
-                  "FDEM_DEBUG_ORDER=forward keeps index order; FDEM_DEVICE_SCHEDULE=colour computes TET4 and CE6 "
-                  "colour by colour instead of in one fused pass, =fused keeps the step out of that pass). "
+                  "Time loop (overrides solver.backend), one loop on three backends: cpu (OpenMP, in place), cuda "
+                  "(the GPU), or debug (the CPU with separate device memory and each pass's iterations scrambled, "
+                  "for checking; FDEM_DEBUG_ORDER=forward keeps index order). FDEM_DEVICE_SCHEDULE=colour computes "
+                  "TET4 and CE6 colour by colour (cpu's default), =fused in one pass, =auto in one pass that also "
+                  "integrates (debug's and cuda's default). "
                   "Several ranks: the halo hands device buffers "
                   "to a CUDA-aware MPI, else stages them through host memory; FDEM_GPU_AWARE_MPI=auto|1|0 overrides "
                   "(docs/cluster.md)")

@@ -149,11 +149,13 @@ void* allocate(Backend b, std::size_t bytes) {
     p = cuda_impl::allocate(bytes);
   } else {
     p = std::malloc(bytes);
-    if (!p) throw RunError("device memory (debug backend): cannot allocate " + std::to_string(bytes) + " bytes");
-    // Poisoned, as the GPU's fresh memory holds whatever was there: a pass that reads an element
-    // nothing wrote reads NaN (reals), -1 (indices) or 255 (flags), not the zeros a fresh page
-    // of the host gives, and the bit-for-bit tests fail.
-    std::memset(p, 0xFF, bytes);
+    if (!p)
+      throw RunError("host memory (" + std::string(name_of(b)) + " backend): cannot allocate " + std::to_string(bytes) +
+                     " bytes");
+    // Debug: poisoned, as the GPU's fresh memory holds whatever was there: a pass that reads an
+    // element nothing wrote reads NaN (reals), -1 (indices) or 255 (flags), not the zeros a
+    // fresh page of the host gives, and the bit-for-bit tests fail.
+    if (b == Backend::debug) std::memset(p, 0xFF, bytes);
   }
   const std::size_t now = in_use += bytes;
   std::size_t seen = peak.load();

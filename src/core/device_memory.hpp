@@ -1,7 +1,8 @@
 #pragma once
 // Where the time loop runs and the memory it runs in.
-//   cpu   : the CPU backend (solver/solver.cpp, OpenMP over host vectors).
-//   debug : the device time loop (solver/device_loop.hpp) on the host, with its "device" arrays
+//   cpu   : the device time loop (solver/device_loop.hpp) on the host with OpenMP, in place: its
+//           arrays borrow the Solver's state and the Model's constants (DeviceArray::borrow).
+//   debug : the same loop on the host, with its "device" arrays
 //           in separate host buffers and the Solver's host copies poisoned (NaN) while the
 //           device holds the newer state, so a missing copy shows up without a GPU (as MFEM's
 //           debug device); its fresh allocations poisoned too (every byte 0xFF), so a pass that
@@ -9,6 +10,7 @@
 //   cuda  : the same device time loop as CUDA kernels (built where nvcc is found).
 #include <algorithm>
 #include <cstddef>
+#include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
@@ -62,7 +64,8 @@ std::size_t memory_available(Backend b);
 std::size_t host_resident();
 std::size_t host_peak_resident();
 bool reset_host_peak();
-/// Bytes allocated now and at most so far, over all arrays of all backends but cpu.
+/// Bytes allocated now and at most so far, over all arrays of all backends (borrowed ones not:
+/// DeviceArray::borrow).
 std::size_t bytes_in_use();
 std::size_t peak_bytes();
 /// Starts peak_bytes() afresh from the bytes in use now.
@@ -107,19 +110,33 @@ class DeviceArray {
   }
   DeviceArray(const DeviceArray&) = delete;
   DeviceArray& operator=(const DeviceArray&) = delete;
-  ~DeviceArray() { device::release(b_, p_, cap_ * sizeof(T)); }
+  ~DeviceArray() { free(); }
 
   void set_backend(Backend b) {
-    device::release(b_, p_, cap_ * sizeof(T));
-    p_ = nullptr, n_ = cap_ = 0, b_ = b;
+    free();
+    b_ = b;
   }
-  /// n elements; the contents are kept only when no reallocation happens.
+  /// The cpu backend works in place: the array becomes the n elements at host memory p, which
+  /// it does not own (the Solver's state, the Model's constants). upload() and download() of
+  /// those same elements then copy nothing. p must outlive the array or be borrowed again.
+  void borrow(T* p, std::size_t n) {
+    free();
+    p_ = p, n_ = cap_ = n, borrowed_ = true;
+  }
+  void borrow(std::vector<T>& h) { borrow(h.data(), h.size()); }
+  bool borrowed() const { return borrowed_; }
+  /// No elements and no memory (a borrowed array lets go).
+  void release() { free(); }
+  /// n elements; the contents are kept only when no reallocation happens. A borrowed array
+  /// cannot grow.
   void resize(std::size_t n) {
+    if (n > cap_ && borrowed_)
+      throw std::logic_error("DeviceArray: a borrowed array of " + std::to_string(cap_) + " cannot grow to " +
+                             std::to_string(n));
     if (n > cap_) {
       const std::size_t cap = cap_ == 0 ? n : std::max(n, cap_ + cap_ / 2);
       if (cap_ > 0) ++grown_;
-      device::release(b_, p_, cap_ * sizeof(T));
-      p_ = nullptr, n_ = cap_ = 0;
+      free();
       p_ = static_cast<T*>(device::allocate(b_, cap * sizeof(T)));
       cap_ = cap;
     }
@@ -127,11 +144,11 @@ class DeviceArray {
   }
   void upload(const T* h, std::size_t n) {
     resize(n);
-    if (n) device::to_device(b_, p_, h, n * sizeof(T));
+    if (n && h != p_) device::to_device(b_, p_, h, n * sizeof(T));
   }
   void upload(const std::vector<T>& h) { upload(h.data(), h.size()); }
   void download(T* h) const {
-    if (n_) device::to_host(b_, h, p_, n_ * sizeof(T));
+    if (n_ && h != p_) device::to_host(b_, h, p_, n_ * sizeof(T));
   }
   void download(std::vector<T>& h) const {
     h.resize(n_);
@@ -146,11 +163,17 @@ class DeviceArray {
  private:
   void swap(DeviceArray& o) {
     std::swap(b_, o.b_), std::swap(p_, o.p_), std::swap(n_, o.n_), std::swap(cap_, o.cap_), std::swap(grown_, o.grown_);
+    std::swap(borrowed_, o.borrowed_);
+  }
+  void free() {
+    if (!borrowed_) device::release(b_, p_, cap_ * sizeof(T));
+    p_ = nullptr, n_ = cap_ = 0, borrowed_ = false;
   }
   Backend b_ = Backend::debug;
   T* p_ = nullptr;
   std::size_t n_ = 0, cap_ = 0;
   long grown_ = 0;
+  bool borrowed_ = false;
 };
 
 }  // namespace fdem

@@ -1,5 +1,5 @@
 #pragma once
-// The device time loop's two primitives, for the host (debug backend, OpenMP) here and for CUDA
+// The device time loop's primitives, for the host (cpu and debug backends, OpenMP) here and for CUDA
 // in cuda/cuda_exec.cuh, with the same interface:
 //   Exec::forall(n, body)      body(i) for i in [0, n)
 //   Exec::sum<N>(n, body)      body(i, acc) adds to acc[0..N); returns the N sums on the host
@@ -94,12 +94,13 @@ struct HostPermutation {
   int operator()(int k) const { return int((a * k + b) % n); }
 };
 
-/// The permutation of the next launch of n iterations (the host thread calls it, once per launch).
-inline HostPermutation next_host_permutation(int n) {
+/// The permutation of the next launch of n iterations in order `order` (the host thread calls
+/// it, once per launch).
+inline HostPermutation next_host_permutation(int n, HostOrder order) {
   static unsigned long launches = 0;
   HostPermutation p;
   p.n = std::max(n, 1);
-  if (host_order() == HostOrder::forward || n < 2) return p;
+  if (order == HostOrder::forward || n < 2) return p;
   ++launches;
   p.a = std::max(n > 2 ? 2L : 1L, long(0.6180339887 * n));
   while (std::gcd(p.a, p.n) != 1) ++p.a;
@@ -121,6 +122,13 @@ inline int host_workers() {
   return 1;
 #endif
 }
+/// Launches of fewer iterations run on the calling thread: starting OpenMP's team costs about as
+/// much as that many light iterations (clearing a sum, the prescribed nodes, a small model's
+/// contact), and a step makes about twenty launches.
+#ifndef FDEM_HOST_SERIAL_BELOW
+#define FDEM_HOST_SERIAL_BELOW 64
+#endif
+constexpr int kHostSerialBelow = FDEM_HOST_SERIAL_BELOW;
 template <class Fn>
 inline void host_parallel_for(int n, Fn fn) {
 #if defined(FDEM_HOST_RACE_THREADS)
@@ -140,6 +148,10 @@ inline void host_parallel_for(int n, Fn fn) {
   share(0);
   for (std::thread& th : others) th.join();
 #elif defined(_OPENMP)
+  if (n < kHostSerialBelow) {
+    for (int k = 0; k < n; ++k) fn(k, 0);
+    return;
+  }
 #pragma omp parallel
   {
     const int t = omp_get_thread_num();
@@ -180,13 +192,18 @@ struct NoEpilogue {
   FDEM_HD void operator()() const {}
 };
 
-struct HostExec {
+/// The host's executor. kChecking (the debug backend, HostExec): each launch's iterations in
+/// host_order(), scrambled by default, and sort() refuses ties. Without (the cpu backend,
+/// CpuExec): always in index order, which is what OpenMP's static schedule runs fastest.
+template <bool kChecking>
+struct HostExecutor {
   static constexpr bool on_gpu = false;
+  static HostOrder order() { return kChecking ? host_order() : HostOrder::forward; }
   // Launches counted as CudaExec makes them (device::Traffic).
   template <class Body>
   static void forall(int n, Body body) {
     if (n > 0) device::count_launches(1);
-    const HostPermutation p = next_host_permutation(n);
+    const HostPermutation p = next_host_permutation(n, order());
     host_parallel_for(n, [&](int k, int) { body(p(k)); });
   }
   // The values a reduction returns cross to the host on a GPU: counted as such.
@@ -219,7 +236,7 @@ struct HostExec {
     if (n <= 0) return out;
     device::count_copy(true, N * sizeof(real));  // CudaExec's maxima (the start values are set there)
     device::count_launches(2);
-    const HostPermutation p = next_host_permutation(n);
+    const HostPermutation p = next_host_permutation(n, order());
     // Each worker's maxima apart (a cache line each), then taken in worker order (a maximum does
     // not depend on it).
     struct alignas(64) Part {
@@ -249,7 +266,7 @@ struct HostExec {
     if (n > 1) device::count_launches(1);
     std::sort(first, first + n, less);
     // Elements that compare equal could come out in another order from the GPU's sort.
-    if (host_order() == HostOrder::scrambled)
+    if (order() == HostOrder::scrambled)
       for (long k = 1; k < n; ++k)
         if (!less(first[k - 1], first[k]))
           throw std::logic_error("HostExec::sort: elements " + std::to_string(k - 1) + " and " + std::to_string(k) +
@@ -262,17 +279,21 @@ struct HostExec {
   static std::array<real, N> sum_here(int n, Body body) {
     std::array<real, N> out{};
 #if !defined(FDEM_HOST_RACE_THREADS)
-    if (host_order() == HostOrder::forward) {
+    if (order() == HostOrder::forward) {
       real acc[N] = {};
+      if (n < kHostSerialBelow) {
+        for (int i = 0; i < n; ++i) body(i, acc);
+      } else {
 #pragma omp parallel for schedule(static) reduction(+ : acc[:N])
-      for (int i = 0; i < n; ++i) body(i, acc);
+        for (int i = 0; i < n; ++i) body(i, acc);
+      }
       for (int k = 0; k < N; ++k) out[k] = acc[k];
       return out;
     }
 #endif
     // Each iteration's terms kept apart, then added in index order (the race check: forward
     // order too).
-    const HostPermutation p = next_host_permutation(n);
+    const HostPermutation p = next_host_permutation(n, order());
     std::vector<std::array<real, N>> part(std::size_t(std::max(n, 0)), std::array<real, N>{});
     host_parallel_for(n, [&](int k, int) {
       const int i = p(k);
@@ -283,5 +304,8 @@ struct HostExec {
     return out;
   }
 };
+
+using HostExec = HostExecutor<true>;  // the debug backend's
+using CpuExec = HostExecutor<false>;  // the cpu backend's
 
 }  // namespace fdem

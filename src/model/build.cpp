@@ -68,6 +68,22 @@ Colouring colour_elements(const std::vector<std::array<int, K>>& elems, std::siz
   return out;
 }
 
+/// CE6s renumbered colour by colour, so that each colour is a contiguous range of ids: the time
+/// loop's CE6 passes then read their arrays in order, and on one rank the loop works on the
+/// Solver's CE6 state in place (no second copy in colour order).
+void number_ce6_in_colour_order(Model& m) {
+  const std::vector<int>& order = m.ce6_colours.order;
+  auto reorder = [&](auto& a) {
+    auto by_colour = a;
+    for (std::size_t k = 0; k < order.size(); ++k) by_colour[k] = a[order[k]];
+    a = std::move(by_colour);
+  };
+  reorder(m.ce6_nodes);
+  reorder(m.ce6_tets);
+  reorder(m.ce6_h);
+  std::iota(m.ce6_colours.order.begin(), m.ce6_colours.order.end(), 0);
+}
+
 }  // namespace
 
 VertexTets::VertexTets(const Model& m) {
@@ -313,6 +329,7 @@ Model build_model(const Mesh& mesh, const Scene& scene) {
 
   m.tet_colours = colour_elements(m.tet_nodes, nn, "TET4");
   m.ce6_colours = colour_elements(m.ce6_nodes, nn, "CE6");
+  number_ce6_in_colour_order(m);
   return m;
 }
 

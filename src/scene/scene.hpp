@@ -102,7 +102,7 @@ struct Platens {
 /// normal each step), as in a triaxial cell.
 struct Confinement {
   bool enabled = false;
-  real pressure = 0;                          // Pa, the target confining stress sigma_3
+  real pressure = 0;                                    // Pa, the target confining stress sigma_3
   ConfinementPath path = ConfinementPath::hydrostatic;  // hydrostatic: p = min(sigma_3, measured axial stress)
   real ramp_time = 0;                         // s, constant path: smooth rise to sigma_3; 0 = automatic (10 transits)
   static constexpr real kMaxPressure = 1e10;  // Pa: confinement.pressure and --sigma3 / --vary sigma3
@@ -138,8 +138,8 @@ struct SolverSettings {
   /// The most threads a run takes (solver.threads, -t): a node's cores many times over. OpenMP
   /// fails to start tens of thousands (libgomp crashed at 65,536 on the dev VM).
   static constexpr int kMaxThreads = 1024;
-  // Time loop: cpu (OpenMP), cuda (one GPU per rank) or debug (the device loop on the CPU
-  // with separate device memory, for checking that every copy is in place).
+  // Where the time loop runs: cpu (OpenMP, in place), cuda (one GPU per rank) or debug (the
+  // CPU with separate device memory, for checking that every copy is in place).
   Backend backend = Backend::cpu;
   /// Stop the run when the energy balance error (monitors.csv energy_error) exceeds this once
   /// the work put in is above the noise floor; 0 = never. A stable run stays below a few 0.01.

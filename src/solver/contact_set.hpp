@@ -1,8 +1,8 @@
 #pragma once
-// The CPU backend's tet-tet contact: activation flags, the candidate-pair list from the broad
-// phase, the narrow phase and friction of each pair, and the deterministic sum of the pair
-// forces into the node forces (a gather through a node -> pair-slot index, no atomics, so
-// the result does not depend on the thread count).
+// Tet-tet contact's state on the host: activation flags, the candidate-pair list, the friction
+// springs, the last forces of each pair and the gather index that sums them into the node forces
+// (no atomics). The device loop builds and evaluates them (solver/device_loop_impl.hpp); this is
+// their host copy for checkpoints, outputs and tests.
 #include <array>
 #include <cstdint>
 #include <vector>
@@ -47,18 +47,6 @@ class ContactSet {
   /// Flags the vicinity of CE6 `c` (every tet sharing a vertex of its face). Returns the
   /// number of tets newly activated.
   long activate_ce6(const Model& m, int c);
-  /// Adds the contact forces to f and returns their work rates. A pair of tets joined by a CE6
-  /// touches only once the CE6 is broken and was so before this evaluation (`fresh[c]`: CE6 c
-  /// broke in it), so a face is held by its CE6 or by contact, never by both on one step.
-  ContactPower add_forces(const Model& m, const std::vector<Vec3>& x, const std::vector<Vec3>& v,
-                          const std::vector<Ce6State>& ce6, const std::vector<std::uint8_t>& fresh, real dt,
-                          std::vector<Vec3>& f);
-
-  /// -sum f.v of the forces of the last evaluation with velocities v (W). With the velocities
-  /// before and after a step, the mean of the two rates times dt is the work done exactly by
-  /// those forces over the central-difference step (the forces are stiff and short-lived).
-  real power(const Model& m, const std::vector<Vec3>& v) const;
-
   /// Rebuild the candidate list at the next evaluation (as after an activation change).
   void request_rebuild() { dirty_ = true; }
 
@@ -112,8 +100,6 @@ class ContactSet {
  private:
   template <class>
   friend class DeviceLoopImpl;  // the device loop's narrow phase works on these arrays
-  void rebuild(const Model& m, const std::vector<Vec3>& x);
-  bool moved_too_far(const std::vector<Vec3>& x) const;
 
   const std::vector<std::uint8_t>* node_owned_ = nullptr;
   const std::vector<std::uint8_t>* tet_owned_ = nullptr;

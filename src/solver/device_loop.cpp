@@ -1,4 +1,5 @@
-// The debug backend's device loop (HostExec) and the choice of backend.
+// The host backends' device loops (cpu: CpuExec, in place; debug: HostExec) and the choice of
+// backend.
 #include "solver/device_loop.hpp"
 
 #include <algorithm>
@@ -23,9 +24,12 @@ std::unique_ptr<DeviceLoop> make_cuda_device_loop(bool, FusedPlan) {
 }
 #endif
 
-DeviceSchedule device_schedule() {
+DeviceSchedule device_schedule(Backend b) {
   const char* e = std::getenv("FDEM_DEVICE_SCHEDULE");
   const std::string v = e ? e : "";
+  // The cpu backend's default is the colour passes: measured faster on the host than the fused
+  // pass (docs/benchmarks.md), which saves a GPU its launches and a second read of the nodes.
+  if (v.empty() && b == Backend::cpu) return DeviceSchedule::colour;
   if (v.empty() || v == "auto") return DeviceSchedule::automatic;
   if (v == "fused") return DeviceSchedule::fused;
   if (v == "colour") return DeviceSchedule::colour;
@@ -83,10 +87,11 @@ bool plan_fused_pass(const Model& m, FusedPlan& plan) {
 
 std::unique_ptr<DeviceLoop> make_device_loop(Backend b, const Solver& s) {
   // Read (and checked) here, at the start, on every rank alike.
-  const bool direct_mpi = s.decomposition().distributed() && device_buffers_to_mpi(b == Backend::cuda);
-  auto fused_plan = [&s] {
+  const bool direct_mpi =
+      b != Backend::cpu && s.decomposition().distributed() && device_buffers_to_mpi(b == Backend::cuda);
+  auto fused_plan = [&s, b] {
     FusedPlan plan;  // empty: the colour passes
-    const DeviceSchedule schedule = device_schedule();
+    const DeviceSchedule schedule = device_schedule(b);
     const int blocks = device_blocks_per_sm();  // checked whatever the schedule
     if (schedule == DeviceSchedule::colour || !plan_fused_pass(s.model(), plan)) return FusedPlan{};
     // The pass integrates too on one rank, where it moves every node: each in a tet.
@@ -131,9 +136,10 @@ std::unique_ptr<DeviceLoop> make_device_loop(Backend b, const Solver& s) {
       }
       return make_cuda_device_loop(direct_mpi, fused_plan());  // after the collective above
     case Backend::cpu:
-      break;
+      // Host memory: the halo hands its buffers to MPI as they are.
+      return std::make_unique<DeviceLoopImpl<CpuExec>>(Backend::cpu, s.decomposition().distributed(), fused_plan());
   }
-  throw InputError("the cpu backend has no device loop");
+  throw std::logic_error("make_device_loop: unknown backend");
 }
 
 }  // namespace fdem

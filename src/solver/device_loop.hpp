@@ -1,9 +1,11 @@
 #pragma once
-// The device time loop: the Solver's per-step array passes (forces, activation, the contact
-// candidate list, narrow phase and friction, platens, pressure, integration, the halo's packing) written once over raw
-// device arrays with Exec::forall / Exec::sum (core/forall.hpp), run by the debug backend on the host and by the CUDA
-// backend as kernels. The Solver keeps the scalar bookkeeping (energies, checks, loading) and its host vectors as the
-// host copy, brought up to date at monitor rows and output.
+// The time loop of every backend: the Solver's per-step array passes (forces, activation, the
+// contact candidate list, narrow phase and friction, platens, pressure, integration, the halo's
+// packing) written once over raw arrays with Exec::forall / Exec::sum (core/forall.hpp). The cpu
+// backend runs them on the host in place (its arrays borrow the Solver's), the debug backend on
+// the host with separate buffers, the CUDA backend as kernels. The Solver keeps the scalar
+// bookkeeping (energies, checks, loading) and its host vectors as the host copy, brought up to
+// date at monitor rows and output.
 #include <array>
 #include <cstdint>
 #include <memory>
@@ -152,21 +154,21 @@ struct FusedPlan {
 /// one computed tet (split nodes: a CE6 on every internal face of the rank's elements), each
 /// side's nodes of a computed CE6 its tet's own, and every computed CE6 with a computed tet.
 bool plan_fused_pass(const Model& m, FusedPlan& plan);
-/// The device loop's element passes by FDEM_DEVICE_SCHEDULE: `auto` (or unset, the default):
-/// fused where plan_fused_pass allows, and integrating in that pass where the run allows
-/// (DeviceLoop::integrates); `fused`: fused, the integration a pass of its own; `colour`: the
-/// colour-by-colour passes. The last two are for comparison. Another value throws InputError
-/// naming it.
+/// The device loop's element passes on backend b by FDEM_DEVICE_SCHEDULE: `auto` (unset: the
+/// default of debug and cuda): fused where plan_fused_pass allows, and integrating in that pass
+/// where the run allows (DeviceLoop::integrates); `fused`: fused, the integration a pass of its
+/// own; `colour` (unset: the cpu backend's default): the colour-by-colour passes. Another value
+/// throws InputError naming it.
 enum class DeviceSchedule { automatic, fused, colour };
-DeviceSchedule device_schedule();
+DeviceSchedule device_schedule(Backend b);
 /// FDEM_CUDA_BLOCKS_PER_SM: 1 (or unset, the default) or 2, the resident blocks per
 /// multiprocessor the fused pass's kernels are compiled for (DeviceLoop::blocks_per_sm), for
 /// measuring what occupancy buys against what spilling costs. Another value throws InputError
 /// naming it.
 int device_blocks_per_sm();
 
-/// The device loop of backend b (debug or cuda) for solver s. Throws InputError when the
-/// CUDA backend was not built or no GPU is visible.
+/// The device loop of backend b for solver s. Throws InputError when the CUDA backend was not
+/// built or no GPU is visible.
 std::unique_ptr<DeviceLoop> make_device_loop(Backend b, const Solver& s);
 
 }  // namespace fdem

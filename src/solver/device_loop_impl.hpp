@@ -1,8 +1,8 @@
 #pragma once
 // DeviceLoopImpl<Exec>: the device loop (device_loop.hpp) for one Exec. Included by
-// device_loop.cpp (HostExec, the debug backend) and by cuda/device_loop.cu (CudaExec), so the
-// passes are one source. Lambdas capture raw pointers by value; members are copied to locals
-// first (a device lambda cannot read `this`).
+// device_loop.cpp (CpuExec, the cpu backend; HostExec, the debug backend) and by
+// cuda/device_loop.cu (CudaExec), so the passes are one source. Lambdas capture raw pointers by value; members are
+// copied to locals first (a device lambda cannot read `this`).
 #include <algorithm>
 #include <chrono>
 #include <cstdint>
@@ -165,8 +165,8 @@ class DeviceLoopImpl final : public DeviceLoop {
         lateral_nodes_);
     set(Xinv_, V0_, eta_, ce6_h_, mass_, platen_k_, sums_);
     set(X_, plan_x_, x_, v_, f_, anchor_, fixed_v_, lat_force_, watch_x_, spring_, pair_force_);
-    set(dmg_, slip_, ce6_model_, broke_, active_, mid_third_, own_node_, own_tet_, own_ce6_, tet_assigns_, unreached_,
-        pairs_, eval_);
+    set(dmg_, slip_, dmg_model_, slip_model_, broke_, active_, mid_third_, own_node_, own_tet_, own_ce6_, tet_assigns_,
+        unreached_, pairs_, eval_);
     set(tet_global_, flags_, offsets_, counts_, entry_offsets_, head_, head_offsets_, cell_start_, cell_counts_,
         cell_offsets_);
     set(ids_, tet_ce6_, ce6_tets_, boxes_, entries_, node_slots_, next_pairs_, next_spring_);
@@ -191,8 +191,8 @@ class DeviceLoopImpl final : public DeviceLoop {
     solver_ = &s;  // (what complete_forces() reads of it: the model, the Lamé constants, contact's buffer)
     const Model& m = s.model_;
     if (!constants_) {
-      tet_nodes_.upload(reinterpret_cast<const int*>(m.tet_nodes.data()), 4 * m.tet_nodes.size());
-      tet_order_.upload(m.tet_colours.order);
+      place(tet_nodes_, reinterpret_cast<const int*>(m.tet_nodes.data()), 4 * m.tet_nodes.size());
+      place(tet_order_, m.tet_colours.order);
       // CE6 arrays in colour order (the CE6s no colour holds, on several ranks, after them), so
       // that a colour's launch reads them contiguously.
       const std::size_t nce = m.ce6_nodes.size();
@@ -203,15 +203,22 @@ class DeviceLoopImpl final : public DeviceLoop {
         if (slot[i] < 0) slot[i] = int(ce6_perm_.size()), ce6_perm_.push_back(int(i));
       if (ce6_perm_.size() != nce)  // the rank-file loader refuses such a colouring
         throw RunError("device loop: the CE6 colouring lists a CE6 more than once");
-      ce6_slot_.upload(slot);
+      // CE6 ids are colour order (model/build.cpp): on one rank the slots are the ids, and the
+      // per-CE6 arrays are the host's (in place on the cpu backend); no slot map then.
+      ce6_by_id_ = true;
+      for (std::size_t k = 0; k < nce; ++k) ce6_by_id_ = ce6_by_id_ && ce6_perm_[k] == int(k);
+      if (ce6_by_id_)
+        ce6_slot_.release();
+      else
+        ce6_slot_.upload(slot);
       ce6_coloured_ = int(m.ce6_colours.order.size());
       ce6p_ = s.ce6p_;
-      ce6_nodes_.upload(reinterpret_cast<const int*>(in_slots(m.ce6_nodes).data()), 6 * nce);
-      Xinv_.upload(m.tet_Xinv);
-      V0_.upload(m.tet_V0);
-      eta_.upload(m.tet_eta);
-      ce6_h_.upload(in_slots(m.ce6_h));
-      mass_.upload(m.mass);  // (1/m: divided where needed, no array read for it)
+      place_in_slots(ce6_nodes_, m.ce6_nodes);
+      place(Xinv_, m.tet_Xinv);
+      place(V0_, m.tet_V0);
+      place(eta_, m.tet_eta);
+      place_in_slots(ce6_h_, m.ce6_h);
+      place(mass_, m.mass);  // (1/m: divided where needed, no array read for it)
       // Every node's mass a quarter of its one tet's, rho V0 / 4 (model/build.cpp), to the bit:
       // then the fused pass computes it from V0, which it reads anyway, instead of reading it.
       const real rho = s.scene_.solver.mass_scaling * s.scene_.material.density;
@@ -223,24 +230,24 @@ class DeviceLoopImpl final : public DeviceLoop {
           if (!mass_from_volume_) break;
         }
       node_density_ = mass_from_volume_ ? rho : 0;
-      platen_nodes_.upload(m.platen_nodes);
-      platen_k_.upload(s.platen_k_);
-      node_vertex_.upload(m.node_vertex);
-      X_.upload(m.X);
+      place(platen_nodes_, m.platen_nodes);
+      place(platen_k_, s.platen_k_);
+      place(node_vertex_, m.node_vertex);
+      place(X_, m.X);
       if (s.dd_.distributed() && s.contacts.enabled()) {
-        plan_x_.upload(s.contacts.plan_x());
-        tet_global_.upload(s.dd_.tet_global);
+        place(plan_x_, s.contacts.plan_x());
+        place(tet_global_, s.dd_.tet_global);
       }
-      lateral_nodes_.upload(m.lateral_nodes);
-      own_node_.upload(s.own_node_);
-      own_tet_.upload(s.own_tet_);
-      own_ce6_.upload(in_slots(s.own_ce6_));
-      tet_assigns_.upload(s.tet_assigns_);
+      place(lateral_nodes_, m.lateral_nodes);
+      place(own_node_, s.own_node_);
+      place(own_tet_, s.own_tet_);
+      place_in_slots(own_ce6_, s.own_ce6_);
+      place(tet_assigns_, s.tet_assigns_);
       assigned_corners_ = 0;
       for (std::uint8_t a : s.tet_assigns_) assigned_corners_ += (a & 1) + (a >> 1 & 1) + (a >> 2 & 1) + (a >> 3 & 1);
       gravity_ = s.scene_.has_gravity();
       g_ = s.scene_.gravity;
-      unreached_.upload(s.unreached_nodes_);
+      place(unreached_, s.unreached_nodes_);
       plan_fused();
       // The fused pass integrates (make_device_loop: one rank, every node a tet's).
       if (integrates_ && (s.halo_ || s.dd_.distributed() || !s.unreached_nodes_.empty()))
@@ -261,16 +268,16 @@ class DeviceLoopImpl final : public DeviceLoop {
       }
       mid_third_.upload(mid);
       if (s.contacts.enabled()) {
-        vt_ptr_.upload(s.contacts.vertex_tet_ptr_);
-        vt_tets_.upload(s.contacts.vertex_tets_);
+        place(vt_ptr_, s.contacts.vertex_tet_ptr_);
+        place(vt_tets_, s.contacts.vertex_tets_);
         // The broad phase's filters: the CE6s on each tet's faces and the tets of each CE6.
-        tet_ce6_.upload(reinterpret_cast<const int*>(s.contacts.tet_ce6_.data()), 4 * s.contacts.tet_ce6_.size());
-        ce6_tets_.upload(reinterpret_cast<const int*>(m.ce6_tets.data()), 2 * m.ce6_tets.size());
+        place(tet_ce6_, reinterpret_cast<const int*>(s.contacts.tet_ce6_.data()), 4 * s.contacts.tet_ce6_.size());
+        place(ce6_tets_, reinterpret_cast<const int*>(m.ce6_tets.data()), 2 * m.ce6_tets.size());
       }
       // Confining pressure: the lateral faces and, per node, the faces it sums in face order
       // (the order of the CPU loop, so the sums agree bit for bit).
       const auto& faces = s.lateral_faces_;
-      lat_faces_.upload(reinterpret_cast<const int*>(faces.data()), 3 * faces.size());
+      place(lat_faces_, reinterpret_cast<const int*>(faces.data()), 3 * faces.size());
       std::vector<std::array<int, 2>> nf;
       for (int i = 0; i < int(faces.size()); ++i)
         for (int n : faces[i]) nf.push_back({n, i});
@@ -306,14 +313,21 @@ class DeviceLoopImpl final : public DeviceLoop {
       constants_ = true;
     }
     discard_pending();  // the host copy, its scalars included, is the state
-    x_.upload(s.x);
-    v_.upload(s.v);
-    f_.upload(s.f);
-    // The CE6 state in the host's layout and order, split into slots on the device.
-    ce6_model_.upload(s.ce6);
-    dmg_.resize(s.ce6.size());
-    slip_.resize(s.ce6.size());
-    ce6_between_orders(true);
+    place(x_, s.x);
+    place(v_, s.v);
+    place(f_, s.f);
+    // The CE6 state: the host's arrays where the slots are the ids (in place on the cpu backend),
+    // else uploaded in id order and put into slots on the device.
+    if (ce6_by_id_) {
+      place(dmg_, s.ce6.damage);
+      place(slip_, s.ce6.anchors);
+    } else {
+      dmg_model_.upload(s.ce6.damage);
+      slip_model_.upload(s.ce6.anchors);
+      dmg_.resize(s.ce6.size());
+      slip_.resize(s.ce6.size());
+      ce6_between_orders(true);
+    }
     if (fused_) {  // the fused pass reads one copy and writes the other: both start current
       dmg_next_.resize(dmg_.size());
       slip_next_.resize(slip_.size());
@@ -327,17 +341,17 @@ class DeviceLoopImpl final : public DeviceLoop {
       const Ce6Damage intact{};
       std::vector<std::uint8_t> fl(ce6_perm_.size());
       for (std::size_t k = 0; k < fl.size(); ++k) {
-        const Ce6Damage& dk = s.ce6[ce6_perm_[k]];
+        const Ce6Damage& dk = s.ce6.damage[ce6_perm_[k]];
         fl[k] = std::uint8_t((s.own_ce6_[ce6_perm_[k]] ? 1 : 0) | (std::memcmp(&dk, &intact, sizeof dk) ? 2 : 0));
       }
       ce6_flag_.upload(fl);
       ce6_flag_next_.upload(fl);
     }
-    broke_.upload(in_slots(s.ce6_broke_));
-    anchor_.upload(s.platen_anchor);
-    fixed_node_.upload(s.fixed_node_);
-    fixed_mask_.upload(s.fixed_mask_);
-    fixed_v_.upload(s.fixed_velocity_);
+    place_in_slots(broke_, s.ce6_broke_);
+    place(anchor_, s.platen_anchor);
+    place(fixed_node_, s.fixed_node_);
+    place(fixed_mask_, s.fixed_mask_);
+    place(fixed_v_, s.fixed_velocity_);
     step_pending_ = false;                        // the host's state is the state
     if (integrates_ && !s.fixed_node_.empty()) {  // each node's place in the prescribed lists
       std::vector<int> of(s.x.size(), -1);
@@ -346,10 +360,10 @@ class DeviceLoopImpl final : public DeviceLoop {
     } else {
       fixed_of_.resize(0);
     }
-    lat_force_.upload(s.lateral_force_);
+    place(lat_force_, s.lateral_force_);
     if (s.contacts.enabled()) {
       const ContactSet& c = s.contacts;
-      active_.upload(c.active_);
+      place(active_, c.active_);
       flags_merged_ = false;
       if (integrates_) follow_gather(false);  // the old list's nodes out
       upload_pairs(c);
@@ -367,11 +381,17 @@ class DeviceLoopImpl final : public DeviceLoop {
     x_.download(s.x);
     v_.download(s.v);
     f_.download(s.f);
-    // The CE6 state gathered into the host's layout and order on the device, then one copy.
-    ce6_model_.resize(dmg_.size());
-    ce6_between_orders(false);
-    ce6_model_.download(s.ce6);
-    {
+    // The CE6 state: where the slots are not the ids, gathered into id order on the device first.
+    if (ce6_by_id_) {
+      dmg_.download(s.ce6.damage);
+      slip_.download(s.ce6.anchors);
+      broke_.download(s.ce6_broke_);
+    } else {
+      dmg_model_.resize(dmg_.size());
+      slip_model_.resize(dmg_.size());
+      ce6_between_orders(false);
+      dmg_model_.download(s.ce6.damage);
+      slip_model_.download(s.ce6.anchors);
       std::vector<std::uint8_t> b;
       broke_.download(b);
       for (std::size_t k = 0; k < b.size(); ++k) s.ce6_broke_[ce6_perm_[k]] = b[k];
@@ -402,10 +422,8 @@ class DeviceLoopImpl final : public DeviceLoop {
     const real nan = std::numeric_limits<real>::quiet_NaN();
     const Vec3 bad{nan, nan, nan};
     for (auto* a : {&s.x, &s.v, &s.f, &s.platen_anchor, &s.lateral_force_}) std::fill(a->begin(), a->end(), bad);
-    for (Ce6State& c : s.ce6) {
-      c.D[0] = c.D[1] = c.D[2] = nan, c.mode = -1;
-      for (Vec3& a : c.slip) a = bad;
-    }
+    for (Ce6Damage& c : s.ce6.damage) c.D[0] = c.D[1] = c.D[2] = nan, c.mode = -1;
+    for (Ce6Anchors& c : s.ce6.anchors) std::fill(std::begin(c.a), std::end(c.a), bad);
     std::fill(s.ce6_broke_.begin(), s.ce6_broke_.end(), 0xAA);
     if (s.contacts.enabled()) {
       ContactSet& c = s.contacts;
@@ -1013,7 +1031,7 @@ class DeviceLoopImpl final : public DeviceLoop {
     const Ce6Params p = s.ce6p_;
     // In the model's CE6 order (the host's), so that the sums agree bit for bit.
     const auto ce = Exec::template sum<7>(int(dmg_.size()), [=] FDEM_LAMBDA(int c, real* acc) {
-      const int i = slot[c];
+      const int i = slot ? slot[c] : c;
       if (!own_c[i]) return;
       Vec3 xe[6], ve[6], fe[6];
       for (int j = 0; j < 6; ++j) xe[j] = x[cn[6 * i + j]], ve[j] = v[cn[6 * i + j]];
@@ -1051,10 +1069,10 @@ class DeviceLoopImpl final : public DeviceLoop {
     if (s.contacts.enabled()) {
       const std::uint8_t* active = active_.data();
       const ContactPair* pairs = pairs_.data();
-      out.active_tets = Exec::template sum<1>(int(active_.size()),
-                                      [=] FDEM_LAMBDA(int t, real* acc) { acc[0] += active[t] == 1 && own_t[t]; })[0];
+      out.active_tets = Exec::template sum<1>(
+          int(active_.size()), [=] FDEM_LAMBDA(int t, real* acc) { acc[0] += active[t] == 1 && own_t[t]; })[0];
       out.contact_pairs = Exec::template sum<1>(int(pairs_.size()),
-                                      [=] FDEM_LAMBDA(int k, real* acc) { acc[0] += own_t[pairs[k].a]; })[0];
+                                                [=] FDEM_LAMBDA(int k, real* acc) { acc[0] += own_t[pairs[k].a]; })[0];
     }
     t_.monitor += seconds_since(t0);
     return out;
@@ -1144,6 +1162,20 @@ class DeviceLoopImpl final : public DeviceLoop {
   void clear_sums(int from, int to) {
     real* p = sums_.data();
     Exec::forall(to - from, [=] FDEM_LAMBDA(int k) { p[from + k] = 0; });
+  }
+
+  /// The array the passes use for host data h (n elements): h itself on the cpu backend, which
+  /// works in place, else a copy in the backend's memory. (The passes write only the state's.)
+  template <class T>
+  void place(DeviceArray<T>& d, const T* h, std::size_t n) {
+    if (b_ == Backend::cpu)
+      d.borrow(const_cast<T*>(h), n);
+    else
+      d.upload(h, n);
+  }
+  template <class T>
+  void place(DeviceArray<T>& d, const std::vector<T>& h) {
+    place(d, h.data(), h.size());
   }
 
   /// The fused pass's lists to the device (the plan made with the loop; the model's
@@ -1372,26 +1404,35 @@ class DeviceLoopImpl final : public DeviceLoop {
     }
   }
 
-  /// Between ce6_model_ (Ce6State in model order) and the slot-ordered damage and anchors:
-  /// into the slots when `to_slots`, out of them otherwise.
+  /// Between the CE6 state in id order (dmg_model_, slip_model_) and in slots (dmg_, slip_):
+  /// into the slots when `to_slots`, out of them otherwise (several ranks).
   void ce6_between_orders(bool to_slots) {
-    Ce6State* model = ce6_model_.data();
+    Ce6Damage* dm = dmg_model_.data();
+    Ce6Anchors* am = slip_model_.data();
     Ce6Damage* d = dmg_.data();
     Ce6Anchors* a = slip_.data();
     const int* slot = ce6_slot_.data();
-    Exec::forall(int(ce6_model_.size()), [=] FDEM_LAMBDA(int i) {
+    Exec::forall(int(dmg_model_.size()), [=] FDEM_LAMBDA(int i) {
       const int k = slot[i];
-      if (to_slots) {
-        d[k] = model[i];
-        for (int j = 0; j < 3; ++j) a[k].a[j] = model[i].slip[j];
-      } else {
-        static_cast<Ce6Damage&>(model[i]) = d[k];
-        for (int j = 0; j < 3; ++j) model[i].slip[j] = a[k].a[j];
-      }
+      if (to_slots)
+        d[k] = dm[i], a[k] = am[i];
+      else
+        dm[i] = d[k], am[i] = a[k];
     });
   }
 
  private:
+  /// The array of a per-CE6 host array h in the device's slot order: h's own where the slots
+  /// are the ids (place()), else a copy reordered.
+  template <class T, class H>
+  void place_in_slots(DeviceArray<T>& d, const std::vector<H>& h) {
+    static_assert(sizeof(H) % sizeof(T) == 0, "whole elements");
+    constexpr std::size_t k = sizeof(H) / sizeof(T);
+    if (ce6_by_id_)
+      place(d, reinterpret_cast<const T*>(h.data()), k * h.size());
+    else
+      d.upload(reinterpret_cast<const T*>(in_slots(h).data()), k * h.size());
+  }
   /// A per-CE6 host array in the device's slot order.
   template <class T>
   std::vector<T> in_slots(const std::vector<T>& by_model) const {
@@ -1751,6 +1792,13 @@ class DeviceLoopImpl final : public DeviceLoop {
     ++cs.times.rebuilds;
     cs.stats_ = BroadPhaseStats{na, entries, tested, npairs, cell};
     pairs_on_host_ = false;
+    // The cpu backend gives the build's scratch back, as host code's locals would: its memory
+    // counts against the run's. A GPU keeps it, since an allocation there waits for the device.
+    if (b_ == Backend::cpu) {
+      auto release = [](auto&... a) { (a.release(), ...); };
+      release(flags_, offsets_, counts_, entry_offsets_, head_, head_offsets_, cell_start_, cell_counts_, cell_offsets_,
+              ids_, boxes_, entries_, node_slots_, next_pairs_);
+    }
   }
 
   /// Several ranks: the halo's packed layout (partition/halo.hpp) as device index lists.
@@ -1920,7 +1968,8 @@ class DeviceLoopImpl final : public DeviceLoop {
           for (int i = 0; i < 4; ++i) na[i] = tn[4 * cp.a + i], nb[i] = tn[4 * cp.b + i];
           Vec3 fa[4], fb[4];  // the normal forces, then friction's added
           // A joint broken in this evaluation (its flag still up) still holds its faces.
-          if (cp.joint >= 0 && (!ce6_broken(st[slot[cp.joint]]) || (fresh && fresh[slot[cp.joint]]))) {
+          const int js = slot && cp.joint >= 0 ? slot[cp.joint] : cp.joint;
+          if (js >= 0 && (!ce6_broken(st[js]) || (fresh && fresh[js]))) {
             for (int i = 0; i < 4; ++i) fa[i] = fb[i] = Vec3{0, 0, 0};
             ev[k] = ContactEval{{0, 0, 0}, {0, 0, 0}, 0};
             spring_out[k] = Vec3{0, 0, 0};
@@ -2101,7 +2150,9 @@ class DeviceLoopImpl final : public DeviceLoop {
   // Upload and download only: the host's layout and order. Kept between copies, so that a
   // copy allocates nothing (104 B per CE6 more device memory held; the peak is the same as
   // allocating it for each copy).
-  DeviceArray<Ce6State> ce6_model_;
+  DeviceArray<Ce6Damage> dmg_model_;  // the CE6 state in id order, for the copies (slots not by id)
+  DeviceArray<Ce6Anchors> slip_model_;
+  bool ce6_by_id_ = false;  // CE6 slot k is CE6 k (one rank): no slot map, no reordered copies
   std::vector<int> ce6_perm_;
   int ce6_coloured_ = 0;  // slots [0, ce6_coloured_) are in the colours (computed on this rank)
   Ce6Params ce6p_{};

@@ -94,7 +94,7 @@ FrameState frame_state_now(const Solver& s, real stress) {
   f.stress = stress;
   f.x = s.x;
   f.v = s.v;
-  f.ce6 = s.ce6;
+  f.ce6 = s.ce6.states();
   if (s.contacts.enabled()) f.active = s.contacts.active();
   return f;
 }
@@ -108,8 +108,8 @@ void load_frame_state(CheckpointIn& in, FrameState& f) {
 
 void write_frame(FieldWriter& w, const Solver& s, const std::string& label) {
   s.sync_host();
-  write_frame(w, s, s.time(), s.step_count(), s.x, s.v, s.ce6, s.contacts.enabled() ? &s.contacts.active() : nullptr,
-              label);
+  write_frame(w, s, s.time(), s.step_count(), s.x, s.v, s.ce6.states(),
+              s.contacts.enabled() ? &s.contacts.active() : nullptr, label);
 }
 
 void write_frame(FieldWriter& w, const Solver& s, const FrameState& f, const std::string& label) {
@@ -121,7 +121,7 @@ void write_frame(FieldWriter& w, const Solver& s, const FrameState& f, const std
     FrameState g = f;
     g.x.insert(g.x.end(), s.x.begin() + f.x.size(), s.x.end());
     g.v.insert(g.v.end(), s.v.begin() + f.v.size(), s.v.end());
-    g.ce6.insert(g.ce6.end(), s.ce6.begin() + f.ce6.size(), s.ce6.end());
+    for (std::size_t c = f.ce6.size(); c < s.ce6.size(); ++c) g.ce6.push_back(s.ce6[c]);
     if (!g.active.empty())
       g.active.insert(g.active.end(), s.contacts.active().begin() + f.active.size(), s.contacts.active().end());
     write_frame(w, s, g, label);
@@ -150,8 +150,9 @@ void write_diagnostic(FieldWriter& w, const Solver& s) {
       const real vol = dot(cross(x[q[1]] - x[q[0]], x[q[2]] - x[q[0]]), x[q[3]] - x[q[0]]) / 6;
       inverted[t] = non_finite[t] == 0 && !(vol / m.tet_V0[t] > 0);
     }
-    write_frame(w, s, s.time(), s.step_count(), x, v, s.ce6, s.contacts.enabled() ? &s.contacts.active() : nullptr,
-                "diagnostic", {{"non_finite", &non_finite}, {"inverted", &inverted}}, true);
+    write_frame(w, s, s.time(), s.step_count(), x, v, s.ce6.states(),
+                s.contacts.enabled() ? &s.contacts.active() : nullptr, "diagnostic",
+                {{"non_finite", &non_finite}, {"inverted", &inverted}}, true);
   } catch (const std::exception&) {
     // Nothing more to show; the frames written before remain valid.
   }

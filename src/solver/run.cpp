@@ -663,7 +663,9 @@ void RunSession::start() {
 void RunSession::record_monitor_row() {
   mon_ = solver_.measure();
   csv_.put(monitor_row(mon_, solver_));
-  if (const DeviceLoop* d = solver_.device_loop(); d && d->times().pair_growth != pair_growth_seen_) {
+  // (The cpu backend allocates as it needs, like any host code: no note.)
+  const DeviceLoop* d = solver_.device_loop();
+  if (solver_.backend() != Backend::cpu && d->times().pair_growth != pair_growth_seen_) {
     pair_growth_seen_ = d->times().pair_growth;  // the buffers grow by half each time
     log_ << "device: contact pair buffers grew to hold " << mon_.contact_pairs << " pairs (device memory "
          << fmt(double(device::bytes_in_use()) / 1e6, 4) << " MB)" << std::endl;
@@ -787,8 +789,9 @@ void RunSession::write_broken_ce6() const {
   std::vector<long> broken;  // id, mode
   solver_.sync_host();
   for (std::size_t i = 0; i < solver_.ce6.size(); ++i)
-    if (solver_.ce6[i].mode != 0 && solver_.owned_ce6()[i])
-      broken.insert(broken.end(), {dist_ ? solver_.decomposition().ce6_global[i] : long(i), long(solver_.ce6[i].mode)});
+    if (solver_.ce6.damage[i].mode != 0 && solver_.owned_ce6()[i])
+      broken.insert(broken.end(),
+                    {dist_ ? solver_.decomposition().ce6_global[i] : long(i), long(solver_.ce6.damage[i].mode)});
   if (dist_) {
     const int size = solver_.decomposition().size;
     int len = int(broken.size());

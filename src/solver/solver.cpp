@@ -22,11 +22,13 @@ namespace fdem {
 Solver::Solver(const Scene& scene, Model model, Decomposition dd, MPI_Comm comm)
     : scene_(scene), model_(std::move(model)), dd_(std::move(dd)), comm_(comm) {
   setup();
-  compute_forces();  // on the host; the first step uploads the state
   backend_ = scene_.solver.backend;
-  if (backend_ != Backend::cpu) {
-    dev_ = make_device_loop(backend_, *this);
-  }
+  dev_ = make_device_loop(backend_, *this);
+  compute_forces();
+  // The host copy holds the whole state (forces and contact pairs included), and the first step
+  // starts from it: code may set velocities or prescriptions before it, as on a new state.
+  sync_host();
+  host_changed();
 }
 
 void Solver::setup() {
@@ -41,7 +43,7 @@ void Solver::setup() {
   x = model_.X;
   v.assign(nn, {0, 0, 0});
   f.assign(nn, {0, 0, 0});
-  ce6.assign(model_.ce6_nodes.size(), Ce6State{});  // intact, zero relative sliding
+  ce6.assign_intact(model_.ce6_nodes.size());
   platen_anchor.resize(model_.platen_nodes.size());
   for (std::size_t i = 0; i < model_.platen_nodes.size(); ++i) {
     const Vec3 p = model_.X[model_.platen_nodes[i]];
@@ -98,8 +100,6 @@ void Solver::setup() {
   contacts = ContactSet(model_, scene_);
   if (dd_.distributed()) contacts.set_ownership(&own_node_, &own_tet_, &dd_.tet_global, dd_.reach, model_.X);
   ce6_broke_.assign(model_.ce6_nodes.size(), 0);
-  inv_mass_.resize(nn);
-  for (std::size_t n = 0; n < nn; ++n) inv_mass_[n] = 1 / model_.mass[n];
 
   platen_k_.resize(model_.platen_nodes.size());
   for (std::size_t i = 0; i < model_.platen_nodes.size(); ++i)
@@ -140,7 +140,7 @@ void Solver::grow_contact_ghosts() {
   const double t0 = MPI_Wtime();
   sync_host();
   GhostState now;
-  now.x = x, now.v = v, now.ce6 = ce6, now.active = contacts.active();
+  now.x = x, now.v = v, now.ce6 = ce6.states(), now.active = contacts.active();
   GrownRank g = fdem::grow_contact_ghosts(comm_, model_, dd_, now);
   CheckpointOut kept;
   save_state(kept);
@@ -169,7 +169,6 @@ void Solver::adopt_layout(RankModel rm) {
 }
 
 void Solver::restart_device() {
-  if (backend_ == Backend::cpu) return;
   dev_ = make_device_loop(backend_, *this);
   dev_->upload(*this);
   device_current_ = true;
@@ -177,7 +176,6 @@ void Solver::restart_device() {
 }
 
 void Solver::sync_host() const {
-  if (!dev_) return;
   // The scalars of the last force evaluation come with the state: completing the bookkeeping
   // of the step already taken does not change the solver's state either.
   dev_->settle(const_cast<Solver&>(*this));
@@ -309,161 +307,19 @@ void Solver::prescribe(int node, int mask, Vec3 velocity) {
 }
 
 void Solver::compute_forces() {
-  if (dev_ && device_current_) {
-    dev_->compute_forces(*this);
-    host_current_ = false;  // the forces (and after a growth of the contact ghosts, more) changed there
-    return;
-  }
-  const Model& m = model_;
-  const std::size_t nn = x.size();
-  const Vec3 g = scene_.gravity;
-  real p_grav = 0;
-  const bool gravity = scene_.has_gravity();
-  if (!gravity) {  // the TET4 pass assigns the rest (tet_assigns_)
-    for (int n : unreached_nodes_) f[n] = {0, 0, 0};
-  } else {
-    const int n_nodes = int(nn);
-#pragma omp parallel for schedule(static) reduction(+ : p_grav)
-    for (int n = 0; n < n_nodes; ++n) {
-      f[n] = m.mass[n] * g;
-      if (own_node_[n]) p_grav += dot(f[n], v[n]);
-    }
-  }
-  p_gravity_ = p_grav;
+  upload_if_changed();
+  dev_->compute_forces(*this);
+  host_current_ = false;  // the forces (and after a growth of the contact ghosts, more) changed there
+}
 
-  real p_visc = 0;
-  long inverted = 0;  // report_inverted() names the first one
-  for (int c = 0; c < m.tet_colours.colours(); ++c) {
-    const int b = m.tet_colours.offsets[c], e = m.tet_colours.offsets[c + 1];
-#pragma omp parallel for schedule(static) reduction(+ : p_visc, inverted)
-    for (int k = b; k < e; ++k) {
-      const int t = m.tet_colours.order[k];
-      const auto& q = m.tet_nodes[t];
-      Vec3 xe[4], ve[4], fe[4];
-      gather(x, q, xe);
-      gather(v, q, ve);
-      const Tet4Eval r = tet4_forces(xe, ve, m.tet_Xinv[t], m.tet_V0[t], lambda_, mu_, m.tet_eta[t], fe);
-      inverted += !(r.J > 0);
-      const int assigns = gravity ? 0 : tet_assigns_[t];
-      for (int i = 0; i < 4; ++i) f[q[i]] = (assigns >> i & 1 ? Vec3{0, 0, 0} : f[q[i]]) + fe[i];
-      if (own_tet_[t]) p_visc += r.viscous_power;
-    }
-  }
-  if (inverted > 0) report_inverted();
-
-  real p_coh = 0, p_fric = 0;
-  long breaks = 0;
-  for (int c = 0; c < m.ce6_colours.colours(); ++c) {
-    const int b = m.ce6_colours.offsets[c], e = m.ce6_colours.offsets[c + 1];
-#pragma omp parallel for schedule(static) reduction(+ : p_coh, p_fric, breaks)
-    for (int k = b; k < e; ++k) {
-      const int i = m.ce6_colours.order[k];
-      if (!ce6_carries_force(ce6p_, ce6[i])) continue;  // broken, its faces left to contact
-      const auto& q = m.ce6_nodes[i];
-      Vec3 xe[6], ve[6], fe[6];
-      gather(x, q, xe);
-      gather(v, q, ve);
-      const bool was_broken = ce6_broken(ce6[i]);
-      const Ce6Eval r = cohesive6_forces(ce6p_, xe, ve, m.ce6_h[i], ce6[i], fe);
-      for (int j = 0; j < 6; ++j) f[q[j]] += fe[j];
-      if (own_ce6_[i]) (was_broken ? p_fric : p_coh) += r.power;
-      if (!was_broken && ce6_broken(ce6[i])) ce6_broke_[i] = 1, ++breaks;
-    }
-  }
-  // A flag raised on any rank holding a tet (by the last evaluation's breaks, below) reaches
-  // every other rank holding it, before the broad phase looks at the flags.
-  if (halo_ && contacts.enabled()) {
-    if (halo_->merge_flags(contacts.active_flags())) contacts.flags_changed();
-    // Ghost tets that became contact candidates: their nodes from their owners, now.
-    if (!halo_->grown().empty()) {
-      const double t0 = MPI_Wtime();
-      halo_->update_nodes(x, v, &halo_->grown());
-      halo_seconds_ += MPI_Wtime() - t0;
-    }
-  }
-  // A CE6 that broke in this evaluation still holds its faces in it (its law gave them their
-  // forces): contact takes them over from the next evaluation on.
-  const ContactPower cp = contacts.add_forces(m, x, v, ce6, ce6_broke_, dt_, f);
-  p_contact_ = cp.power;
-  w_contact_slip_ += cp.dissipated;
-  contact_spring_ = cp.spring_energy;
-  touching_ = cp.touching;
-  // Adaptive activation: the vicinity of each CE6 that broke in this evaluation joins the
-  // contact candidates, for the next evaluation's contact.
-  if (breaks > 0) {
-    const int nc = int(ce6_broke_.size());
-    for (int i = 0; i < nc; ++i)
-      if (ce6_broke_[i]) {
-        ce6_broke_[i] = 0;
-        contacts.activate_ce6(m, i);
-      }
-  }
-
-  real ftop = 0, fbot = 0, dfric = 0;
-  if (scene_.platens.enabled) {
-    const Material& mat = scene_.material;
-    const Vec3 up{0, 0, 1}, down{0, 0, -1};
-    const real ztop = top_z0_ - top_offset, zbot = bottom_z0_;
-    const int np = int(m.platen_nodes.size());
-#pragma omp parallel for schedule(static) reduction(+ : ftop, fbot, dfric)
-    for (int i = 0; i < np; ++i) {
-      const int n = m.platen_nodes[i];
-      // A node can touch at most one platen at a time: the nearer one.
-      const bool near_top = x[n].z > 0.5 * (ztop + zbot);
-      const Vec3 xr = x[n] - Vec3{0, 0, near_top ? ztop : zbot};
-      const PlatenEval r =
-          platen_node_force(xr, near_top ? down : up, platen_k_[i], mat.friction_platen, platen_anchor[i]);
-      f[n] += r.force;
-      (near_top ? ftop : fbot) += r.force.z;
-      dfric += r.dissipated;
-    }
-  }
-  // The whole model's sums (one reduction per step for all of them).
-  real sums[] = {ftop, fbot, dfric, p_visc, p_coh, p_fric, cp.dissipated, cp.spring_energy, real(cp.touching)};
-  sum(sums, 9);
-  ftop = sums[0], fbot = sums[1], dfric = sums[2], p_visc = sums[3], p_coh = sums[4], p_fric = sums[5];
-  w_contact_slip_ += sums[6] - cp.dissipated;
-  contact_spring_ = sums[7];
-  touching_ = long(sums[8]);
-  force_top_ = ftop;
-  force_bottom_ = fbot;
-
-  // Confining pressure, a follower load: p times the current outward area vector of each
-  // lateral face, a third to each node. Hydrostatic path: p follows this evaluation's axial
-  // stress up to sigma_3. One thread: faces of one tet share nodes, and the list is short.
-  if (scene_.confinement.enabled) {
-    const Confinement& cf = scene_.confinement;
-    real p = cf.pressure;
-    if (hydrostatic_) {
-      p = std::min(cf.pressure, std::max(real(0), axial_stress()));
-    } else {
-      p = ramped_speed(time_, cf.pressure, confine_ramp_);
-    }
-    pressure_ = p;
-    for (std::size_t i = 0; i < lateral_faces_.size(); ++i) {
-      const auto& q = lateral_faces_[i];
-      const Vec3 a = 0.5 * cross(x[q[1]] - x[q[0]], x[q[2]] - x[q[0]]);
-      lateral_force_[i] = (-p / 3) * a;
-      for (int n : q) f[n] += lateral_force_[i];
-    }
-    p_pressure_ = pressure_power(v);
-  }
-  p_viscous_ = p_visc;
-  p_cohesive_ = p_coh;
-  p_friction_ = p_fric;
-  w_platen_friction_ += dfric;  // slip already done: counted now, so measure() sees it
+void Solver::upload_if_changed() {
+  if (device_current_) return;
+  dev_->upload(*this);
+  device_current_ = true;
 }
 
 real Solver::axial_stress() const {
   return model_.area0 > 0 ? 0.5 * (-force_top_ + force_bottom_) / model_.area0 : 0;
-}
-
-real Solver::pressure_power(const std::vector<Vec3>& vel) const {
-  real p = 0;  // this rank's owned nodes (summed over the ranks by the caller)
-  for (std::size_t i = 0; i < lateral_faces_.size(); ++i)
-    for (int n : lateral_faces_[i])
-      if (own_node_[n]) p += dot(lateral_force_[i], vel[n]);
-  return p;
 }
 
 void Solver::sum(real* values, int n) const {
@@ -571,98 +427,27 @@ std::string Solver::instability_advice() const {
          fmt(s.mass_scaling, 3) + ")";
 }
 
-void Solver::advance_host(real dt, long& bad_out, real& ke_out, real& w_con, real& w_pre, real& w_grav, real& far_out,
-                          real& lost_out) {
-  const int nn = int(x.size());
-  long bad = 0, far = 0, lost = 0;
-  real ke = 0;
-  // Several ranks with contact: the owned nodes a quarter of the contact reach from where the
-  // contact ghosts were gathered (time to gather them again) and half the reach (too late:
-  // step()). Prescribed nodes count before their prescription below.
-  const Vec3* px = halo_ && contacts.enabled() && dd_.reach > 0 ? contacts.plan_x().data() : nullptr;
-  const real lim2 = 0.0625 * dd_.reach * dd_.reach;
-#pragma omp parallel for schedule(static) reduction(+ : bad, ke, far, lost)
-  for (int n = 0; n < nn; ++n) {
-    central_difference(x[n], v[n], f[n], inv_mass_[n], dt);  // ghosts too: overwritten below
-    if (!own_node_[n]) continue;
-    bad += !std::isfinite(v[n].x + v[n].y + v[n].z);
-    ke += model_.mass[n] * dot(v[n], v[n]);
-    if (px) {
-      const Vec3 d = x[n] - px[n];
-      far += dot(d, d) >= lim2;
-      lost += dot(d, d) >= 4 * lim2;
-    }
-  }
-  bad_out = bad;
-  ke_out = ke;
-  far_out = real(far), lost_out = real(lost);
-  for (std::size_t i = 0; i < fixed_node_.size(); ++i) {
-    const int n = fixed_node_[i];
-    for (int d = 0; d < 3; ++d)
-      if (fixed_mask_[i] >> d & 1) {
-        x[n][d] += dt * (fixed_velocity_[i][d] - v[n][d]);
-        v[n][d] = fixed_velocity_[i][d];
-      }
-  }
-  if (halo_) {  // ghosts take their owners' new positions and velocities
-    const double t0 = MPI_Wtime();
-    halo_->update_nodes(x, v);
-    halo_seconds_ += MPI_Wtime() - t0;
-  }
-  // Contact forces are stiff and act over few steps: their work over the step is taken with
-  // the mean of the velocities before and after it, which is exact for central differences.
-  // Pressure and gravity the same way: their force at t with the mean of the two velocities.
-  if (contacts.enabled()) w_con = 0.5 * dt * (p_contact_ + contacts.power(model_, v));
-  if (scene_.confinement.enabled) w_pre = 0.5 * dt * (p_pressure_ + pressure_power(v));
-  const Vec3 g = scene_.gravity;
-  if (scene_.has_gravity()) {
-    real p_new = 0;
-#pragma omp parallel for schedule(static) reduction(+ : p_new)
-    for (int n = 0; n < nn; ++n)
-      if (own_node_[n]) p_new += model_.mass[n] * dot(g, v[n]);
-    w_grav = 0.5 * dt * (p_gravity_ + p_new);
-  }
-}
-
 void Solver::step() {
   const real dt = dt_;
-  if (dev_ && !device_current_) {
-    dev_->upload(*this);
-    device_current_ = true;
-  }
+  upload_if_changed();
   if (step_ == 0) {  // velocities given as initial conditions bring their own energy
-    real ke = 0;
-    if (dev_) {
-      ke = 0.5 * dev_->kinetic2();
-    } else {
-      const int n_nodes = int(x.size());
-#pragma omp parallel for reduction(+ : ke)
-      for (int n = 0; n < n_nodes; ++n) ke += own_node_[n] * 0.5 * model_.mass[n] * dot(v[n], v[n]);
-    }
+    real ke = 0.5 * dev_->kinetic2();
     sum(&ke, 1);
     initial_kinetic_ = ke;
   }
   // The platen speed over [t, t+dt], for the works of the interval (finish_step).
   step_speed_ = scene_.platens.enabled ? ramped_speed(time_ + 0.5 * dt, scene_.platens.velocity, ramp_) : 0;
   bool gather_ghosts = false;
-  if (dev_) {
-    host_current_ = false;
-    // One rank: the device loop finishes the step inside the next force evaluation, whose first
-    // copy to the host brings the integration's sums too (DeviceLoop::advance).
-    AdvanceSums a;
-    if (dev_->advance(*this, dt, a)) gather_ghosts = finish_step(step_sums(a));
-  } else {
-    StepSums st;
-    long bad = 0;  // NaN passes through max(), so count non-finite nodes instead
-    advance_host(dt, bad, st.ke, st.w_con, st.w_pre, st.w_grav, st.far, st.lost);
-    st.bad = real(bad);
-    gather_ghosts = finish_step(st);
-  }
+  host_current_ = false;
+  // One rank: the device loop finishes the step inside the next force evaluation, whose first
+  // copy to the host brings the integration's sums too (DeviceLoop::advance).
+  AdvanceSums a;
+  if (dev_->advance(*this, dt, a)) gather_ghosts = finish_step(step_sums(a));
   // Several ranks: a node a quarter of the contact reach from where the contact ghosts were
   // gathered (on any rank): every rank gathers them again, before the broad phase looks.
   if (gather_ghosts) grow_contact_ghosts();
   compute_forces();
-  if (dev_ && dev_->backend() == Backend::debug) dev_->poison_host(*this);
+  if (backend_ == Backend::debug) dev_->poison_host(*this);
 }
 
 Solver::StepSums Solver::step_sums(const AdvanceSums& a) const {
@@ -681,7 +466,7 @@ bool Solver::finish_step(const StepSums& st) {
   const real dt = dt_, speed = step_speed_;
   // The step's reduction over the ranks; a device loop's values ride with it (its force
   // evaluation's sums, which it hands to the Solver now, before the energies below read them:
-  // one reduction a step there, where the CPU backend makes a second in compute_forces).
+  // one reduction a step).
   StepSums all = st;  // this rank's, then the whole model's
   if (dd_.distributed()) {
     std::array<real, StepSums::kValues + std::tuple_size_v<decltype(st.more)>> packed{};
@@ -716,96 +501,8 @@ bool Solver::finish_step(const StepSums& st) {
   return all.far > 0;
 }
 
-MonitorSums Solver::measure_sums_host() const {
-  const Model& m = model_;
-  real lat = 0;
-  const int nl = int(m.lateral_nodes.size());
-#pragma omp parallel for reduction(+ : lat)
-  for (int i = 0; i < nl; ++i) {
-    const int n = m.lateral_nodes[i];
-    if (!own_node_[n]) continue;
-    Vec3 rr = m.X[n] - m.axis_point;
-    rr.z = 0;
-    if (m.line_loaded) rr.y = 0;  // a disc: along its horizontal diameter
-    const real r2 = dot(rr, rr);
-    if (r2 > 0) lat += dot(x[n] - m.X[n], rr) / r2;
-  }
-  real n_lateral = 0;
-  for (int n : m.lateral_nodes) n_lateral += own_node_[n];
-
-  real ke = 0;
-  const int nn = int(x.size());
-#pragma omp parallel for reduction(+ : ke)
-  for (int n = 0; n < nn; ++n) ke += own_node_[n] * 0.5 * m.mass[n] * dot(v[n], v[n]);
-  real se = 0, lat_sv = 0, lat_v = 0;
-  const int nt = int(m.tet_nodes.size());
-  // Lateral stress in the middle third of the height (reference centroid), away from the ends.
-  const real z_lo = m.box_min.z + (m.box_max.z - m.box_min.z) / 3, z_hi = m.box_max.z - (m.box_max.z - m.box_min.z) / 3;
-#pragma omp parallel for reduction(+ : se, lat_sv, lat_v)
-  for (int t = 0; t < nt; ++t) {
-    if (!own_tet_[t]) continue;
-    Vec3 xe[4], ve[4], fe[4];
-    gather(x, m.tet_nodes[t], xe);
-    gather(v, m.tet_nodes[t], ve);
-    const Tet4Eval e = tet4_forces(xe, ve, m.tet_Xinv[t], m.tet_V0[t], lambda_, mu_, m.tet_eta[t], fe);
-    se += e.strain_energy;
-    const auto& q = m.tet_nodes[t];
-    const real zc = 0.25 * (m.X[q[0]].z + m.X[q[1]].z + m.X[q[2]].z + m.X[q[3]].z);
-    if (zc >= z_lo && zc <= z_hi) {
-      const real vol = dot(cross(xe[1] - xe[0], xe[2] - xe[0]), xe[3] - xe[0]) / 6;
-      lat_sv += -0.5 * (e.stress.xx + e.stress.yy) * vol;
-      lat_v += vol;
-    }
-  }
-  real coh_stored = 0, fric_stored = 0;
-  long damaged = 0, broken = 0, b1 = 0, b2 = 0, b3 = 0;
-  const int nc = int(ce6.size());
-#pragma omp parallel for reduction(+ : coh_stored, fric_stored, damaged, broken, b1, b2, b3)
-  for (int i = 0; i < nc; ++i) {
-    if (!own_ce6_[i]) continue;
-    Vec3 xe[6], ve[6], fe[6];
-    gather(x, m.ce6_nodes[i], xe);
-    gather(v, m.ce6_nodes[i], ve);
-    Ce6State s = ce6[i];  // a copy: measuring must not advance the state
-    const real stored = cohesive6_forces(ce6p_, xe, ve, m.ce6_h[i], s, fe).stored;
-    const int mode = ce6[i].mode;
-    if (mode != 0) {
-      fric_stored += stored;
-      ++broken;
-      b1 += mode == 1;
-      b2 += mode == 2;
-      b3 += mode == 3;
-    } else {
-      coh_stored += stored;
-      damaged += ce6_max_damage(ce6[i]) > 0;
-    }
-  }
-  real pl_stored = 0;
-  if (scene_.platens.enabled) {
-    const real ztop = top_z0_ - top_offset, zbot = bottom_z0_;
-    const int np = int(m.platen_nodes.size());
-#pragma omp parallel for reduction(+ : pl_stored)
-    for (int i = 0; i < np; ++i) {
-      const int n = m.platen_nodes[i];
-      const bool near_top = x[n].z > 0.5 * (ztop + zbot);
-      Vec3 anchor = platen_anchor[i];
-      pl_stored += platen_node_force(x[n] - Vec3{0, 0, near_top ? ztop : zbot}, Vec3{0, 0, near_top ? -1.0 : 1.0},
-                                     platen_k_[i], scene_.material.friction_platen, anchor)
-                       .stored;
-    }
-  }
-  MonitorSums out;
-  out.lateral_ratio = lat, out.lateral_nodes = n_lateral, out.kinetic = ke, out.strain = se;
-  out.lateral_stress_volume = lat_sv, out.middle_volume = lat_v;
-  out.cohesive_stored = coh_stored, out.friction_stored = fric_stored;
-  out.damaged = real(damaged), out.broken = real(broken), out.broken_I = real(b1), out.broken_II = real(b2);
-  out.broken_mixed = real(b3), out.platen_stored = pl_stored;
-  out.active_tets = real(contacts.owned_active_count()), out.contact_pairs = real(contacts.owned_pair_count());
-  return out;
-}
-
 Monitors Solver::measure() {
-  if (dev_) dev_->settle(*this);  // the platen reactions and energies of the forces on the device
+  dev_->settle(*this);  // the platen reactions and energies of the forces on the device
   const Model& m = model_;
   Monitors r;
   r.step = step_;
@@ -815,7 +512,8 @@ Monitors Solver::measure() {
   r.force_bottom = force_bottom_;
   r.axial_stress = axial_stress();
   // This rank's sums: on the device where the state is (no copy of the state to the host).
-  MonitorSums sums = dev_ && !host_current_ ? dev_->measure_sums(*this) : measure_sums_host();
+  upload_if_changed();
+  MonitorSums sums = dev_->measure_sums(*this);
   if (dd_.distributed()) {  // the whole model's sums: one reduction per monitor row
     std::vector<real> all;
     sums.for_each([&](real& v) { all.push_back(v); });
@@ -910,10 +608,10 @@ void Solver::broken_faces(std::vector<std::array<Vec3, 3>>& corners, std::vector
   corners.clear();
   mode.clear();
   for (std::size_t i = 0; i < ce6.size(); ++i) {
-    if (!own_ce6_[i] || !ce6_broken(ce6[i])) continue;
+    if (!own_ce6_[i] || !ce6_broken(ce6.damage[i])) continue;
     const auto& q = model_.ce6_nodes[i];
     corners.push_back({model_.X[q[0]], model_.X[q[1]], model_.X[q[2]]});
-    mode.push_back(ce6[i].mode);
+    mode.push_back(ce6.damage[i].mode);
   }
   if (!dd_.distributed()) return;
   // Every rank's faces, in rank order (9 coordinates and the mode per face).
@@ -975,8 +673,8 @@ std::uint64_t physics_fingerprint(const Scene& s, const Model& m, real dt) {
                          s.solver.damping_scale,
                          dt};
   h = fnv1a64(values, sizeof values, h);
-  const std::string words = std::string(name_of(a.softening)) + "|" + name_of(s.confinement.path) + "|" +
-                            name_of(s.contact.activation);
+  const std::string words =
+      std::string(name_of(a.softening)) + "|" + name_of(s.confinement.path) + "|" + name_of(s.contact.activation);
   return fnv1a64(words.data(), words.size(), h);
 }
 
@@ -999,7 +697,7 @@ void Solver::save_state(CheckpointOut& out) const {
   out.put(x);
   out.put(v);
   out.put(f);
-  out.put(ce6);
+  out.put(ce6.states());  // (one Ce6State each, as before the state was split in two)
   out.put(ce6_broke_);
   out.put(platen_anchor);
   const real scalars[] = {force_top_,       force_bottom_,      w_external_,     w_cohesive_,     w_friction_,
@@ -1019,7 +717,7 @@ void Solver::load(CheckpointIn& in) {
     if (!dd_.distributed() || rm.dd.rank != dd_.rank || rm.dd.size != dd_.size)
       in.mismatch("a rank model of rank " + std::to_string(rm.dd.rank) + " of " + std::to_string(rm.dd.size));
     adopt_layout(std::move(rm));
-    if (backend_ != Backend::cpu) dev_ = make_device_loop(backend_, *this);
+    dev_ = make_device_loop(backend_, *this);
   }
   std::uint64_t fp = 0, fixed = 0;
   in.get(fp);
@@ -1040,14 +738,17 @@ void Solver::load_state(CheckpointIn& in, const GhostState* appended) {
   in.get(x);
   in.get(v);
   in.get(f);
-  in.get(ce6);
+  std::vector<Ce6State> ce6_saved;
+  in.get(ce6_saved);
+  ce6 = Ce6States{};
+  ce6.append(ce6_saved);
   in.get(ce6_broke_);
   in.get(platen_anchor);
   if (appended) {  // the ghosts' state after the old layout's (forces: the next evaluation's)
     x.insert(x.end(), appended->x.begin(), appended->x.end());
     v.insert(v.end(), appended->v.begin(), appended->v.end());
     f.resize(nn, Vec3{0, 0, 0});
-    ce6.insert(ce6.end(), appended->ce6.begin(), appended->ce6.end());
+    ce6.append(appended->ce6);
     ce6_broke_.resize(nc, 0);
   }
   if (x.size() != nn || v.size() != nn || f.size() != nn || ce6.size() != nc || ce6_broke_.size() != nc ||

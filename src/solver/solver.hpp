@@ -1,6 +1,7 @@
 #pragma once
-// The CPU backend's time loop: forces (TET4, CE6, platens), central-difference
-// integration, loading, measured outputs and the energy balance.
+// The solver of a run: the model, the state, the loading and the energy balance. Its time loop
+// (forces, contact, integration) is the device loop (solver/device_loop.hpp) on every backend;
+// the Solver keeps the scalar bookkeeping: the works, the checks, the clock.
 #include <mpi.h>
 
 #include <array>
@@ -16,6 +17,7 @@
 #include "partition/partition.hpp"
 #include "physics/cohesive6.hpp"
 #include "scene/scene.hpp"
+#include "solver/ce6_states.hpp"
 #include "solver/contact_set.hpp"
 #include "solver/device_loop.hpp"
 
@@ -124,11 +126,12 @@ class Solver {
   void save(CheckpointOut& out) const;
   void load(CheckpointIn& in);
 
-  /// The backend running the time loop (scene solver.backend). With debug or cuda the state
-  /// lives in device arrays during steps; x, v, f, ce6, platen_anchor and the contact flags and
-  /// springs here are the host copy, brought up to date by sync_host() (measure(), save() and
-  /// the output functions call it). Code that writes the host copy between steps calls
-  /// host_changed() so the next step uploads it. Several ranks: sync_host() (and so prescribe(),
+  /// The backend running the time loop (scene solver.backend). The state lives in the loop's
+  /// arrays during steps (on cpu, x, v, f, the platen anchors and the contact flags are those
+  /// arrays; the CE6 state and the contact pairs and springs are copies there too); x, v, f,
+  /// ce6, platen_anchor and the contact flags and springs here are the host copy, brought up
+  /// to date by sync_host() (measure(), save() and the output functions call it). Code that writes the host copy
+  /// between steps calls host_changed() so the next step uploads it. Several ranks: sync_host() (and so prescribe(),
   /// measure(), save() and output) sums the last force evaluation's scalars over the ranks while
   /// they wait on the device, so every rank calls it at once.
   Backend backend() const { return backend_; }
@@ -156,7 +159,7 @@ class Solver {
 
   // State (node arrays indexed by node id; CE6 state by CE6 id).
   std::vector<Vec3> x, v, f;
-  std::vector<Ce6State> ce6;
+  Ce6States ce6;
   ContactSet contacts;              // tet-tet contact (activation, pairs, friction history)
   std::vector<Vec3> platen_anchor;  // friction anchors per platen node (top/bottom share: one at a time)
   real top_offset = 0;              // m, downward travel of the top platen from its start
@@ -183,13 +186,8 @@ class Solver {
   void save_state(CheckpointOut& out) const;
   void load_state(CheckpointIn& in, const GhostState* appended = nullptr);
   void compute_forces();
-  /// This rank's sums for a monitor row from the host state (DeviceLoop::measure_sums on the device).
-  MonitorSums measure_sums_host() const;
-  /// The CPU backend's integration: central difference, prescribed velocities, the halo, and
-  /// this rank's sums (non-finite nodes, 2 x kinetic energy, the works of contact, pressure and
-  /// gravity over the step, owned nodes a quarter and half the contact reach from
-  /// ContactSet::plan_x).
-  void advance_host(real dt, long& bad, real& ke, real& w_con, real& w_pre, real& w_grav, real& far, real& lost);
+  /// The host copy to the device loop where code wrote it since (host_changed()).
+  void upload_if_changed();
   /// What the integration gives the bookkeeping of a step (this rank's): non-finite nodes,
   /// 2 x kinetic energy, the works of contact, pressure and gravity over the step, owned nodes a
   /// quarter and half the contact reach from ContactSet::plan_x.
@@ -200,7 +198,7 @@ class Solver {
     void for_each(F&& f) {
       for (real* p : {&bad, &ke, &w_con, &w_pre, &w_grav, &far, &lost}) f(*p);
     }
-    int n_more = 0;                    // a device loop's values summed after them (AdvanceSums::more)
+    int n_more = 0;  // a device loop's values summed after them (AdvanceSums::more)
     std::array<real, 10> more{};
   };
   /// A device integration's sums as StepSums (the works with the last force evaluation's powers).
@@ -241,7 +239,6 @@ class Solver {
   Ce6Params ce6p_{};
   real lambda_ = 0, mu_ = 0, dt_ = 0, time_ = 0;
   long step_ = 0;
-  std::vector<real> inv_mass_;
   std::vector<real> platen_k_;
   std::vector<int> fixed_node_, fixed_mask_;
   std::vector<Vec3> fixed_velocity_;
@@ -264,7 +261,6 @@ class Solver {
   std::vector<Vec3> lateral_force_;
   real pressure_ = 0, p_pressure_ = 0, confine_ramp_ = 0;
   bool hydrostatic_ = false;  // confinement.path, decided once
-  real pressure_power(const std::vector<Vec3>& vel) const;
   /// Mean of the two platen reactions over the loaded area (compression positive), Pa.
   real axial_stress() const;
   std::vector<std::uint8_t> ce6_broke_;  // set by the CE6 loop on the step a CE6 breaks

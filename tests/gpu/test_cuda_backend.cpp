@@ -51,7 +51,7 @@ TEST_P(CudaSchedule, ElasticBoxMatchesCpuTo1e10) {
   for (int i = 0; i < 3000; ++i) cpu->step(), gpu->step();
   EXPECT_EQ(gpu->device_loop()->fused(), std::string(GetParam()) != "colour");
   EXPECT_EQ(gpu->device_loop()->integrates(), std::string(GetParam()) == "auto");
-  gpu->sync_host();
+  cpu->sync_host(), gpu->sync_host();
   const real dx = max_rel_diff(cpu->x, gpu->x, 1e-6);
   const real df = max_rel_diff(cpu->f, gpu->f, 1e-6 * max_force(cpu->f));
   RecordProperty("max_rel_diff_x", std::to_string(dx));
@@ -85,7 +85,7 @@ TEST_P(CudaSchedule, FracturingBoxPeakWithin1PercentBrokenWithin5Percent) {
   EXPECT_GT(gpu->measure().contacts, 0);
   // The activation on the GPU (raise_flag: an atomicOr on the word holding the tet's flag):
   // exactly the tets around its broken CE6s and at the loaded ends.
-  gpu->sync_host();
+  cpu->sync_host(), gpu->sync_host();
   EXPECT_EQ(flags_from_breaks(*gpu), gpu->contacts.active());
   // Through fracture and contact the states should be the same bits too (the debug backend's
   // are): recorded here, asserted once a GPU has shown it.
@@ -101,7 +101,7 @@ TEST(CudaBackend, GravityHydrostaticPressureAndPrescribedNodesMatchCpu) {
   if (IsSkipped()) return;
   auto cpu = backend_gravity_solver("cpu"), gpu = backend_gravity_solver("cuda");
   for (int i = 0; i < 1500; ++i) cpu->step(), gpu->step();
-  gpu->sync_host();
+  cpu->sync_host(), gpu->sync_host();
   EXPECT_LT(max_rel_diff(cpu->x, gpu->x, 1e-6), 1e-10);
   EXPECT_EQ(gpu->v[0].x, 0.015);
   const Monitors a = cpu->measure(), b = gpu->measure();
@@ -198,7 +198,7 @@ TEST(CudaBackend, AProgramThatNeverStartedMpiGetsTheDeviceOrTheReasonNotAnAbort)
     auto cpu = backend_solver(backend_elastic_scene("cpu"));
     EXPECT_EQ(gpu->backend(), Backend::cuda);
     for (int i = 0; i < 10; ++i) gpu->step(), cpu->step();
-    gpu->sync_host();
+    cpu->sync_host(), gpu->sync_host();
     EXPECT_EQ(std::memcmp(cpu->x.data(), gpu->x.data(), cpu->x.size() * sizeof(Vec3)), 0);
   } else {
     try {

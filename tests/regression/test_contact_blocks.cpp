@@ -47,6 +47,7 @@ bool in_upper(const Model& m, std::size_t n, int cells) {
 
 /// Mass, momentum and centre of the upper or the lower block.
 Body body(const Solver& s, bool upper, int cells) {
+  s.sync_host();
   Body b;
   const Model& m = s.model();
   for (std::size_t n = 0; n < m.X.size(); ++n) {
@@ -162,6 +163,7 @@ TEST(ContactBlocks, FrictionHistorySurvivesACandidateListRebuild) {
   for (std::size_t n = 0; n < m.X.size(); ++n)
     if (!in_upper(m, n, 1)) s.prescribe(int(n), 7, {0, 0, 0});
   while (s.time() < 2e-4) s.step();
+  s.sync_host();
   const std::vector<ContactPair> pairs = s.contacts.pairs();
   const std::vector<Vec3> springs = s.contacts.spring;
   real total = 0;
@@ -170,6 +172,7 @@ TEST(ContactBlocks, FrictionHistorySurvivesACandidateListRebuild) {
   const long builds = s.contacts.times.rebuilds;
   s.contacts.request_rebuild();
   s.step();
+  s.sync_host();
   ASSERT_EQ(s.contacts.times.rebuilds, builds + 1);
   ASSERT_EQ(s.contacts.pairs().size(), pairs.size());
   // One step later each spring has moved by at most |v| dt: nothing was reset.
@@ -240,6 +243,7 @@ void bar_halves(const std::string& activation) {
   const Model& m = s.model();
   ASSERT_EQ(mid_ce6.size(), 8u) << "expected 8 CE6s on the mid-plane";
   auto mid_broken = [&] {
+    s.sync_host();
     int k = 0;
     for (int c : mid_ce6) k += ce6_broken(s.ce6[c]);
     return k;
@@ -262,6 +266,7 @@ void bar_halves(const std::string& activation) {
       if (std::fabs(m.X[q].z - h) < 1e-9) (zc > h ? mid_upper : mid_lower).push_back(q);
   }
   auto gap = [&] {
+    s.sync_host();
     real lo_top = 1e9, hi_bottom = -1e9;
     for (int n : mid_upper) lo_top = std::min(lo_top, s.x[n].z);
     for (int n : mid_lower) hi_bottom = std::max(hi_bottom, s.x[n].z);
@@ -355,6 +360,7 @@ int shear_break_handover(const std::string& activation) {
   int handed_over = 0, breaks = 0;
   for (long step = 0; step < 400000 && breaks < 8; ++step) {
     s.step();
+    s.sync_host();
     for (std::size_t k = 0; k < mid.size(); ++k) {
       const int c = mid[k];
       if (broke_at[k] >= 0 && s.step_count() == broke_at[k] + 1) {
@@ -370,6 +376,7 @@ int shear_break_handover(const std::string& activation) {
   }
   EXPECT_EQ(breaks, 8) << "the mid-plane did not break";
   s.step();  // the evaluation after the last break
+  s.sync_host();
   for (std::size_t k = 0; k < mid.size(); ++k)
     if (s.step_count() == broke_at[k] + 1) handed_over += joint_force(mid[k]) > 0;
   return handed_over;

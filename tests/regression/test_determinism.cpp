@@ -1,4 +1,4 @@
-// The CPU backend's result does not depend on the thread count: colour classes fix the
+// The cpu backend's result does not depend on the thread count: colour classes fix the
 // order of every addition into node forces. Checked bit for bit through fracture.
 #include <gtest/gtest.h>
 #include <omp.h>
@@ -24,6 +24,7 @@ std::unique_ptr<Solver> run_steps(int threads, int steps) {
   scene.solver.max_energy_error = 0;
   auto s = std::make_unique<Solver>(scene, build_model(structured_box_mesh({0.006, 0.006, 0.012}, 3, 3, 6), scene));
   for (int i = 0; i < steps; ++i) s->step();
+  s->sync_host();
   return s;
 }
 

@@ -32,8 +32,9 @@ struct Outcome {
 
 /// Broken CE6 counted from the state (a run stopped inside a step has no monitor row there).
 long broken_count(const Solver& s) {
+  s.sync_host();
   long n = 0;
-  for (const Ce6State& c : s.ce6) n += c.mode != 0;
+  for (const Ce6Damage& c : s.ce6.damage) n += c.mode != 0;
   return n;
 }
 
@@ -66,6 +67,7 @@ void report(const char* name, const Outcome& o) {
 }
 
 bool all_finite(const Solver& s) {
+  s.sync_host();
   for (std::size_t n = 0; n < s.x.size(); ++n)
     if (!std::isfinite(s.x[n].x + s.x[n].y + s.x[n].z + s.v[n].x + s.v[n].y + s.v[n].z)) return false;
   return true;
