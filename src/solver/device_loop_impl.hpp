@@ -255,7 +255,6 @@ class DeviceLoopImpl final : public DeviceLoop {
             "device loop: the fused pass cannot integrate this run (several ranks or nodes outside the tets)");
       step_contact_ = s.contacts.enabled();
       step_pressure_ = s.scene_.confinement.enabled;
-      if (integrates_) x2_.resize(m.X.size()), v2_.resize(m.X.size());
       if (s.halo_) plan_halo(s);
       // Monitor rows: the tets whose reference centroid lies in the middle third of the height.
       std::vector<std::uint8_t> mid(m.tet_nodes.size());
@@ -316,6 +315,14 @@ class DeviceLoopImpl final : public DeviceLoop {
     place(x_, s.x);
     place(v_, s.v);
     place(f_, s.f);
+    // The second copies of double-buffered state are the loop's own. On the cpu backend a swap
+    // can have left one borrowing the host's arrays, which the first copy borrows again now: the
+    // pass would then read and write one array.
+    auto own_copy = [](auto& second, std::size_t n) {
+      if (second.borrowed()) second.release();
+      second.resize(n);
+    };
+    if (integrates_) own_copy(x2_, s.x.size()), own_copy(v2_, s.v.size());
     // The CE6 state: the host's arrays where the slots are the ids (in place on the cpu backend),
     // else uploaded in id order and put into slots on the device.
     if (ce6_by_id_) {
@@ -329,8 +336,8 @@ class DeviceLoopImpl final : public DeviceLoop {
       ce6_between_orders(true);
     }
     if (fused_) {  // the fused pass reads one copy and writes the other: both start current
-      dmg_next_.resize(dmg_.size());
-      slip_next_.resize(slip_.size());
+      own_copy(dmg_next_, dmg_.size());
+      own_copy(slip_next_, slip_.size());
       const Ce6Damage* d = dmg_.data();
       const Ce6Anchors* a = slip_.data();
       Ce6Damage* dn = dmg_next_.data();
@@ -368,8 +375,6 @@ class DeviceLoopImpl final : public DeviceLoop {
       if (integrates_) follow_gather(false);  // the old list's nodes out
       upload_pairs(c);
       pairs_on_host_ = true;
-      eval_.upload(c.eval_);
-      pair_force_.upload(c.pair_force_);
       if (integrates_) follow_gather(true);
     }
     t_.copies += seconds_since(t0);
@@ -1451,13 +1456,50 @@ class DeviceLoopImpl final : public DeviceLoop {
   }
 
   void upload_pairs(const ContactSet& c) {
-    pairs_.upload(c.pairs_);
-    spring_.upload(c.spring);
-    gather_node_.upload(c.gather_node_);
-    gather_ptr_.upload(c.gather_ptr_);
-    gather_slot_.upload(c.gather_slot_);
-    watch_nodes_.upload(c.watch_nodes_);
-    watch_x_.upload(c.watch_x_);
+    contact_arrays(c, [&](auto& d, const auto& h) { place(d, h); });
+    springs_in_place(c);
+  }
+
+  /// f(the loop's array, the ContactSet's vector) for each contact array both hold.
+  template <class Set, class F>
+  void contact_arrays(Set& c, F&& f) {
+    f(pairs_, c.pairs_), f(spring_, c.spring), f(eval_, c.eval_), f(pair_force_, c.pair_force_);
+    f(gather_node_, c.gather_node_), f(gather_ptr_, c.gather_ptr_), f(gather_slot_, c.gather_slot_);
+    f(watch_nodes_, c.watch_nodes_), f(watch_x_, c.watch_x_);
+  }
+
+  /// Cpu backend: the contact pass updates each pair's spring where it reads it (next_spring_
+  /// is spring_), which is safe because a pair reads and writes only its own. Not where the
+  /// fused pass integrates: that schedule may run the pairs twice in one evaluation, so it keeps
+  /// the springs from before the first run apart, in a next_spring_ of the loop's own (one that
+  /// still borrows a vector lets go: the vector may have moved).
+  void springs_in_place(const ContactSet& c) {
+    if (b_ != Backend::cpu) return;
+    if (integrates_)
+      next_spring_.release();
+    else
+      place(next_spring_, c.spring);
+  }
+
+  /// Cpu backend, after a rebuild made the contact arrays in the loop's own memory: they move
+  /// into the ContactSet's vectors, which the loop then works on in place (one copy per rebuild,
+  /// none per step, and the contact state held once).
+  void contact_in_place(ContactSet& c) {
+    if (b_ != Backend::cpu) return;
+    contact_arrays(c, [](auto& d, auto& h) {
+      if (d.data() != h.data()) h.assign(d.data(), d.data() + d.size());
+      d.borrow(h);
+    });
+    springs_in_place(c);
+    pairs_on_host_ = true;
+  }
+
+  /// Cpu backend, before a rebuild: the arrays it makes anew let go of the ContactSet's vectors
+  /// (the old pairs and springs stay borrowed: the rebuild reads them to carry the springs over).
+  void contact_apart_for_rebuild() {
+    if (b_ != Backend::cpu) return;
+    auto release = [](auto&... a) { (a.release(), ...); };
+    release(next_spring_, eval_, pair_force_, gather_node_, gather_ptr_, gather_slot_, watch_nodes_, watch_x_);
   }
 
  public:  // (public: nvcc's device lambdas cannot live in private member functions)
@@ -1521,14 +1563,15 @@ class DeviceLoopImpl final : public DeviceLoop {
     });
   }
 
-  /// The contact candidate list built on the device, as ContactSet::rebuild builds it on the
-  /// host (contact/broad_phase.cpp's passes: bounds, count, scan, fill, sort, runs, pair test),
-  /// with the same filters (a joining CE6, shared nodes), springs carried over by (a, b), the
+  /// The contact candidate list (the passes of contact/broad_phase.cpp's find_box_pairs, which
+  /// test_broad_phase holds to a brute-force search: bounds, count, scan, fill, sort, runs, pair
+  /// test), with the filters (a joining CE6, shared nodes), springs carried over by (a, b), the
   /// gather index and the watch list. Only counts come back to the host.
   void rebuild_pairs(Solver& s) {
     using namespace device_build;
     ContactSet& cs = s.contacts;
-    // Pairs in global order, as ContactSet::rebuild: a is the tet of lower global id, sorted by
+    contact_apart_for_rebuild();
+    // Pairs in global order: a is the tet of lower global id, sorted by
     // the global ids of (a, b) (the local ids after a growth of the contact ghosts are not).
     const long* tg = tet_global_.size() > 0 ? tet_global_.data() : nullptr;
     auto gid = [=] FDEM_LAMBDA(int t) -> long { return tg ? tg[t] : long(t); };
@@ -1798,6 +1841,7 @@ class DeviceLoopImpl final : public DeviceLoop {
       auto release = [](auto&... a) { (a.release(), ...); };
       release(flags_, offsets_, counts_, entry_offsets_, head_, head_offsets_, cell_start_, cell_counts_, cell_offsets_,
               ids_, boxes_, entries_, node_slots_, next_pairs_);
+      contact_in_place(cs);
     }
   }
 
