@@ -1,4 +1,4 @@
-// bench_cpu: speed of the CPU time step (Solver::step) on UCS cylinders of several mesh sizes.
+// bench_cpu: speed of the cpu backend's time step (Solver::step) on UCS cylinders of several mesh sizes.
 //
 // For each element size: generate a 0.02 m x 0.04 m cylinder with gmsh, build the model with
 // the default scene (Table 2 limestone, CE6 on every internal face, mass scaling 5, platens
@@ -56,8 +56,9 @@ double held(const std::vector<T>& a) {
   return double(a.size()) * double(sizeof(T));
 }
 
-/// Traffic model of one Solver::step() (see solver.cpp), in the state the solver is in now, in
-/// bytes. Two counts:
+/// Traffic model of one Solver::step() on the cpu backend's default schedule, the colour passes
+/// (solver/device_loop_impl.hpp), in the state the solver is in now, in bytes; contact is not
+/// counted. Two counts:
 ///  per_reference: every array element that the step's loops touch, counted each time a
 ///    loop touches it. Node data gathered through element node ids is counted once per
 ///    element corner (a tet's 4 corners, a CE6's 6), since with split nodes and
@@ -66,7 +67,7 @@ double held(const std::vector<T>& a) {
 ///  once: each array that the step touches counted once (read, plus write where written):
 ///    the compulsory traffic, a lower bound.
 /// What one step does and what is counted, with nn nodes, nt tets, nc CE6, np platen nodes:
-///  integrate (per node): read x, v, f (3 x 24 B) and 1/m (8 B), write x, v (2 x 24 B);
+///  integrate (per node): read x, v, f (3 x 24 B) and m (8 B), write x, v (2 x 24 B);
 ///  forces start: with gravity f written from m (32 B per node); without, the first TET4 to
 ///    reach a node assigns its force and only the nodes no TET4 reaches are zeroed (28 B);
 ///  TET4 sweep (per tet): colour order entry (4 B), tet node ids (16 B), Xinv (72 B),
@@ -84,6 +85,7 @@ struct Traffic {
 };
 
 Traffic step_traffic(const Solver& s) {
+  s.sync_host();  // (the CE6 states below)
   const Model& m = s.model();
   const double nn = double(m.X.size()), nt = double(m.tet_nodes.size()), nc = double(m.ce6_nodes.size());
   const double np = s.scene().platens.enabled ? double(m.platen_nodes.size()) : 0;

@@ -303,7 +303,7 @@ int main(int argc, char** argv) {
     s.file = "(bench_l2)";
     const Model m = build_model(structured_box_mesh({0.057, 0.057, 0.129}, n, n, nz), s);
     const long nt = long(m.tet_nodes.size()), nc = long(m.ce6_nodes.size()), nn = long(m.X.size());
-    // Each tet's CE6s, ordered by colour (the order the CPU loop adds them to a node).
+    // Each tet's CE6s, ordered by colour (the order the colour passes add them to a node).
     std::vector<int> colour(nc), slot(nc);
     for (int c = 0; c < m.ce6_colours.colours(); ++c)
       for (int k = m.ce6_colours.offsets[c]; k < m.ce6_colours.offsets[c + 1]; ++k) {

@@ -20,7 +20,9 @@
 
 namespace fdem {
 
-constexpr std::uint32_t kCheckpointVersion = 2;  // 2: CE6 state stores its mode beside the damage
+// 2: CE6 state stores its mode beside the damage. 3: CE6 ids are colour order (model/build.cpp),
+// so a model built now numbers its CE6s, their states and broken_ce6.csv's ids anew.
+constexpr std::uint32_t kCheckpointVersion = 3;
 
 /// Collects values for a checkpoint payload.
 class CheckpointOut {

@@ -310,12 +310,7 @@ void report_run(const fdem::RunSummary& s, const fdem::Solver& solver) {
     const long tets = solver.distributed() ? solver.decomposition().global_tets : long(solver.model().tet_nodes.size());
     std::cout << ": " << s.last.active_tets << " of " << tets << " tets active, " << s.last.contact_pairs
               << " candidate pairs, " << ct.rebuilds << " broad-phase builds; wall time broad " << ct.broad
-              << " s, narrow " << ct.narrow << " s";
-    if (solver.device_loop())  // (one pass per pair there)
-      std::cout << " with friction";
-    else
-      std::cout << ", friction " << ct.friction << " s";
-    std::cout << (solver.distributed() ? " (rank 0)" : "");
+              << " s, narrow " << ct.narrow << " s with friction" << (solver.distributed() ? " (rank 0)" : "");
   }
   std::cout << "\n  outputs in " << s.folder
             << ": monitors.csv, summary.csv, stress_strain.png, fields.xdmf (open in ParaView; frames labelled "

@@ -1,5 +1,6 @@
 #pragma once
-// The CPU backend's loop: body(i) for i in [0, n), spread over OpenMP threads.
+// A host loop: body(i) for i in [0, n), spread over OpenMP threads (the model build and the
+// host broad phase; the time loop uses core/forall.hpp).
 // Bodies write only to data owned by index i (or to a colour class whose members
 // share no node), so the result does not depend on the thread count.
 #include <cstddef>

@@ -1,5 +1,6 @@
 #pragma once
-// The CPU backend's element gather: the values of an element's nodes from a node array.
+// An element gather on the host: the values of an element's nodes from a node array (outputs
+// and diagnostics).
 #include <array>
 #include <cstddef>
 #include <vector>

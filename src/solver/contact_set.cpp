@@ -48,32 +48,11 @@ ContactSet::ContactSet(const Model& m, const Scene& s) {
   active_count_ = std::count(active_.begin(), active_.end(), 1);
 }
 
-void ContactSet::set_ownership(const std::vector<std::uint8_t>* node_owned, const std::vector<std::uint8_t>* tet_owned,
-                               const std::vector<long>* tet_global, real reach, const std::vector<Vec3>& plan_x) {
-  node_owned_ = node_owned;
+void ContactSet::set_ownership(const std::vector<std::uint8_t>* tet_owned, real reach,
+                               const std::vector<Vec3>& plan_x) {
   tet_owned_ = tet_owned;
-  tet_global_ = tet_global;
   reach_ = reach;
   plan_x_ = plan_x;
-}
-
-void ContactSet::flags_changed() {
-  active_count_ = std::count(active_.begin(), active_.end(), 1);
-  dirty_ = true;
-}
-
-long ContactSet::owned_active_count() const {
-  if (!tet_owned_) return active_count_;
-  long k = 0;
-  for (std::size_t t = 0; t < active_.size(); ++t) k += active_[t] && (*tet_owned_)[t];
-  return k;
-}
-
-long ContactSet::owned_pair_count() const {
-  if (!tet_owned_) return long(pairs_.size());
-  long k = 0;
-  for (const ContactPair& p : pairs_) k += pair_counts(p);
-  return k;
 }
 
 long ContactSet::activate_ce6(const Model& m, int c) {

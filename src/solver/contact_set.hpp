@@ -26,16 +26,8 @@ struct ContactPair {
 
 /// Wall time spent in each phase, s, and how often the broad phase ran.
 struct ContactTimes {
-  double broad = 0, narrow = 0, friction = 0;
+  double broad = 0, narrow = 0;  // (narrow: the pairs' pass with their friction, and the gather)
   long rebuilds = 0;
-};
-
-/// Results of one evaluation.
-struct ContactPower {
-  real power = 0;          // W, -sum f.v of all contact forces with the velocities they were given
-  real dissipated = 0;     // J, friction work dissipated by sliding in this evaluation
-  real spring_energy = 0;  // J, energy held by the friction springs after it
-  long touching = 0;       // pairs with a non-zero force
 };
 
 class ContactSet {
@@ -50,18 +42,11 @@ class ContactSet {
   /// Rebuild the candidate list at the next evaluation (as after an activation change).
   void request_rebuild() { dirty_ = true; }
 
-  /// A rank's part of a decomposed model (partition/): energies, powers and counts then take
-  /// node terms of owned nodes and pairs whose first tet is owned. The rank holds every tet
-  /// within `reach` (m) of its own at the node positions `plan_x` (the reference configuration
-  /// at the start, the positions of the last growth of the contact ghosts after one,
-  /// partition/grow.hpp); each build checks that no node of an owned active tet has moved
-  /// reach/2 or more from there, so no partner it lacks can touch. The vectors must outlive
-  /// the set.
-  /// A pair counts on the owner of its tet of lower global id (tet_global; the local order is
-  /// the global one except for contact ghosts appended by a growth). Pairs are built in global
-  /// order: that tet first, sorted by the global ids, so node sums run as on one rank.
-  void set_ownership(const std::vector<std::uint8_t>* node_owned, const std::vector<std::uint8_t>* tet_owned,
-                     const std::vector<long>* tet_global, real reach, const std::vector<Vec3>& plan_x);
+  /// A rank's part of a decomposed model (partition/): the rank holds every tet within `reach`
+  /// (m) of its own tets (tet_owned, which must outlive the set) at the node positions `plan_x`
+  /// (the reference configuration at the start, the positions of the last growth of the contact
+  /// ghosts after one, partition/grow.hpp); check_reach() guards that.
+  void set_ownership(const std::vector<std::uint8_t>* tet_owned, real reach, const std::vector<Vec3>& plan_x);
   /// Several ranks: throws RunError, naming the tet and a reach to try, when a node of an owned
   /// tet has moved half the contact reach from plan_x (a partner this rank lacks could have
   /// touched it).
@@ -69,12 +54,6 @@ class ContactSet {
   /// The node positions the reach counts from (empty on one rank); set_plan(x) after a growth.
   const std::vector<Vec3>& plan_x() const { return plan_x_; }
   void set_plan(const std::vector<Vec3>& x) { plan_x_ = x; }
-  /// The activation flags, for the exchange between ranks; call flags_changed() after raising any.
-  std::vector<std::uint8_t>& active_flags() { return active_; }
-  void flags_changed();
-  /// Owned active tets and owned candidate pairs (all of them on one rank).
-  long owned_active_count() const;
-  long owned_pair_count() const;
 
   const std::vector<std::uint8_t>& active() const { return active_; }
   long active_count() const { return active_count_; }
@@ -101,14 +80,9 @@ class ContactSet {
   template <class>
   friend class DeviceLoopImpl;  // the device loop's narrow phase works on these arrays
 
-  const std::vector<std::uint8_t>* node_owned_ = nullptr;
   const std::vector<std::uint8_t>* tet_owned_ = nullptr;
   real reach_ = 0;
   std::vector<Vec3> plan_x_;
-  bool node_counts(int n) const { return !node_owned_ || (*node_owned_)[n]; }
-  const std::vector<long>* tet_global_ = nullptr;
-  // A pair's first tet is its tet of lower global id (rebuild).
-  bool pair_counts(const ContactPair& p) const { return !tet_owned_ || (*tet_owned_)[p.a]; }
 
   bool enabled_ = false;
   real penalty_ = 0, mu_ = 0, buffer_ = 0;

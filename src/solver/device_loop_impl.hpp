@@ -129,7 +129,7 @@ struct KeepAndClear {
 /// Where the fused pass integrates (DeviceLoop::integrates): a node's step by its force, the
 /// arithmetic of advance() (central difference, then a prescribed velocity).
 struct NodeStep {
-  const real* mass;     // 1/m divided here: correctly rounded, so Solver::inv_mass_'s bits
+  const real* mass;     // 1/m divided here: correctly rounded, the same bits on every backend
   const int* fixed_of;  // per node: its place in the prescribed lists, or -1 (null: none)
   const int* fixed_mask;
   const Vec3* fixed_v;
@@ -274,7 +274,7 @@ class DeviceLoopImpl final : public DeviceLoop {
         place(ce6_tets_, reinterpret_cast<const int*>(m.ce6_tets.data()), 2 * m.ce6_tets.size());
       }
       // Confining pressure: the lateral faces and, per node, the faces it sums in face order
-      // (the order of the CPU loop, so the sums agree bit for bit).
+      // (the reference stepper's order, so the sums agree bit for bit).
       const auto& faces = s.lateral_faces_;
       place(lat_faces_, reinterpret_cast<const int*>(faces.data()), 3 * faces.size());
       std::vector<std::array<int, 2>> nf;
@@ -372,7 +372,12 @@ class DeviceLoopImpl final : public DeviceLoop {
       const ContactSet& c = s.contacts;
       place(active_, c.active_);
       flags_merged_ = false;
-      if (integrates_) follow_gather(false);  // the old list's nodes out
+      // Every node out of the old gather list (on the cpu backend the list this loop borrowed may
+      // have been overwritten by a checkpoint's).
+      if (integrates_) {
+        int* of = gather_of_.data();
+        Exec::forall(int(gather_of_.size()), [=] FDEM_LAMBDA(int n) { of[n] = -1; });
+      }
       upload_pairs(c);
       pairs_on_host_ = true;
       if (integrates_) follow_gather(true);
@@ -608,7 +613,7 @@ class DeviceLoopImpl final : public DeviceLoop {
       b[kAdded] = 0;
       if (a[kInverted] > 0) {           // rare: the host names the element in the state the pass read (the
         apply_force_sums(s, b.data());  // first copies of x and v, the CE6 states before it),
-        std::swap(x_, x2_);             // before the step is counted, as the CPU backend does
+        std::swap(x_, x2_);             // before the step is counted, as the colour passes do
         std::swap(v_, v2_);
         std::swap(dmg_, dmg_next_);
         std::swap(slip_, slip_next_);
@@ -732,7 +737,7 @@ class DeviceLoopImpl final : public DeviceLoop {
 
     // Confining pressure (pressure_forces), after the platens: on the hydrostatic path it follows
     // this evaluation's platen reactions. Several ranks sum those over the ranks first and put
-    // them back on the device (a reduction of their own, as on the CPU backend; the rest of the
+    // them back on the device (a reduction of their own; the rest of the
     // evaluation's sums wait for the step's).
     const Confinement& cf = scene.confinement;
     if (cf.enabled && s.hydrostatic_ && s.dd_.distributed()) {
@@ -801,7 +806,7 @@ class DeviceLoopImpl final : public DeviceLoop {
   }
 
   void take_reduced(Solver& s, const real* more) override {
-    if (forces_pending_) {  // the rank's own sums, the whole model's where the CPU backend sums them
+    if (forces_pending_) {  // the rank's own sums, the whole model's where they are summed (kWhole)
       std::array<real, kBad> b = waiting_;
       for (int k = 0; k < int(kWhole.size()); ++k) b[kWhole[k]] = more[k];
       if (s.scene_.confinement.enabled && s.hydrostatic_)  // summed already (compute_forces)
@@ -955,7 +960,7 @@ class DeviceLoopImpl final : public DeviceLoop {
 
   /// Where the fused pass integrates: the element part of the last evaluation, left to the next
   /// step's pass, done now by the same pass without the step (f: each node's whole force, the
-  /// CPU backend's), then the activation by its breaks. Its sums go to the evaluation's slots.
+  /// colour passes'), then the activation by its breaks. Its sums go to the evaluation's slots.
   void complete_forces() {
     if (!elements_pending_) return;
     elements_pending_ = false;
@@ -1262,7 +1267,7 @@ class DeviceLoopImpl final : public DeviceLoop {
   ///   kForces: f written once per node and never read (without gravity).
   ///   kStep (DeviceLoop::integrates): the evaluation compute_forces left at this state; each
   ///   node's force also takes what contact, platens and pressure put there (held for the pass,
-  ///   in the CPU backend's order of sums), and the tet moves its nodes by the step advance()
+  ///   in the colour passes' order of sums), and the tet moves its nodes by the step advance()
   ///   left pending, into the second copies of x and v (the other tets still read the first),
   ///   with the integration's sums; then x and v swap. No force array is written or read.
   ///   kComplete: the same without the step: f gets each node's whole force.
@@ -1891,7 +1896,7 @@ class DeviceLoopImpl final : public DeviceLoop {
 
   /// Ghost nodes take their owners' x and v: packed on the device, handed to MPI (device buffers
   /// with GPU-aware MPI, else staged through the host), unpacked on the device. With `only`:
-  /// the neighbours i with only[i] set (Halo::update_nodes).
+  /// the neighbours i with only[i] set (Halo::exchange_nodes).
   void halo_update(Solver& s, const std::vector<char>* only = nullptr) {
     const double w0 = MPI_Wtime();
     const Vec3* x = x_.data();
@@ -2143,7 +2148,7 @@ class DeviceLoopImpl final : public DeviceLoop {
   // reactions summed over the ranks (compute_forces).
   std::array<real, kBad> waiting_{};
   std::array<real, 2> reactions_{};
-  // The sums that the whole model sums, as the CPU backend takes them (Solver::compute_forces).
+  // The sums that the whole model sums over the ranks (the others are each rank's own).
   static constexpr std::array<int, 9> kWhole = {kTop,  kBottom,  kPlatenFric, kVisc,    kCoh,
                                                 kFric, kConDiss, kConStored,  kTouching};
   DeviceArray<ContactPair> next_pairs_;

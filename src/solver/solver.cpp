@@ -98,7 +98,7 @@ void Solver::setup() {
       if (!reached[n]) unreached_nodes_.push_back(int(n));
   }
   contacts = ContactSet(model_, scene_);
-  if (dd_.distributed()) contacts.set_ownership(&own_node_, &own_tet_, &dd_.tet_global, dd_.reach, model_.X);
+  if (dd_.distributed()) contacts.set_ownership(&own_tet_, dd_.reach, model_.X);
   ce6_broke_.assign(model_.ce6_nodes.size(), 0);
 
   platen_k_.resize(model_.platen_nodes.size());
@@ -287,6 +287,9 @@ StableStep Solver::stable_step_bound() const {
 }
 
 void Solver::prescribe(int node, int mask, Vec3 velocity) {
+  // The state first: a step left pending reads the lists below as they were (on the cpu
+  // backend the loop borrows them).
+  sync_host();
   // One entry per node (the device applies the entries in parallel): a node prescribed again
   // takes the new components, as if the calls were applied in turn.
   const auto slot = fixed_slot_.emplace(node, int(fixed_node_.size()));
@@ -300,7 +303,6 @@ void Solver::prescribe(int node, int mask, Vec3 velocity) {
     for (int d = 0; d < 3; ++d)
       if (mask >> d & 1) fixed_velocity_[i][d] = velocity[d];
   }
-  sync_host();
   for (int d = 0; d < 3; ++d)
     if (mask >> d & 1) v[node][d] = velocity[d];
   host_changed();

@@ -127,11 +127,12 @@ class Solver {
   void load(CheckpointIn& in);
 
   /// The backend running the time loop (scene solver.backend). The state lives in the loop's
-  /// arrays during steps (on cpu, x, v, f, the platen anchors and the contact flags are those
-  /// arrays; the CE6 state and the contact pairs and springs are copies there too); x, v, f,
-  /// ce6, platen_anchor and the contact flags and springs here are the host copy, brought up
-  /// to date by sync_host() (measure(), save() and the output functions call it). Code that writes the host copy
-  /// between steps calls host_changed() so the next step uploads it. Several ranks: sync_host() (and so prescribe(),
+  /// arrays during steps; x, v, f, ce6, platen_anchor and the contact set here are the host
+  /// copy, brought up to date by sync_host() (measure(), save() and the output functions call
+  /// it). On the cpu backend they are mostly the loop's arrays themselves, but not all the time
+  /// (the fused schedules swap copies; several ranks keep the CE6 state in slot order), so the
+  /// rule is the same on every backend. Code that writes the host copy between steps calls
+  /// host_changed() so the next step uploads it. Several ranks: sync_host() (and so prescribe(),
   /// measure(), save() and output) sums the last force evaluation's scalars over the ranks while
   /// they wait on the device, so every rank calls it at once.
   Backend backend() const { return backend_; }
@@ -179,7 +180,7 @@ class Solver {
   /// A rank model replaces the one running (grown contact ghosts): the derived arrays set up
   /// afresh, halo and contact set included, the device loop dropped; the time step kept.
   void adopt_layout(RankModel rm);
-  /// A new device loop for the layout, with the host state uploaded (device backends).
+  /// A new loop for the layout, with the host state uploaded.
   void restart_device();
   /// The evolving state in checkpoint order; load_state with `appended` reads a state saved
   /// before the contact ghosts grew and appends the ghosts' state.

@@ -160,6 +160,24 @@ TEST(Restart, FromAStepCheckpointBeforeThePeakEqualsTheUninterruptedRun) {
   expect_same_run(a, b);
 }
 
+TEST(Restart, UnderTheScheduleThatStepsInTheFusedPassEqualsTheUninterruptedRun) {
+  // FDEM_DEVICE_SCHEDULE=auto on the cpu backend: the fused pass integrates and reads the contact
+  // gather list's places per node. A restart loads another list into the contact set, whose
+  // vectors the loop works on in place: the places of the list the new process built first must
+  // all go, or the fused pass adds contact forces at nodes no pair touches.
+  setenv("FDEM_DEVICE_SCHEDULE", "auto", 1);
+  TempDir tmp("restart_auto");
+  const fs::path a = tmp.path / "a", b = tmp.path / "b";
+  Outcome o = run_fdem(run_args(kScene, a));
+  ASSERT_EQ(o.code, 0) << o.text;
+  o = run_fdem(run_args(checkpointed(tmp.path, "first", 1000, 500), b));
+  ASSERT_EQ(o.code, 0) << o.text;
+  o = run_fdem(run_args(kScene, b) + " --restart " + quote((b / "checkpoints" / "step_000000000500.ckpt").string()));
+  unsetenv("FDEM_DEVICE_SCHEDULE");
+  ASSERT_EQ(o.code, 0) << o.text;
+  expect_same_run(a, b);
+}
+
 TEST(Restart, AfterSigtermWithADamagedNewestCheckpointEqualsTheUninterruptedRun) {
   const fs::path& a = reference_run();
   TempDir tmp("restart_signal");
