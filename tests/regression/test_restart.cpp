@@ -12,6 +12,7 @@
 #include <fstream>
 #include <regex>
 
+#include "backend_support.hpp"
 #include "cli_support.hpp"
 
 namespace fs = std::filesystem;
@@ -165,7 +166,7 @@ TEST(Restart, UnderTheScheduleThatStepsInTheFusedPassEqualsTheUninterruptedRun) 
   // gather list's places per node. A restart loads another list into the contact set, whose
   // vectors the loop works on in place: the places of the list the new process built first must
   // all go, or the fused pass adds contact forces at nodes no pair touches.
-  setenv("FDEM_DEVICE_SCHEDULE", "auto", 1);
+  const fdem::test::EnvSetting schedule("FDEM_DEVICE_SCHEDULE", "auto");  // (unset again, whatever fails)
   TempDir tmp("restart_auto");
   const fs::path a = tmp.path / "a", b = tmp.path / "b";
   Outcome o = run_fdem(run_args(kScene, a));
@@ -173,7 +174,6 @@ TEST(Restart, UnderTheScheduleThatStepsInTheFusedPassEqualsTheUninterruptedRun) 
   o = run_fdem(run_args(checkpointed(tmp.path, "first", 1000, 500), b));
   ASSERT_EQ(o.code, 0) << o.text;
   o = run_fdem(run_args(kScene, b) + " --restart " + quote((b / "checkpoints" / "step_000000000500.ckpt").string()));
-  unsetenv("FDEM_DEVICE_SCHEDULE");
   ASSERT_EQ(o.code, 0) << o.text;
   expect_same_run(a, b);
 }
@@ -383,11 +383,11 @@ namespace {
 /// "pid=<first's PID>", "second=<exit code>" and "first=<exit code>", with what both printed.
 Outcome overlapping_runs(const std::string& first, const fs::path& folder, int rows, const std::string& second,
                          const std::string& second_env = "", const std::string& first_env = "") {
-  const std::string script = first_env + kEnv + quote(kExe) + " " + first + " & pid=$!; echo pid=$pid; for i in $(seq 1500); do " +
-                             "[ \"$(cat " + quote((folder / "monitors.csv").string()) +
-                             " 2>/dev/null | wc -l)\" -ge " + std::to_string(rows + 1) + " ] && break; sleep 0.02; " +
-                             "done; " + second_env + kEnv + quote(kExe) + " " + second +
-                             "; echo second=$?; wait $pid; echo first=$?";
+  const std::string script = first_env + kEnv + quote(kExe) + " " + first +
+                             " & pid=$!; echo pid=$pid; for i in $(seq 1500); do " + "[ \"$(cat " +
+                             quote((folder / "monitors.csv").string()) + " 2>/dev/null | wc -l)\" -ge " +
+                             std::to_string(rows + 1) + " ] && break; sleep 0.02; " + "done; " + second_env + kEnv +
+                             quote(kExe) + " " + second + "; echo second=$?; wait $pid; echo first=$?";
   return run_cmd("bash -c " + quote(script));
 }
 
@@ -511,7 +511,8 @@ TEST(RunLock, AStaleRecordIsTakenOverAndALiveOneRefusedAlsoWithoutFileLocks) {
 TEST(RunLock, ASecondSeriesIntoAFolderInUseIsRefused) {
   TempDir tmp("lock_series");
   const fs::path scene = checkpointed(tmp.path, "series", 3000, 100000), s = tmp.path / "s";
-  const std::string series = "series " + quote(scene.string()) + " --vary platen_velocity=1.0 -q -o " + quote(s.string());
+  const std::string series =
+      "series " + quote(scene.string()) + " --vary platen_velocity=1.0 -q -o " + quote(s.string());
   // The first series' run folder fills while the second starts.
   const Outcome o = overlapping_runs(series, s / "platen_velocity_1.0", 2, series);
   EXPECT_EQ(value_after(o.text, "second"), "2") << o.text;
