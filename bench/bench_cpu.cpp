@@ -133,7 +133,7 @@ double state_bytes(const Solver& s) {
   b += held(m.ce6_colours.order) + held(m.ce6_colours.offsets);
   b += held(m.surface_faces) + held(m.surface_tet) + held(m.platen_nodes) + held(m.platen_node_area) +
        held(m.platen_node_h) + held(m.top_nodes) + held(m.bottom_nodes) + held(m.lateral_nodes);
-  b += held(s.x) + held(s.v) + held(s.f) + held(s.ce6.damage) + held(s.ce6.anchors) + held(s.platen_anchor);
+  b += held(s.x) + held(s.v) + held(s.f) + held(s.ce6.damage) + held(s.ce6.anchors) + held(s.loads().platens.anchor);
   b += double(m.platen_nodes.size()) * sizeof(real);  // Solver::platen_k_
   b += double(fdem::device::bytes_in_use());
   return b;

@@ -7,8 +7,8 @@
 
 namespace fdem {
 
-std::unique_ptr<DeviceLoop> make_cuda_device_loop(bool direct_mpi, FusedPlan plan) {
-  return std::make_unique<DeviceLoopImpl<CudaExec>>(Backend::cuda, direct_mpi, std::move(plan));
+std::unique_ptr<DeviceLoop> make_cuda_device_loop(const LoopParts& parts, bool direct_mpi, FusedPlan plan) {
+  return std::make_unique<DeviceLoopImpl<CudaExec>>(Backend::cuda, parts, direct_mpi, std::move(plan));
 }
 
 }  // namespace fdem

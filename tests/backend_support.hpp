@@ -138,7 +138,7 @@ inline std::vector<std::uint8_t> flags_from_breaks(const Solver& run) {
   std::unique_ptr<Solver> start = backend_solver(scene);
   for (std::size_t c = 0; c < run.ce6.size(); ++c)
     if (run.ce6[c].mode != 0) start->contacts.activate_ce6(start->model(), int(c));
-  return start->contacts.active();
+  return start->contacts.active;
 }
 
 }  // namespace fdem::test

@@ -36,7 +36,7 @@ inline MeshSpec cylinder(real diameter, real height, real element_size) {
 /// Load along z until `strain` (platen approach / height), measuring every `every` steps.
 inline std::vector<Monitors> load_to_strain(Solver& solver, real strain, int every = 50) {
   std::vector<Monitors> rows{solver.measure()};
-  while (solver.top_offset / solver.model().height0 < strain) {
+  while (solver.platen_travel() / solver.model().height0 < strain) {
     solver.step();
     if (solver.step_count() % every == 0) rows.push_back(solver.measure());
   }

@@ -12,61 +12,11 @@
 #include <cstddef>
 #include <limits>
 
+#include "contact/grid.hpp"
 #include "core/error.hpp"
 #include "core/for_each.hpp"
 
 namespace fdem {
-
-namespace {
-
-/// One (cell, box) entry of the multi-insertion: the integer cell triple and the box index.
-struct Entry {
-  std::int64_t ix, iy, iz;
-  int box;
-};
-
-bool same_cell(const Entry& a, const Entry& b) {
-  return a.ix == b.ix && a.iy == b.iy && a.iz == b.iz;
-}
-
-bool entry_less(const Entry& a, const Entry& b) {
-  if (a.ix != b.ix) return a.ix < b.ix;
-  if (a.iy != b.iy) return a.iy < b.iy;
-  if (a.iz != b.iz) return a.iz < b.iz;
-  return a.box < b.box;
-}
-
-/// The uniform grid: cell index of a coordinate along one axis, relative to the global low
-/// corner so the integers stay small. One function is used for binning the boxes and for
-/// the intersection corner; since it is monotone, a coordinate inside a box always falls
-/// in one of the cells the box was inserted into.
-struct Grid {
-  Vec3 origin;
-  real cell;
-  std::int64_t index(real x, int axis) const {
-    return static_cast<std::int64_t>(std::floor((x - origin[axis]) / cell));
-  }
-};
-
-/// Cells covered by `b` (product of the per-axis ranges), saturated at cap + 1 so that
-/// huge ranges from a tiny cell cannot overflow.
-long cells_of(const Grid& g, const Aabb& b, long cap) {
-  long count = 1;
-  for (int d = 0; d < 3; ++d) {
-    const std::int64_t r = std::max<std::int64_t>(0, g.index(b.hi[d], d) - g.index(b.lo[d], d) + 1);
-    if (r == 0) return 0;  // lo > hi: an empty box, binned nowhere
-    if (r > cap / count) return cap + 1;
-    count *= static_cast<long>(r);
-  }
-  return count;
-}
-
-bool overlap(const Aabb& a, const Aabb& b) {
-  return a.lo.x <= b.hi.x && b.lo.x <= a.hi.x && a.lo.y <= b.hi.y && b.lo.y <= a.hi.y && a.lo.z <= b.hi.z &&
-         b.lo.z <= a.hi.z;
-}
-
-}  // namespace
 
 // Preconditions: every value in `ids` indexes `boxes`, ids holds no duplicates (a duplicate
 // would be paired with itself and its pairs reported twice), and every box is finite with
@@ -114,7 +64,7 @@ void find_box_pairs(const std::vector<Aabb>& boxes, const std::vector<int>& ids,
   for (;;) {
     while (span / grid.cell > max_index) grid.cell *= 2;
     long sum = 0;
-    for_each(n, [&](std::size_t i) { offset[i] = cells_of(grid, boxes[ids[i]], budget); });
+    for_each(n, [&](std::size_t i) { offset[i] = grid.cells_of(boxes[ids[i]], budget); });
 #pragma omp parallel for schedule(static) reduction(+ : sum)
     for (std::ptrdiff_t i = 0; i < static_cast<std::ptrdiff_t>(n); ++i) sum += offset[i];
     if (sum <= budget) break;
@@ -131,21 +81,12 @@ void find_box_pairs(const std::vector<Aabb>& boxes, const std::vector<int>& ids,
   offset[n] = total;
 
   // Pass 3 (fill): each box writes one entry per covered cell into its own slice.
-  std::vector<Entry> entries(static_cast<std::size_t>(total));
-  for_each(n, [&](std::size_t i) {
-    const int id = ids[i];
-    const Aabb& b = boxes[id];
-    const std::int64_t lx = grid.index(b.lo.x, 0), ly = grid.index(b.lo.y, 1), lz = grid.index(b.lo.z, 2);
-    const std::int64_t hx = grid.index(b.hi.x, 0), hy = grid.index(b.hi.y, 1), hz = grid.index(b.hi.z, 2);
-    long k = offset[i];
-    for (std::int64_t ix = lx; ix <= hx; ++ix)
-      for (std::int64_t iy = ly; iy <= hy; ++iy)
-        for (std::int64_t iz = lz; iz <= hz; ++iz) entries[k++] = Entry{ix, iy, iz, id};
-  });
+  std::vector<BinEntry> entries(static_cast<std::size_t>(total));
+  for_each(n, [&](std::size_t i) { grid.bin(boxes[ids[i]], ids[i], entries.data() + offset[i]); });
 
   // Pass 4 (sort) by (ix, iy, iz, box). A GPU would radix-sort on a 64-bit hash of the
   // triple and break ties (hash collisions) on the triple itself, so runs stay exact.
-  std::sort(entries.begin(), entries.end(), entry_less);
+  std::sort(entries.begin(), entries.end(), bin_entry_less);
 
   // Pass 5 (run detection, a stream compaction): flag the first entry of each cell, scan
   // the flags, scatter the starts. cell_start[c] .. cell_start[c + 1] is cell c's run.
@@ -175,7 +116,7 @@ void find_box_pairs(const std::vector<Aabb>& boxes, const std::vector<int>& ids,
 #pragma omp for schedule(dynamic, 64)
     for (long c = 0; c < cells; ++c) {
       const long s = cell_start[c], e = cell_start[c + 1];
-      const Entry& key = entries[s];
+      const BinEntry& key = entries[s];
       for (long j = s; j < e; ++j) {
         const int a = entries[j].box;
         const Aabb& ba = boxes[a];
@@ -183,11 +124,7 @@ void find_box_pairs(const std::vector<Aabb>& boxes, const std::vector<int>& ids,
           const int b = entries[k].box;
           const Aabb& bb = boxes[b];
           ++tested;
-          if (!overlap(ba, bb)) continue;
-          if (grid.index(std::max(ba.lo.x, bb.lo.x), 0) != key.ix ||
-              grid.index(std::max(ba.lo.y, bb.lo.y), 1) != key.iy ||
-              grid.index(std::max(ba.lo.z, bb.lo.z), 2) != key.iz)
-            continue;
+          if (!boxes_overlap(ba, bb) || !grid.reports(ba, bb, key)) continue;
           mine.push_back({std::min(a, b), std::max(a, b)});
         }
       }

@@ -142,4 +142,9 @@ FDEM_HD real von_mises(const Sym3& s) {
   return std::sqrt(real(0.5) * (a * a + b * b + c * c) + 3 * (s.yz * s.yz + s.xz * s.xz + s.xy * s.xy));
 }
 
+/// A finite number (NaN and inf fail), on host and device alike.
+FDEM_HD bool finite_value(real a) {
+  return a - a == 0;
+}
+
 }  // namespace fdem

@@ -26,4 +26,21 @@ inline Ce6Params make_ce6_params(const Material& m) {
   return p;
 }
 
+/// The element laws' constants of a run: the TET4's Lame constants and the CE6 law's parameters.
+struct ElementLaws {
+  real lambda = 0, mu = 0;  // Pa
+  Ce6Params ce6{};
+};
+
+/// The laws of `scene`'s material; tet-tet contact, where the scene has it, takes over broken
+/// CE6 faces (Ce6Params::broken_inert).
+inline ElementLaws make_element_laws(const Scene& scene) {
+  ElementLaws l;
+  l.lambda = scene.material.lame_lambda();
+  l.mu = scene.material.lame_mu();
+  l.ce6 = make_ce6_params(scene.material);
+  l.ce6.broken_inert = scene.contact.enabled() ? 1 : 0;
+  return l;
+}
+
 }  // namespace fdem

@@ -42,4 +42,11 @@ FDEM_HD PlatenEval platen_node_force(Vec3 xr, Vec3 n, real k, real mu, Vec3& anc
   return e;
 }
 
+/// Two platens along z, the top one's face at height ztop pressing down, the bottom one's at zbot
+/// pressing up: node x meets the nearer one only (`top`: which). Its force as platen_node_force.
+FDEM_HD PlatenEval nearer_platen_force(Vec3 x, real ztop, real zbot, real k, real mu, Vec3& anchor, bool& top) {
+  top = x.z > real(0.5) * (ztop + zbot);
+  return platen_node_force(x - Vec3{0, 0, top ? ztop : zbot}, Vec3{0, 0, top ? real(-1) : real(1)}, k, mu, anchor);
+}
+
 }  // namespace fdem

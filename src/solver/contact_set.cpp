@@ -33,9 +33,9 @@ ContactSet::ContactSet(const Model& m, const Scene& s) {
         }
     }
 
-  active_.assign(nt, 0);
+  active.assign(nt, 0);
   if (s.contact.activation == Activation::full) {
-    std::fill(active_.begin(), active_.end(), 1);
+    std::fill(active.begin(), active.end(), 1);
   } else if (s.platens.enabled) {
     // Adaptive: the tets at the loaded ends are candidates from the start.
     std::vector<std::uint8_t> loaded(m.X.size(), 0);
@@ -43,9 +43,13 @@ ContactSet::ContactSet(const Model& m, const Scene& s) {
     for (int n : m.bottom_nodes) loaded[n] = 1;
     for (int t = 0; t < nt; ++t)
       for (int n : m.tet_nodes[t])
-        if (loaded[n]) active_[t] = 1;
+        if (loaded[n]) active[t] = 1;
   }
-  active_count_ = std::count(active_.begin(), active_.end(), 1);
+  active_count_ = std::count(active.begin(), active.end(), 1);
+}
+
+void ContactSet::recount_active() {
+  active_count_ = std::count(active.begin(), active.end(), 1);
 }
 
 void ContactSet::set_ownership(const std::vector<std::uint8_t>* tet_owned, real reach,
@@ -61,13 +65,13 @@ long ContactSet::activate_ce6(const Model& m, int c) {
   for (int i = 0; i < 3; ++i) {
     const int vtx = m.node_vertex[m.ce6_nodes[c][i]];
     for (int k = vertex_tet_ptr_[vtx]; k < vertex_tet_ptr_[vtx + 1]; ++k) {
-      std::uint8_t& a = active_[vertex_tets_[k]];
+      std::uint8_t& a = active[vertex_tets_[k]];
       if (!a) a = 1, ++added;
     }
   }
   if (added) {
     active_count_ += added;
-    dirty_ = true;
+    rebuild_due = true;
   }
   return added;
 }
@@ -99,18 +103,18 @@ void ContactSet::check_reach(const Model& m, const std::vector<Vec3>& x) const {
 void ContactSet::save(CheckpointOut& out) const {
   out.put(enabled_);
   if (!enabled_) return;
-  out.put(active_);
+  out.put(active);
   out.put(active_count_);
-  out.put(dirty_);
-  out.put(pairs_);
-  out.put(stats_);
-  out.put(watch_nodes_);
-  out.put(watch_x_);
-  out.put(eval_);
-  out.put(pair_force_);
-  out.put(gather_node_);
-  out.put(gather_ptr_);
-  out.put(gather_slot_);
+  out.put(rebuild_due);
+  out.put(pairs);
+  out.put(last_build);
+  out.put(watch_nodes);
+  out.put(watch_x);
+  out.put(eval);
+  out.put(pair_force);
+  out.put(gather_node);
+  out.put(gather_ptr);
+  out.put(gather_slot);
   out.put(spring);
   out.put(times);
   out.put(plan_x_);
@@ -121,30 +125,30 @@ void ContactSet::load(CheckpointIn& in, const std::vector<std::uint8_t>* appende
   in.get(enabled);
   if (enabled != enabled_) in.mismatch("contact.activation differs: 'none' in one of them");
   if (!enabled_) return;
-  const std::size_t nt = active_.size(), nn = plan_x_.size();
-  in.get(active_);
-  if (appended) active_.insert(active_.end(), appended->begin(), appended->end());
-  if (active_.size() != nt)
-    in.mismatch("tet count " + std::to_string(active_.size()) + ", the model has " + std::to_string(nt));
+  const std::size_t nt = active.size(), nn = plan_x_.size();
+  in.get(active);
+  if (appended) active.insert(active.end(), appended->begin(), appended->end());
+  if (active.size() != nt)
+    in.mismatch("tet count " + std::to_string(active.size()) + ", the model has " + std::to_string(nt));
   in.get(active_count_);
-  in.get(dirty_);
-  in.get(pairs_);
-  in.get(stats_);
-  in.get(watch_nodes_);
-  in.get(watch_x_);
-  in.get(eval_);
-  in.get(pair_force_);
-  in.get(gather_node_);
-  in.get(gather_ptr_);
-  in.get(gather_slot_);
+  in.get(rebuild_due);
+  in.get(pairs);
+  in.get(last_build);
+  in.get(watch_nodes);
+  in.get(watch_x);
+  in.get(eval);
+  in.get(pair_force);
+  in.get(gather_node);
+  in.get(gather_ptr);
+  in.get(gather_slot);
   in.get(spring);
   in.get(times);
   in.get(plan_x_);
-  if (spring.size() != pairs_.size() || eval_.size() != pairs_.size()) in.mismatch("inconsistent contact pair arrays");
+  if (spring.size() != pairs.size() || eval.size() != pairs.size()) in.mismatch("inconsistent contact pair arrays");
   if (appended) {
     // The new tets are candidates only after a build; the caller sets the new plan positions.
-    active_count_ = std::count(active_.begin(), active_.end(), 1);
-    dirty_ = true;
+    active_count_ = std::count(active.begin(), active.end(), 1);
+    rebuild_due = true;
   } else if (plan_x_.size() != nn) {
     in.mismatch("node count " + std::to_string(plan_x_.size()) + " of the contact reach, the model has " +
                 std::to_string(nn));

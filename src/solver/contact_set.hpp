@@ -36,11 +36,14 @@ class ContactSet {
   ContactSet(const Model& m, const Scene& s);
 
   bool enabled() const { return enabled_; }
+  real penalty() const { return penalty_; }  // Pa, material.contact_penalty
+  real friction() const { return mu_; }      // Coulomb coefficient, material.friction_rock
+  real buffer() const { return buffer_; }    // m, the broad phase's box inflation
   /// Flags the vicinity of CE6 `c` (every tet sharing a vertex of its face). Returns the
   /// number of tets newly activated.
   long activate_ce6(const Model& m, int c);
   /// Rebuild the candidate list at the next evaluation (as after an activation change).
-  void request_rebuild() { dirty_ = true; }
+  void request_rebuild() { rebuild_due = true; }
 
   /// A rank's part of a decomposed model (partition/): the rank holds every tet within `reach`
   /// (m) of its own tets (tet_owned, which must outlive the set) at the node positions `plan_x`
@@ -55,18 +58,16 @@ class ContactSet {
   const std::vector<Vec3>& plan_x() const { return plan_x_; }
   void set_plan(const std::vector<Vec3>& x) { plan_x_ = x; }
 
-  const std::vector<std::uint8_t>& active() const { return active_; }
-  long active_count() const { return active_count_; }
-  long pair_count() const { return long(pairs_.size()); }
-  real buffer() const { return buffer_; }
-  const std::vector<ContactPair>& pairs() const { return pairs_; }
-  /// The last evaluation's forces of each pair (8: a's nodes, then b's; N), for tests.
-  const std::vector<Vec3>& pair_forces() const { return pair_force_; }
-  const BroadPhaseStats& last_build() const { return stats_; }
-  ContactTimes times;
+  /// The activation's search: mesh vertex -> the tets touching it (CSR), and the CE6 on each
+  /// face of a tet (-1: none).
+  const std::vector<int>& vertex_tet_ptr() const { return vertex_tet_ptr_; }
+  const std::vector<int>& vertex_tets() const { return vertex_tets_; }
+  const std::vector<std::array<int, 4>>& tet_ce6() const { return tet_ce6_; }
 
-  /// Friction springs per pair (same order as pairs()), for checkpoints and tests.
-  std::vector<Vec3> spring;
+  long active_count() const { return active_count_; }
+  /// Counts the active flags again (after the loop changed them).
+  void recount_active();
+  long pair_count() const { return long(pairs.size()); }
 
   /// Everything that changes during a run (flags, pairs, springs, the last forces and the
   /// broad phase's watch list), so a restarted run continues bit for bit.
@@ -76,31 +77,33 @@ class ContactSet {
   void save(CheckpointOut& out) const;
   void load(CheckpointIn& in, const std::vector<std::uint8_t>* appended = nullptr);
 
- private:
-  template <class>
-  friend class DeviceLoopImpl;  // the device loop's narrow phase works on these arrays
+  // The state the time loop builds and evaluates (solver/device_loop_impl.hpp); here its host
+  // copy, for checkpoints, outputs and tests.
+  std::vector<std::uint8_t> active;  // per tet: 1 where it is a contact candidate
+  bool rebuild_due = true;           // activation changed since the last build
+  std::vector<ContactPair> pairs;    // the candidate list
+  std::vector<Vec3> spring;          // per pair, its friction spring
+  std::vector<ContactEval> eval;     // per pair, its normal evaluation
+  std::vector<Vec3> pair_force;      // per pair, 8 nodal forces (a's 4 nodes, then b's), N
+  // Gather index: node gather_node[k] receives pair_force[slot] for slots
+  // gather_slot[gather_ptr[k] .. gather_ptr[k+1]).
+  std::vector<int> gather_node, gather_ptr, gather_slot;
+  std::vector<int> watch_nodes;  // nodes of active tets, with their positions at the last build
+  std::vector<Vec3> watch_x;
+  BroadPhaseStats last_build;
+  long touching = 0;  // pairs in contact at the last evaluation
+  ContactTimes times;
 
+ private:
   const std::vector<std::uint8_t>* tet_owned_ = nullptr;
   real reach_ = 0;
   std::vector<Vec3> plan_x_;
 
   bool enabled_ = false;
   real penalty_ = 0, mu_ = 0, buffer_ = 0;
-  std::vector<std::uint8_t> active_;
   long active_count_ = 0;
-  bool dirty_ = true;                              // activation changed since the last build
-  std::vector<int> vertex_tet_ptr_, vertex_tets_;  // mesh vertex -> tets touching it (CSR)
-  std::vector<std::array<int, 4>> tet_ce6_;        // CE6 on each face of a tet (-1 none)
-  std::vector<ContactPair> pairs_;
-  BroadPhaseStats stats_;
-  std::vector<int> watch_nodes_;  // nodes of active tets, with their positions at the last build
-  std::vector<Vec3> watch_x_;
-  // Per pair: normal evaluation and the 8 nodal forces (a's 4 nodes, then b's).
-  std::vector<ContactEval> eval_;
-  std::vector<Vec3> pair_force_;
-  // Gather index: node gather_node_[k] receives pair_force_[slot] for slots
-  // gather_slot_[gather_ptr_[k] .. gather_ptr_[k+1]).
-  std::vector<int> gather_node_, gather_ptr_, gather_slot_;
+  std::vector<int> vertex_tet_ptr_, vertex_tets_;
+  std::vector<std::array<int, 4>> tet_ce6_;
 };
 
 }  // namespace fdem

@@ -14,10 +14,10 @@
 namespace fdem {
 
 // cuda/device_loop.cu where nvcc is found.
-std::unique_ptr<DeviceLoop> make_cuda_device_loop(bool direct_mpi, FusedPlan plan);
+std::unique_ptr<DeviceLoop> make_cuda_device_loop(const LoopParts& parts, bool direct_mpi, FusedPlan plan);
 
 #ifndef FDEM_HAVE_CUDA
-std::unique_ptr<DeviceLoop> make_cuda_device_loop(bool, FusedPlan) {
+std::unique_ptr<DeviceLoop> make_cuda_device_loop(const LoopParts&, bool, FusedPlan) {
   throw InputError(
       "solver.backend cuda: this fdem was built without CUDA (nvcc was not found at build time). Fix: build where "
       "nvcc is installed (cmake -DFDEM_ENABLE_CUDA=ON), or run with --backend cpu");
@@ -85,20 +85,19 @@ bool plan_fused_pass(const Model& m, FusedPlan& plan) {
   return true;
 }
 
-std::unique_ptr<DeviceLoop> make_device_loop(Backend b, const Solver& s) {
+std::unique_ptr<DeviceLoop> make_device_loop(Backend b, const LoopParts& s) {
   // Read (and checked) here, at the start, on every rank alike.
-  const bool direct_mpi =
-      b != Backend::cpu && s.decomposition().distributed() && device_buffers_to_mpi(b == Backend::cuda);
+  const bool direct_mpi = b != Backend::cpu && s.layout.distributed() && device_buffers_to_mpi(b == Backend::cuda);
   auto fused_plan = [&s, b] {
     FusedPlan plan;  // empty: the colour passes
     const DeviceSchedule schedule = device_schedule(b);
     const int blocks = device_blocks_per_sm();  // checked whatever the schedule
-    if (schedule == DeviceSchedule::colour || !plan_fused_pass(s.model(), plan)) return FusedPlan{};
+    if (schedule == DeviceSchedule::colour || !plan_fused_pass(s.model, plan)) return FusedPlan{};
     // The pass integrates too on one rank, where it moves every node: each in a tet.
-    std::vector<char> in_tet(s.model().X.size(), 0);
-    for (const auto& q : s.model().tet_nodes)
+    std::vector<char> in_tet(s.model.X.size(), 0);
+    for (const auto& q : s.model.tet_nodes)
       for (int n : q) in_tet[n] = 1;
-    plan.integrate = schedule == DeviceSchedule::automatic && !s.decomposition().distributed() &&
+    plan.integrate = schedule == DeviceSchedule::automatic && !s.layout.distributed() &&
                      std::find(in_tet.begin(), in_tet.end(), 0) == in_tet.end();
     plan.blocks_per_sm = blocks;
     return plan;
@@ -107,7 +106,7 @@ std::unique_ptr<DeviceLoop> make_device_loop(Backend b, const Solver& s) {
     case Backend::debug: {
       host_order();  // FDEM_DEBUG_ORDER, checked before the run starts
       FusedPlan plan = fused_plan();
-      return std::make_unique<DeviceLoopImpl<HostExec>>(Backend::debug, direct_mpi, std::move(plan));
+      return std::make_unique<DeviceLoopImpl<HostExec>>(Backend::debug, s, direct_mpi, std::move(plan));
     }
     case Backend::cuda:
       if (cuda_built()) {
@@ -118,7 +117,7 @@ std::unique_ptr<DeviceLoop> make_device_loop(Backend b, const Solver& s) {
         MPI_Initialized(&mpi);
         const int visible = cuda_device_count();
         int fewest = visible;
-        if (mpi) MPI_Allreduce(&visible, &fewest, 1, MPI_INT, MPI_MIN, s.comm());
+        if (mpi) MPI_Allreduce(&visible, &fewest, 1, MPI_INT, MPI_MIN, s.layout.comm);
         if (fewest == 0)
           throw InputError("solver.backend cuda: no CUDA device is visible" +
                            (visible == 0 ? " (" + cuda_device_count_error() + ")" : std::string(" on another rank")) +
@@ -128,16 +127,16 @@ std::unique_ptr<DeviceLoop> make_device_loop(Backend b, const Solver& s) {
         int local_rank = 0;
         if (mpi) {
           MPI_Comm node;
-          MPI_Comm_split_type(s.comm(), MPI_COMM_TYPE_SHARED, 0, MPI_INFO_NULL, &node);
+          MPI_Comm_split_type(s.layout.comm, MPI_COMM_TYPE_SHARED, 0, MPI_INFO_NULL, &node);
           local_rank = rank_in(node);
           MPI_Comm_free(&node);
         }
         select_cuda_device(local_rank);
       }
-      return make_cuda_device_loop(direct_mpi, fused_plan());  // after the collective above
+      return make_cuda_device_loop(s, direct_mpi, fused_plan());  // after the collective above
     case Backend::cpu:
       // Host memory: the halo hands its buffers to MPI as they are.
-      return std::make_unique<DeviceLoopImpl<CpuExec>>(Backend::cpu, s.decomposition().distributed(), fused_plan());
+      return std::make_unique<DeviceLoopImpl<CpuExec>>(Backend::cpu, s, s.layout.distributed(), fused_plan());
   }
   throw std::logic_error("make_device_loop: unknown backend");
 }

@@ -14,11 +14,16 @@
 
 #include "core/device_memory.hpp"
 #include "core/vec.hpp"
+#include "model/laws.hpp"
+#include "model/model.hpp"
+#include "scene/scene.hpp"
+#include "solver/ce6_states.hpp"
+#include "solver/contact_set.hpp"
+#include "solver/energy_ledger.hpp"
+#include "solver/loads.hpp"
+#include "solver/rank_layout.hpp"
 
 namespace fdem {
-
-class Solver;
-struct Model;
 
 /// Wall time per pass, s (with `timing` on, each pass waits for the device before the clock).
 /// (narrow: the contact pairs' pass, friction and their power included.)
@@ -70,6 +75,53 @@ struct MonitorSums {
   }
 };
 
+/// The step's one reduction over the ranks: this rank's integration sums and works over the
+/// step, then a device loop's values (AdvanceSums::more).
+struct StepSums {
+  real bad = 0, ke = 0, w_con = 0, w_pre = 0, w_grav = 0, far = 0, lost = 0;
+  static constexpr int kValues = 7;  // the values above, summed over the ranks in this order
+  template <class F>
+  void for_each(F&& f) {
+    for (real* p : {&bad, &ke, &w_con, &w_pre, &w_grav, &far, &lost}) f(*p);
+  }
+  int n_more = 0;  // a device loop's values summed after them (AdvanceSums::more)
+  std::array<real, 10> more{};
+};
+
+/// The run's bookkeeping that a step's passes call back into (the Solver).
+class StepBookkeeping {
+ public:
+  /// The part of a step after its integration: the works of the interval, the stability checks
+  /// (they throw RunError), the clock. True when the contact ghosts are to be gathered again.
+  virtual bool finish_step(const AdvanceSums& a) = 0;
+  /// Names the first inverted TET4 of the host copy of the state and throws RunError.
+  [[noreturn]] virtual void report_inverted() const = 0;
+
+ protected:
+  ~StepBookkeeping() = default;
+};
+
+/// What the time loop reads and writes of a run, by name. The loop keeps these references for
+/// its life: the Solver, which owns the loop, owns what they refer to.
+struct LoopParts {
+  const Scene& scene;
+  const Model& model;
+  const ElementLaws& laws;
+  RankLayout& layout;  // (the halo's exchanges count their time there)
+  const real& dt;      // s, the time step
+  const real& time;    // s, the clock at the state
+  // The evolving state's host copy (node arrays by node id, CE6 arrays by CE6 id).
+  std::vector<Vec3>& x;
+  std::vector<Vec3>& v;
+  std::vector<Vec3>& f;
+  Ce6States& ce6;
+  std::vector<std::uint8_t>& ce6_broke;  // set by the CE6 pass on the step a CE6 breaks
+  ContactSet& contacts;
+  Loads& loads;  // with their state: platen anchors and travel, pressure forces
+  EnergyLedger& energy;
+  StepBookkeeping& book;
+};
+
 class DeviceLoop {
  public:
   virtual ~DeviceLoop() = default;
@@ -92,18 +144,18 @@ class DeviceLoop {
   /// same host code either way.
   virtual int blocks_per_sm() const = 0;
   /// The whole state and the model's constants, host to device.
-  virtual void upload(const Solver& s) = 0;
+  virtual void upload() = 0;
   /// The evolving state, device to host (x, v, f, CE6 state, platen anchors, pressure forces,
   /// contact flags, springs and pair forces).
-  virtual void download(Solver& s) = 0;
+  virtual void download() = 0;
   /// Debug backend: fill the host copies of the evolving state with NaN (flags with 0xAA), and
   /// the last force evaluation's scalars while they wait on the device, so a read without
   /// download() or settle() is caught. Nothing elsewhere.
-  virtual void poison_host(Solver& s) = 0;
+  virtual void poison_host() = 0;
   /// Kinetic energy x 2 of the state on the device (the first step's initial energy).
   virtual real kinetic2() = 0;
   /// Solver::compute_forces on the device.
-  virtual void compute_forces(Solver& s) = 0;
+  virtual void compute_forces() = 0;
   /// Central difference with time step dt, prescribed velocities, and the powers with the new
   /// velocities; where the fused pass integrates (integrates()), left pending for the next
   /// compute_forces (or for the first read of the state before it). Several ranks: the sums
@@ -112,25 +164,25 @@ class DeviceLoop {
   /// one reduction (take_reduced). One rank: they stay on the device and it returns false; the
   /// next compute_forces reads them in the copy that brings the broad phase's decision and
   /// finishes the step there (Solver::finish_step), so a step copies to the host once.
-  virtual bool advance(Solver& s, real dt, AdvanceSums& out) = 0;
+  virtual bool advance(real dt, AdvanceSums& out) = 0;
   /// Several ranks: AdvanceSums::more summed over the ranks, in Solver::finish_step's one
   /// reduction of the step: the last force evaluation's whole-model sums (platen reactions,
   /// powers, slip, touching pairs) to the Solver, and whether any rank activated tets in it or
   /// took flags from its host since the last merge (the next compute_forces merges the flags
   /// then).
-  virtual void take_reduced(Solver& s, const real* more) = 0;
+  virtual void take_reduced(const real* more) = 0;
   /// The last force evaluation's scalars to the Solver now (one copy), if they are still on the
   /// device: Solver::measure and Solver::sync_host call it, so that between steps the Solver's
   /// platen reactions, powers and slip energies are those of the forces on the device. Several
   /// ranks: they are summed over the ranks here (while they wait, which is from a force
   /// evaluation to the next step's reduction), so every rank calls it at once, as they call
   /// measure(), write output and checkpoints.
-  virtual void settle(Solver& s) = 0;
+  virtual void settle() = 0;
   /// Forget what settle() would bring: the host copy was written (a checkpoint loaded, a
   /// prescription) and is the state now; the next step uploads it.
   virtual void discard_pending() = 0;
   /// A monitor row's sums from the device state, without copying it to the host.
-  virtual MonitorSums measure_sums(const Solver& s) = 0;
+  virtual MonitorSums measure_sums() = 0;
   /// Wait for the device before each pass's clock (benchmarks).
   virtual void set_timing(bool on) = 0;
   virtual const DeviceTimes& times() const = 0;
@@ -167,8 +219,8 @@ DeviceSchedule device_schedule(Backend b);
 /// naming it.
 int device_blocks_per_sm();
 
-/// The device loop of backend b for solver s. Throws InputError when the CUDA backend was not
+/// The device loop of backend b on a run's parts. Throws InputError when the CUDA backend was not
 /// built or no GPU is visible.
-std::unique_ptr<DeviceLoop> make_device_loop(Backend b, const Solver& s);
+std::unique_ptr<DeviceLoop> make_device_loop(Backend b, const LoopParts& parts);
 
 }  // namespace fdem

@@ -13,57 +13,16 @@
 #include "contact/broad_phase.hpp"
 #include "core/forall.hpp"
 #include "physics/cohesive6.hpp"
+#include "physics/confinement.hpp"
 #include "physics/contact.hpp"
 #include "physics/integrate.hpp"
 #include "physics/platen.hpp"
 #include "physics/tet4.hpp"
+#include "solver/candidate_build.hpp"
 #include "solver/device_loop.hpp"
-#include "solver/solver.hpp"
+#include "solver/halo_passes.hpp"
 
 namespace fdem {
-
-/// A finite number (NaN and inf fail), on host and device alike.
-FDEM_HD bool finite_value(real a) {
-  return a - a == 0;
-}
-
-namespace device_build {
-/// One (cell, box) entry of the broad phase's multi-insertion (contact/broad_phase.cpp).
-struct BinEntry {
-  std::int64_t ix, iy, iz;
-  int box;
-};
-/// A (node, pair-force slot) record of the contact gather index.
-struct NodeSlot {
-  int node, slot;
-};
-/// The broad phase's uniform grid (the same cell function as contact/broad_phase.cpp).
-struct Grid {
-  Vec3 origin;
-  real cell;
-  FDEM_HD std::int64_t index(real x, int axis) const {
-    return static_cast<std::int64_t>(floor((x - origin[axis]) / cell));
-  }
-  /// Cells covered by box b, saturated at cap + 1.
-  FDEM_HD long cells_of(const Aabb& b, long cap) const {
-    long count = 1;
-    for (int d = 0; d < 3; ++d) {
-      std::int64_t r = index(b.hi[d], d) - index(b.lo[d], d) + 1;
-      if (r <= 0) return 0;
-      if (r > cap / count) return cap + 1;
-      count *= static_cast<long>(r);
-    }
-    return count;
-  }
-};
-FDEM_HD bool boxes_overlap(const Aabb& a, const Aabb& b) {
-  return a.lo.x <= b.hi.x && b.lo.x <= a.hi.x && a.lo.y <= b.hi.y && b.lo.y <= a.hi.y && a.lo.z <= b.hi.z &&
-         b.lo.z <= a.hi.z;
-}
-FDEM_HD real max3(real a, real b, real c) {
-  return a > b ? (a > c ? a : c) : (b > c ? b : c);
-}
-}  // namespace device_build
 
 namespace device_pass {
 /// A TET4's forces on its nodes at xe, ve (fe), the inverted count into acc[1] and, for an owned
@@ -152,8 +111,9 @@ template <class Exec>
 class DeviceLoopImpl final : public DeviceLoop {
  public:
   /// `plan`: the fused pass's (plan_fused_pass), or empty for the colour passes.
-  DeviceLoopImpl(Backend b, bool direct_mpi, FusedPlan plan)
-      : b_(b),
+  DeviceLoopImpl(Backend b, const LoopParts& parts, bool direct_mpi, FusedPlan plan)
+      : p_(parts),
+        b_(b),
         direct_mpi_(direct_mpi),
         fused_(!plan.list.empty()),
         integrates_(fused_ && plan.integrate),
@@ -167,13 +127,11 @@ class DeviceLoopImpl final : public DeviceLoop {
     set(X_, plan_x_, x_, v_, f_, anchor_, fixed_v_, lat_force_, watch_x_, spring_, pair_force_);
     set(dmg_, slip_, dmg_model_, slip_model_, broke_, active_, mid_third_, own_node_, own_tet_, own_ce6_, tet_assigns_,
         unreached_, pairs_, eval_);
-    set(tet_global_, flags_, offsets_, counts_, entry_offsets_, head_, head_offsets_, cell_start_, cell_counts_,
-        cell_offsets_);
-    set(ids_, tet_ce6_, ce6_tets_, boxes_, entries_, node_slots_, next_pairs_, next_spring_);
+    set(tet_global_, tet_ce6_, ce6_tets_, next_pairs_, next_spring_);
+    candidates_.set_backend(b);
     set(fused_ce6_, ce6_sides_, dmg_next_, slip_next_, ce6_flag_, ce6_flag_next_, x2_, v2_, fixed_of_);
     set(contact_sum_, platen_force_, gather_of_, platen_of_, lateral_of_, ext_tet_, ext_static_);
-    set(halo_send_node_, halo_send_x_, halo_send_v_, halo_recv_node_, halo_recv_x_, halo_recv_v_, halo_flag_tet_,
-        halo_send_, halo_recv_, flag_send_, flag_recv_);
+    halo_.set_backend(b, direct_mpi);
     sums_.resize(kAll);
     clear_sums(0, kAll);  // a slot a schedule never writes (kWatched) reads 0
   }
@@ -186,10 +144,10 @@ class DeviceLoopImpl final : public DeviceLoop {
   void set_timing(bool on) override { timing_ = on; }
   const DeviceTimes& times() const override { return t_; }
 
-  void upload(const Solver& s) override {
+  void upload() override {
+    const LoopParts& s = p_;
     const auto t0 = now();
-    solver_ = &s;  // (what complete_forces() reads of it: the model, the Lamé constants, contact's buffer)
-    const Model& m = s.model_;
+    const Model& m = s.model;
     if (!constants_) {
       place(tet_nodes_, reinterpret_cast<const int*>(m.tet_nodes.data()), 4 * m.tet_nodes.size());
       place(tet_order_, m.tet_colours.order);
@@ -212,7 +170,7 @@ class DeviceLoopImpl final : public DeviceLoop {
       else
         ce6_slot_.upload(slot);
       ce6_coloured_ = int(m.ce6_colours.order.size());
-      ce6p_ = s.ce6p_;
+      ce6p_ = s.laws.ce6;
       place_in_slots(ce6_nodes_, m.ce6_nodes);
       place(Xinv_, m.tet_Xinv);
       place(V0_, m.tet_V0);
@@ -221,7 +179,7 @@ class DeviceLoopImpl final : public DeviceLoop {
       place(mass_, m.mass);  // (1/m: divided where needed, no array read for it)
       // Every node's mass a quarter of its one tet's, rho V0 / 4 (model/build.cpp), to the bit:
       // then the fused pass computes it from V0, which it reads anyway, instead of reading it.
-      const real rho = s.scene_.solver.mass_scaling * s.scene_.material.density;
+      const real rho = s.scene.solver.mass_scaling * s.scene.material.density;
       std::vector<int> tets_of(m.X.size(), 0);
       mass_from_volume_ = true;
       for (std::size_t t = 0; t < m.tet_nodes.size() && mass_from_volume_; ++t)
@@ -231,31 +189,32 @@ class DeviceLoopImpl final : public DeviceLoop {
         }
       node_density_ = mass_from_volume_ ? rho : 0;
       place(platen_nodes_, m.platen_nodes);
-      place(platen_k_, s.platen_k_);
+      place(platen_k_, s.loads.platens.k);
       place(node_vertex_, m.node_vertex);
       place(X_, m.X);
-      if (s.dd_.distributed() && s.contacts.enabled()) {
+      if (s.layout.dd.distributed() && s.contacts.enabled()) {
         place(plan_x_, s.contacts.plan_x());
-        place(tet_global_, s.dd_.tet_global);
+        place(tet_global_, s.layout.dd.tet_global);
       }
       place(lateral_nodes_, m.lateral_nodes);
-      place(own_node_, s.own_node_);
-      place(own_tet_, s.own_tet_);
-      place_in_slots(own_ce6_, s.own_ce6_);
-      place(tet_assigns_, s.tet_assigns_);
+      place(own_node_, s.layout.own_node);
+      place(own_tet_, s.layout.own_tet);
+      place_in_slots(own_ce6_, s.layout.own_ce6);
+      place(tet_assigns_, s.layout.tet_assigns);
       assigned_corners_ = 0;
-      for (std::uint8_t a : s.tet_assigns_) assigned_corners_ += (a & 1) + (a >> 1 & 1) + (a >> 2 & 1) + (a >> 3 & 1);
-      gravity_ = s.scene_.has_gravity();
-      g_ = s.scene_.gravity;
-      place(unreached_, s.unreached_nodes_);
+      for (std::uint8_t a : s.layout.tet_assigns)
+        assigned_corners_ += (a & 1) + (a >> 1 & 1) + (a >> 2 & 1) + (a >> 3 & 1);
+      gravity_ = s.loads.gravity.enabled;
+      g_ = s.loads.gravity.g;
+      place(unreached_, s.layout.unreached_nodes);
       plan_fused();
       // The fused pass integrates (make_device_loop: one rank, every node a tet's).
-      if (integrates_ && (s.halo_ || s.dd_.distributed() || !s.unreached_nodes_.empty()))
+      if (integrates_ && (s.layout.halo || s.layout.dd.distributed() || !s.layout.unreached_nodes.empty()))
         throw RunError(
             "device loop: the fused pass cannot integrate this run (several ranks or nodes outside the tets)");
       step_contact_ = s.contacts.enabled();
-      step_pressure_ = s.scene_.confinement.enabled;
-      if (s.halo_) plan_halo(s);
+      step_pressure_ = s.loads.confinement.enabled;
+      if (s.layout.halo) halo_.plan(*s.layout.halo, s.layout.dd);
       // Monitor rows: the tets whose reference centroid lies in the middle third of the height.
       std::vector<std::uint8_t> mid(m.tet_nodes.size());
       const real z_lo = m.box_min.z + (m.box_max.z - m.box_min.z) / 3,
@@ -267,15 +226,15 @@ class DeviceLoopImpl final : public DeviceLoop {
       }
       mid_third_.upload(mid);
       if (s.contacts.enabled()) {
-        place(vt_ptr_, s.contacts.vertex_tet_ptr_);
-        place(vt_tets_, s.contacts.vertex_tets_);
+        place(vt_ptr_, s.contacts.vertex_tet_ptr());
+        place(vt_tets_, s.contacts.vertex_tets());
         // The broad phase's filters: the CE6s on each tet's faces and the tets of each CE6.
-        place(tet_ce6_, reinterpret_cast<const int*>(s.contacts.tet_ce6_.data()), 4 * s.contacts.tet_ce6_.size());
+        place(tet_ce6_, reinterpret_cast<const int*>(s.contacts.tet_ce6().data()), 4 * s.contacts.tet_ce6().size());
         place(ce6_tets_, reinterpret_cast<const int*>(m.ce6_tets.data()), 2 * m.ce6_tets.size());
       }
       // Confining pressure: the lateral faces and, per node, the faces it sums in face order
       // (the reference stepper's order, so the sums agree bit for bit).
-      const auto& faces = s.lateral_faces_;
+      const auto& faces = s.loads.confinement.faces;
       place(lat_faces_, reinterpret_cast<const int*>(faces.data()), 3 * faces.size());
       std::vector<std::array<int, 2>> nf;
       for (int i = 0; i < int(faces.size()); ++i)
@@ -293,9 +252,9 @@ class DeviceLoopImpl final : public DeviceLoop {
       lat_face_.upload(face);
       if (integrates_) {  // where the platens' and the pressure's forces wait for the pass
         std::vector<int> pof(m.X.size(), -1), lof(m.X.size(), -1);
-        if (s.scene_.platens.enabled)
+        if (s.loads.platens.enabled)
           for (std::size_t i = 0; i < m.platen_nodes.size(); ++i) pof[m.platen_nodes[i]] = int(i);
-        if (s.scene_.confinement.enabled)
+        if (s.loads.confinement.enabled)
           for (std::size_t k = 0; k < node.size(); ++k) lof[node[k]] = int(k);
         std::vector<std::uint8_t> ext(m.tet_nodes.size(), 0);
         for (std::size_t t = 0; t < ext.size(); ++t)
@@ -349,28 +308,28 @@ class DeviceLoopImpl final : public DeviceLoop {
       std::vector<std::uint8_t> fl(ce6_perm_.size());
       for (std::size_t k = 0; k < fl.size(); ++k) {
         const Ce6Damage& dk = s.ce6.damage[ce6_perm_[k]];
-        fl[k] = std::uint8_t((s.own_ce6_[ce6_perm_[k]] ? 1 : 0) | (std::memcmp(&dk, &intact, sizeof dk) ? 2 : 0));
+        fl[k] = std::uint8_t((s.layout.own_ce6[ce6_perm_[k]] ? 1 : 0) | (std::memcmp(&dk, &intact, sizeof dk) ? 2 : 0));
       }
       ce6_flag_.upload(fl);
       ce6_flag_next_.upload(fl);
     }
-    place_in_slots(broke_, s.ce6_broke_);
-    place(anchor_, s.platen_anchor);
-    place(fixed_node_, s.fixed_node_);
-    place(fixed_mask_, s.fixed_mask_);
-    place(fixed_v_, s.fixed_velocity_);
-    step_pending_ = false;                        // the host's state is the state
-    if (integrates_ && !s.fixed_node_.empty()) {  // each node's place in the prescribed lists
+    place_in_slots(broke_, s.ce6_broke);
+    place(anchor_, s.loads.platens.anchor);
+    place(fixed_node_, s.loads.prescribed.node);
+    place(fixed_mask_, s.loads.prescribed.mask);
+    place(fixed_v_, s.loads.prescribed.velocity);
+    step_pending_ = false;                                  // the host's state is the state
+    if (integrates_ && !s.loads.prescribed.node.empty()) {  // each node's place in the prescribed lists
       std::vector<int> of(s.x.size(), -1);
-      for (std::size_t i = 0; i < s.fixed_node_.size(); ++i) of[s.fixed_node_[i]] = int(i);
+      for (std::size_t i = 0; i < s.loads.prescribed.node.size(); ++i) of[s.loads.prescribed.node[i]] = int(i);
       fixed_of_.upload(of);
     } else {
       fixed_of_.resize(0);
     }
-    place(lat_force_, s.lateral_force_);
+    place(lat_force_, s.loads.confinement.face_force);
     if (s.contacts.enabled()) {
       const ContactSet& c = s.contacts;
-      place(active_, c.active_);
+      place(active_, c.active);
       flags_merged_ = false;
       // Every node out of the old gather list (on the cpu backend the list this loop borrowed may
       // have been overwritten by a checkpoint's).
@@ -385,7 +344,8 @@ class DeviceLoopImpl final : public DeviceLoop {
     t_.copies += seconds_since(t0);
   }
 
-  void download(Solver& s) override {
+  void download() override {
+    const LoopParts& s = p_;
     materialize();
     const auto t0 = now();
     x_.download(s.x);
@@ -395,7 +355,7 @@ class DeviceLoopImpl final : public DeviceLoop {
     if (ce6_by_id_) {
       dmg_.download(s.ce6.damage);
       slip_.download(s.ce6.anchors);
-      broke_.download(s.ce6_broke_);
+      broke_.download(s.ce6_broke);
     } else {
       dmg_model_.resize(dmg_.size());
       slip_model_.resize(dmg_.size());
@@ -404,50 +364,52 @@ class DeviceLoopImpl final : public DeviceLoop {
       slip_model_.download(s.ce6.anchors);
       std::vector<std::uint8_t> b;
       broke_.download(b);
-      for (std::size_t k = 0; k < b.size(); ++k) s.ce6_broke_[ce6_perm_[k]] = b[k];
+      for (std::size_t k = 0; k < b.size(); ++k) s.ce6_broke[ce6_perm_[k]] = b[k];
     }
-    anchor_.download(s.platen_anchor);
-    lat_force_.download(s.lateral_force_);
+    anchor_.download(s.loads.platens.anchor);
+    lat_force_.download(s.loads.confinement.face_force);
     if (s.contacts.enabled()) {
       ContactSet& c = s.contacts;
-      active_.download(c.active_);
-      c.active_count_ = std::count(c.active_.begin(), c.active_.end(), 1);
+      active_.download(c.active);
+      c.recount_active();
       spring_.download(c.spring);
-      eval_.download(c.eval_);
-      pair_force_.download(c.pair_force_);
+      eval_.download(c.eval);
+      pair_force_.download(c.pair_force);
       if (!pairs_on_host_) {  // built on the device since the last copy
-        pairs_.download(c.pairs_);
-        gather_node_.download(c.gather_node_);
-        gather_ptr_.download(c.gather_ptr_);
-        gather_slot_.download(c.gather_slot_);
-        watch_nodes_.download(c.watch_nodes_);
-        watch_x_.download(c.watch_x_);
+        pairs_.download(c.pairs);
+        gather_node_.download(c.gather_node);
+        gather_ptr_.download(c.gather_ptr);
+        gather_slot_.download(c.gather_slot);
+        watch_nodes_.download(c.watch_nodes);
+        watch_x_.download(c.watch_x);
         pairs_on_host_ = true;
       }
     }
     t_.copies += seconds_since(t0);
   }
 
-  void poison_host(Solver& s) override {
+  void poison_host() override {
+    const LoopParts& s = p_;
     const real nan = std::numeric_limits<real>::quiet_NaN();
     const Vec3 bad{nan, nan, nan};
-    for (auto* a : {&s.x, &s.v, &s.f, &s.platen_anchor, &s.lateral_force_}) std::fill(a->begin(), a->end(), bad);
+    for (auto* a : {&s.x, &s.v, &s.f, &s.loads.platens.anchor, &s.loads.confinement.face_force})
+      std::fill(a->begin(), a->end(), bad);
     for (Ce6Damage& c : s.ce6.damage) c.D[0] = c.D[1] = c.D[2] = nan, c.mode = -1;
     for (Ce6Anchors& c : s.ce6.anchors) std::fill(std::begin(c.a), std::end(c.a), bad);
-    std::fill(s.ce6_broke_.begin(), s.ce6_broke_.end(), 0xAA);
+    std::fill(s.ce6_broke.begin(), s.ce6_broke.end(), 0xAA);
     if (s.contacts.enabled()) {
       ContactSet& c = s.contacts;
-      std::fill(c.active_.begin(), c.active_.end(), 0xAA);
+      std::fill(c.active.begin(), c.active.end(), 0xAA);
       std::fill(c.spring.begin(), c.spring.end(), bad);
-      std::fill(c.pair_force_.begin(), c.pair_force_.end(), bad);
-      std::fill(c.eval_.begin(), c.eval_.end(), ContactEval{bad, bad, nan});
+      std::fill(c.pair_force.begin(), c.pair_force.end(), bad);
+      std::fill(c.eval.begin(), c.eval.end(), ContactEval{bad, bad, nan});
     }
     // The last evaluation's scalars not yet settled: read before settle() they are NaN.
     if (forces_pending_) {
-      s.force_top_ = s.force_bottom_ = s.p_contact_ = s.contact_spring_ = nan;
-      s.p_viscous_ = s.p_cohesive_ = s.p_friction_ = nan;
-      if (integrates_) s.p_gravity_ = nan;  // (with the elements' sums there)
-      if (s.scene_.confinement.enabled) s.pressure_ = s.p_pressure_ = nan;
+      s.loads.platens.force_top = s.loads.platens.force_bottom = s.energy.p_contact = s.energy.contact_spring = nan;
+      s.energy.p_viscous = s.energy.p_cohesive = s.energy.p_friction = nan;
+      if (integrates_) s.loads.gravity.power = nan;  // (with the elements' sums there)
+      if (s.loads.confinement.enabled) s.loads.confinement.pressure = s.loads.confinement.power = nan;
     }
   }
 
@@ -509,15 +471,15 @@ class DeviceLoopImpl final : public DeviceLoop {
                 "KeepAndClear's slots");
   static_assert(kWatched < kSums, "an integration's slots end before kPrev");
 
-  void compute_forces(Solver& s) override {
+  void compute_forces() override {
+    const LoopParts& s = p_;
     // A step's integration not read yet (one rank): its sums come with this evaluation's first
     // copy, and so do the last evaluation's scalars, kept at kPrev. A second evaluation without a
     // step between brings the first's scalars to the Solver first.
     const bool finish = advance_pending_;
-    if (forces_pending_ && !finish) settle(s);
+    if (forces_pending_ && !finish) settle();
     const bool prev = forces_pending_;
-    const Model& m = s.model_;
-    const Scene& scene = s.scene_;
+    const Model& m = s.model;
     const int nn = int(x_.size());
     const Vec3* x = x_.data();
     const Vec3* v = v_.data();
@@ -545,7 +507,7 @@ class DeviceLoopImpl final : public DeviceLoop {
     // Gravity starts the sum; without it the TET4 pass assigns each node's first force (the
     // nodes it does not reach are zeroed here), so f is not written twice. (A fused pass that
     // integrates starts each force itself.)
-    const Vec3 g = scene.gravity;
+    const Vec3 g = s.loads.gravity.g;
     if (integrates_) {
     } else if (!gravity_) {
       const int* un = unreached_.data();
@@ -563,20 +525,20 @@ class DeviceLoopImpl final : public DeviceLoop {
     // TET4 and CE6: fused in one pass, or colour by colour (plan_fused_pass); where the fused
     // pass integrates, the last evaluation's, with the step.
     if (stepping) {
-      fused_pass<kStep>(m, s.lambda_, s.mu_, sums, keep_and_clear);
+      fused_pass<kStep>(m, s.laws.lambda, s.laws.mu, sums, keep_and_clear);
       t0 = lap(t0, t_.ce6);          // (the TET4 and integration columns stay empty)
       x = x_.data(), v = v_.data();  // swapped: the moved state; the powers of the last forces with it
       // (gravity's: in the pass), and in the same launch the broad phase's watch (timed here, as
       // energy, not as activation)
-      contact_pressure_powers(s.contacts.enabled(), scene.confinement.enabled,
+      contact_pressure_powers(s.contacts.enabled(), s.loads.confinement.enabled,
                               s.contacts.enabled() ? &s.contacts : nullptr);
       t0 = lap(t0, t_.energy);
     } else if (integrates_) {
     } else if (fused_) {
-      fused_pass<kForces>(m, s.lambda_, s.mu_, sums);
+      fused_pass<kForces>(m, s.laws.lambda, s.laws.mu, sums);
       t0 = lap(t0, t_.ce6);  // (the TET4 column stays empty)
     } else {
-      colour_forces(m, s.lambda_, s.mu_, sums, t0);
+      colour_forces(m, s.laws.lambda, s.laws.mu, sums, t0);
     }
     // The broad phase's watch: has a node of an active tet moved half the buffer? (A count.)
     const int nc = int(dmg_.size());
@@ -597,14 +559,14 @@ class DeviceLoopImpl final : public DeviceLoop {
     // diagnostic frame reads none of them.
     std::array<real, kAll> a;
     device::read_start(b_, sums_.data(), sizeof a);
-    const bool ahead = integrates_ && cs.enabled() && !cs.dirty_;
+    const bool ahead = integrates_ && cs.enabled() && !cs.rebuild_due;
     // The per-node sum of the pairs' forces queued ahead goes into the platens' launch (both write
     // forces held for the pass: their order changes no sum); after a rebuild, its own launch.
-    const bool gather_with_platens = ahead && scene.platens.enabled;
+    const bool gather_with_platens = ahead && s.loads.platens.enabled;
     if (ahead) contact_pairs(s, t0, !gather_with_platens);
     if (integrates_)
-      platens_and_pressure(s, x, v, f, finish ? s.top_offset_after_step() : s.top_offset,
-                           finish ? s.time_after_step() : s.time_, gather_with_platens, t0);
+      platens_and_pressure(s, x, v, f, finish ? s.loads.platens.top_offset_after(s.dt) : s.loads.platens.top_offset,
+                           finish ? (s.time + s.dt) : s.time, gather_with_platens, t0);
     device::read_finish(b_, a.data(), sizeof a);
     if (stepping) {  // the last evaluation's sums: its contact, platens and pressure (kPrev), its elements (the pass)
       std::array<real, kBad> b;
@@ -618,8 +580,8 @@ class DeviceLoopImpl final : public DeviceLoop {
         std::swap(dmg_, dmg_next_);
         std::swap(slip_, slip_next_);
         std::swap(ce6_flag_, ce6_flag_next_);
-        download(s);
-        s.report_inverted();
+        download();
+        s.book.report_inverted();
       }
       if (a[kBreaks] > 0) {       // the pass broke CE6s: their vicinity joins the candidates now, for
         activate(cs, nc, false);  // this evaluation's contact (with contact, one value more to the host)
@@ -630,7 +592,7 @@ class DeviceLoopImpl final : public DeviceLoop {
     if (finish) {  // the step that led here: its bookkeeping, checks and clock (may throw)
       advance_pending_ = false;
       if (prev && !stepping) apply_force_sums(s, a.data() + kPrev);
-      if (s.finish_step(s.step_sums(advance_sums(a.data()))))
+      if (s.book.finish_step(advance_sums(a.data())))
         throw RunError("device loop: a step on one rank asked to gather contact ghosts");
     }
     t0 = lap(t0, t_.activation);
@@ -638,18 +600,20 @@ class DeviceLoopImpl final : public DeviceLoop {
     // of an evaluation it completed before the step without settle() (materialize(): after the
     // step, so named a step late; Solver::step and sync_host settle first).
     if ((stepping ? 0 : a[kInverted]) + (integrates_ && finish && prev && !stepping ? a[kPrev + kInverted] : 0) > 0) {
-      download(s);  // rare: the host finds and names the element
-      s.report_inverted();
+      download();  // rare: the host finds and names the element
+      s.book.report_inverted();
     }
-    if (!integrates_) s.p_gravity_ = a[kGravity];  // (integrating: with the evaluation's sums)
+    if (!integrates_) s.loads.gravity.power = a[kGravity];  // (integrating: with the evaluation's sums)
     // Several ranks: a flag raised on any rank holding a tet reaches the others before the broad
     // phase looks at the flags. The ranks merge them together, and only when one of them raised a
     // flag since the last merge (or took flags from its host): one number in the step's reduction
     // (take_reduced) instead of the flags' exchange and its three copies, on the steps (most)
     // that raise none. A layout grown since (Solver::grow_contact_ghosts, on every rank at once)
     // brings its host's flags with no reduction in between: every rank merges then.
-    if (s.halo_ && cs.enabled()) {
-      if ((merge_wanted_ || !flags_merged_) && merge_flags(s)) cs.dirty_ = true;
+    if (s.layout.halo && cs.enabled()) {
+      if ((merge_wanted_ || !flags_merged_) &&
+          halo_.merge_flags(*s.layout.halo, active_, x_, v_, s.layout.halo_seconds))
+        cs.rebuild_due = true;
       merge_wanted_ = false;
       flags_merged_ = true;
     }
@@ -658,7 +622,7 @@ class DeviceLoopImpl final : public DeviceLoop {
     // moved half the buffer; narrow phase, friction and the deterministic per-node sum (queued
     // ahead above, or now).
     if (cs.enabled()) {
-      const bool rebuild = cs.dirty_ || a[kMoved] > 0 || a[kWatched] > 0;
+      const bool rebuild = cs.rebuild_due || a[kMoved] > 0 || a[kWatched] > 0;
       if (rebuild) {
         if (integrates_) follow_gather(false);
         rebuild_pairs(s);
@@ -681,7 +645,7 @@ class DeviceLoopImpl final : public DeviceLoop {
     // evaluation's contact. (Where the fused pass integrates: with the pass's breaks, above.)
     if (!integrates_ && a[kBreaks] > 0) activate(cs, nc, false);
     t0 = lap(t0, t_.activation);
-    if (!integrates_) platens_and_pressure(s, x, v, f, s.top_offset, s.time_, false, t0);
+    if (!integrates_) platens_and_pressure(s, x, v, f, s.loads.platens.top_offset, s.time, false, t0);
     // The scalars stay on the device: one rank reads them with the next evaluation's first copy,
     // several ranks with the integration's sums (advance()), and sum them over the ranks in the
     // step's one reduction (take_reduced); or settle() before either.
@@ -693,18 +657,18 @@ class DeviceLoopImpl final : public DeviceLoop {
   /// platen at top_offset (m) and the pressure's ramp at `time` (s): added to f, or where the
   /// fused pass integrates, held for it. `gather`: the contact pairs' per-node sum in the
   /// platens' launch (where the fused pass integrates). t0: the passes' clock.
-  void platens_and_pressure(Solver& s, const Vec3* x, const Vec3* v, Vec3* f, real top_offset, real time, bool gather,
-                            std::chrono::steady_clock::time_point& t0) {
-    const Scene& scene = s.scene_;
+  void platens_and_pressure(const LoopParts& s, const Vec3* x, const Vec3* v, Vec3* f, real top_offset, real time,
+                            bool gather, std::chrono::steady_clock::time_point& t0) {
+    const PlatenLoad& platens = s.loads.platens;
     const ContactSet& cs = s.contacts;
     real* sums = sums_.data();
     // Platens: each node against the nearer one.
-    if (scene.platens.enabled) {
+    if (platens.enabled) {
       const int* pn = platen_nodes_.data();
       const real* pk = platen_k_.data();
       Vec3* anchor = anchor_.data();
       Vec3* held = integrates_ ? platen_force_.data() : nullptr;  // (for the pass that steps)
-      const real ztop = s.top_z0_ - top_offset, zbot = s.bottom_z0_, mu_p = scene.material.friction_platen;
+      const real ztop = platens.top_z0 - top_offset, zbot = platens.bottom_z0, mu_p = platens.friction;
       // After the platen nodes, where it comes here (gather), the pairs' per-node sum (after them,
       // so that the order of the platens' sums does not change with the pairs').
       const int npn = int(platen_nodes_.size());
@@ -721,9 +685,8 @@ class DeviceLoopImpl final : public DeviceLoop {
               return;
             }
             const int n = pn[i];
-            const bool near_top = x[n].z > 0.5 * (ztop + zbot);
-            const Vec3 xr = x[n] - Vec3{0, 0, near_top ? ztop : zbot};
-            const PlatenEval pe = platen_node_force(xr, Vec3{0, 0, near_top ? -1.0 : 1.0}, pk[i], mu_p, anchor[i]);
+            bool near_top = false;
+            const PlatenEval pe = nearer_platen_force(x[n], ztop, zbot, pk[i], mu_p, anchor[i], near_top);
             if (held)
               held[i] = pe.force;
             else
@@ -739,10 +702,10 @@ class DeviceLoopImpl final : public DeviceLoop {
     // this evaluation's platen reactions. Several ranks sum those over the ranks first and put
     // them back on the device (a reduction of their own; the rest of the
     // evaluation's sums wait for the step's).
-    const Confinement& cf = scene.confinement;
-    if (cf.enabled && s.hydrostatic_ && s.dd_.distributed()) {
+    const ConfiningPressure& cf = s.loads.confinement;
+    if (cf.enabled && cf.hydrostatic && s.layout.dd.distributed()) {
       device::to_host(b_, reactions_.data(), sums_.data() + kTop, sizeof reactions_);
-      s.sum(reactions_.data(), 2);
+      s.layout.sum(reactions_.data(), 2);
       device::to_device(b_, sums_.data() + kTop, reactions_.data(), sizeof reactions_);
     }
     if (cf.enabled) pressure_forces(s, x, v, f, time);
@@ -752,11 +715,11 @@ class DeviceLoopImpl final : public DeviceLoop {
   /// Confining pressure, a follower load: -p a / 3 per node of each lateral face, added to f, and
   /// its power with v into kPressurePower. On the hydrostatic path p follows the platen
   /// reactions in sums_ (kTop, kBottom); on the constant one, its ramp at `time` (s).
-  void pressure_forces(const Solver& s, const Vec3* x, const Vec3* v, Vec3* f, real time) {
-    const Confinement& cf = s.scene_.confinement;
-    const bool hydrostatic = s.hydrostatic_;
-    const real p_set = hydrostatic ? cf.pressure : ramped_speed(time, cf.pressure, s.confine_ramp_);
-    const real area0 = s.model_.area0;
+  void pressure_forces(const LoopParts& s, const Vec3* x, const Vec3* v, Vec3* f, real time) {
+    const ConfiningPressure& cf = s.loads.confinement;
+    const bool hydrostatic = cf.hydrostatic;
+    const real target = cf.target, ramped = hydrostatic ? target : ramped_speed(time, target, cf.ramp);
+    const real area0 = s.model.area0;
     real* sums = sums_.data();
     const int* lf = lat_faces_.data();
     Vec3* lforce = lat_force_.data();
@@ -764,13 +727,9 @@ class DeviceLoopImpl final : public DeviceLoop {
     Exec::template sum_to<1>(  // each face's force, and its power with the velocities now
         int(lat_force_.size()),
         [=] FDEM_LAMBDA(int i, real* acc) {
-          real pr = p_set;
-          if (hydrostatic) {
-            const real axial = area0 > 0 ? 0.5 * (-sums[kTop] + sums[kBottom]) / area0 : 0;
-            pr = axial < 0 ? 0 : (axial < p_set ? axial : p_set);
-          }
-          const Vec3 ar = 0.5 * cross(x[lf[3 * i + 1]] - x[lf[3 * i]], x[lf[3 * i + 2]] - x[lf[3 * i]]);
-          lforce[i] = (-pr / 3) * ar;
+          const real axial = hydrostatic ? mean_axial_stress(sums[kTop], sums[kBottom], area0) : 0;
+          const real pr = confining_pressure(hydrostatic, target, ramped, axial);
+          lforce[i] = face_pressure_force(pr, x[lf[3 * i]], x[lf[3 * i + 1]], x[lf[3 * i + 2]]);
           device_pass::add_face_power(lforce[i], lf + 3 * i, v, own_n, acc[0]);
         },
         sums + kPressurePower);
@@ -783,33 +742,35 @@ class DeviceLoopImpl final : public DeviceLoop {
     });
   }
 
-  void settle(Solver& s) override {
+  void settle() override {
+    const LoopParts& s = p_;
     if (!forces_pending_) return;
-    if (s.dd_.distributed()) {  // (every rank at once: monitor rows, output, checks after a reduction)
+    if (s.layout.dd.distributed()) {  // (every rank at once: monitor rows, output, checks after a reduction)
       // (as many values as a step's reduction, zeros first: the same MPI reduction, so the
       // same order of sums whether a monitor row comes between or not)
       waiting_ = read_sums<kBad>();
-      constexpr int k = Solver::StepSums::kValues;
+      constexpr int k = StepSums::kValues;
       std::array<real, k + std::tuple_size_v<decltype(AdvanceSums::more)>> all{};
       reduction_values(all.data() + k);
-      s.sum(all.data(), int(all.size()));
-      take_reduced(s, all.data() + k);
+      s.layout.sum(all.data(), int(all.size()));
+      take_reduced(all.data() + k);
       return;
     }
     complete_forces();
     const std::array<real, kBad> b = read_sums<kBad>();
     apply_force_sums(s, b.data());
     if (integrates_ && b[kInverted] > 0) {  // (completed here: named here)
-      download(s);
-      s.report_inverted();
+      download();
+      s.book.report_inverted();
     }
   }
 
-  void take_reduced(Solver& s, const real* more) override {
+  void take_reduced(const real* more) override {
+    const LoopParts& s = p_;
     if (forces_pending_) {  // the rank's own sums, the whole model's where they are summed (kWhole)
       std::array<real, kBad> b = waiting_;
       for (int k = 0; k < int(kWhole.size()); ++k) b[kWhole[k]] = more[k];
-      if (s.scene_.confinement.enabled && s.hydrostatic_)  // summed already (compute_forces)
+      if (s.loads.confinement.enabled && s.loads.confinement.hydrostatic)  // summed already (compute_forces)
         b[kTop] = reactions_[0], b[kBottom] = reactions_[1];
       apply_force_sums(s, b.data());
     }
@@ -820,30 +781,30 @@ class DeviceLoopImpl final : public DeviceLoop {
 
  private:
   /// The Solver's bookkeeping of a force evaluation from its sums (b: slots [0, kBad)).
-  void apply_force_sums(Solver& s, const real* b) {
+  void apply_force_sums(const LoopParts& s, const real* b) {
     forces_pending_ = false;
-    if (b[kAdded] > 0) s.contacts.dirty_ = true;  // for the next evaluation's contact
-    const Confinement& cf = s.scene_.confinement;
-    s.p_contact_ = b[kConPower];
-    s.w_contact_slip_ += b[kConDiss];
-    s.contact_spring_ = b[kConStored];
-    s.touching_ = long(b[kTouching]);
-    s.force_top_ = b[kTop];
-    s.force_bottom_ = b[kBottom];
+    if (b[kAdded] > 0) s.contacts.rebuild_due = true;  // for the next evaluation's contact
+    ConfiningPressure& cf = s.loads.confinement;
+    s.energy.p_contact = b[kConPower];
+    s.energy.contact_slip += b[kConDiss];
+    s.energy.contact_spring = b[kConStored];
+    s.contacts.touching = long(b[kTouching]);
+    s.loads.platens.force_top = b[kTop];
+    s.loads.platens.force_bottom = b[kBottom];
     if (cf.enabled) {
-      s.pressure_ = s.hydrostatic_ ? std::min(cf.pressure, std::max(real(0), s.axial_stress()))
-                                   : ramped_speed(s.time_, cf.pressure, s.confine_ramp_);
-      s.p_pressure_ = b[kPressurePower];
+      cf.pressure = cf.pressure_at(s.time, s.loads.platens.axial_stress(s.model.area0));
+      cf.power = b[kPressurePower];
     }
-    s.p_viscous_ = b[kVisc];
-    s.p_cohesive_ = b[kCoh];
-    s.p_friction_ = b[kFric];
-    s.w_platen_friction_ += b[kPlatenFric];
-    if (integrates_) s.p_gravity_ = b[kGravity];  // (computed with the elements, by the pass)
+    s.energy.p_viscous = b[kVisc];
+    s.energy.p_cohesive = b[kCoh];
+    s.energy.p_friction = b[kFric];
+    s.energy.platen_friction += b[kPlatenFric];
+    if (integrates_) s.loads.gravity.power = b[kGravity];  // (computed with the elements, by the pass)
   }
 
  public:
-  bool advance(Solver& s, real dt, AdvanceSums& out) override {
+  bool advance(real dt, AdvanceSums& out) override {
+    const LoopParts& s = p_;
     ++t_.steps;
     if (integrates_) {                   // the next force evaluation's pass moves the nodes
       if (step_pending_) materialize();  // (a step already pending, no evaluation since: never in Solver::step)
@@ -855,12 +816,12 @@ class DeviceLoopImpl final : public DeviceLoop {
     // Several ranks with contact: the owned nodes a quarter of the contact reach from where the
     // contact ghosts were last gathered (time to gather them again) and half the reach (too
     // late: Solver::step). Prescribed nodes count before their prescription below.
-    const bool reach_check = s.halo_ && s.contacts.enabled() && s.dd_.reach > 0;
-    integrate_nodes(dt, reach_check ? plan_x_.data() : nullptr, s.dd_.reach);
+    const bool reach_check = s.layout.halo && s.contacts.enabled() && s.layout.dd.reach > 0;
+    integrate_nodes(dt, reach_check ? plan_x_.data() : nullptr, s.layout.dd.reach);
     t0 = lap(t0, t_.integrate);
-    if (s.halo_) halo_update(s);  // ghosts take their owners' new positions and velocities
-    new_powers(s.contacts.enabled(), s.scene_.confinement.enabled, s.scene_.has_gravity());
-    if (!s.dd_.distributed()) {  // read with the next evaluation's first copy
+    if (s.layout.halo) halo_update(s);  // ghosts take their owners' new positions and velocities
+    new_powers(s.contacts.enabled(), s.loads.confinement.enabled, s.loads.gravity.enabled);
+    if (!s.layout.dd.distributed()) {  // read with the next evaluation's first copy
       advance_pending_ = true;
       lap(t0, t_.energy);
       return false;
@@ -873,8 +834,8 @@ class DeviceLoopImpl final : public DeviceLoop {
     out = advance_sums(r.data());
     if (forces_pending_) {
       std::copy(r.begin(), r.begin() + kBad, waiting_.begin());
-      s.p_contact_ = r[kConPower];
-      if (s.scene_.confinement.enabled) s.p_pressure_ = r[kPressurePower];
+      s.energy.p_contact = r[kConPower];
+      if (s.loads.confinement.enabled) s.loads.confinement.power = r[kPressurePower];
     }
     out.n_more = int(out.more.size());
     reduction_values(out.more.data());
@@ -964,7 +925,7 @@ class DeviceLoopImpl final : public DeviceLoop {
   void complete_forces() {
     if (!elements_pending_) return;
     elements_pending_ = false;
-    const Solver& s = *solver_;
+    const LoopParts& s = p_;
     {  // the slots of the elements' sums and the activation's count (the last step's pass left
        // its own there): cleared; the sums add to them
       real* sums = sums_.data();
@@ -973,7 +934,7 @@ class DeviceLoopImpl final : public DeviceLoop {
         if (k == 0) sums[kAdded] = 0;
       });
     }
-    fused_pass<kComplete>(s.model_, s.lambda_, s.mu_, sums_.data());
+    fused_pass<kComplete>(s.model, s.laws.lambda, s.laws.mu, sums_.data());
     activate(s.contacts, int(dmg_.size()), false);
   }
 
@@ -988,10 +949,11 @@ class DeviceLoopImpl final : public DeviceLoop {
   }
 
  public:
-  MonitorSums measure_sums(const Solver& s) override {
+  MonitorSums measure_sums() override {
+    const LoopParts& s = p_;
     materialize();
     const auto t0 = now();
-    const Model& m = s.model_;
+    const Model& m = s.model;
     const Vec3* x = x_.data();
     const Vec3* v = v_.data();
     const Vec3* X = X_.data();
@@ -1019,7 +981,7 @@ class DeviceLoopImpl final : public DeviceLoop {
     const real* V0 = V0_.data();
     const real* eta = eta_.data();
     const std::uint8_t* mid = mid_third_.data();
-    const real lambda = s.lambda_, mu = s.mu_;
+    const real lambda = s.laws.lambda, mu = s.laws.mu;
     const auto te = Exec::template sum<3>(int(V0_.size()), [=] FDEM_LAMBDA(int t, real* acc) {
       if (!own_t[t]) return;
       Vec3 xe[4], ve[4], fe[4];
@@ -1038,7 +1000,7 @@ class DeviceLoopImpl final : public DeviceLoop {
     const Ce6Damage* st = dmg_.data();
     const Ce6Anchors* sl = slip_.data();
     const int* slot = ce6_slot_.data();
-    const Ce6Params p = s.ce6p_;
+    const Ce6Params p = s.laws.ce6;
     // In the model's CE6 order (the host's), so that the sums agree bit for bit.
     const auto ce = Exec::template sum<7>(int(dmg_.size()), [=] FDEM_LAMBDA(int c, real* acc) {
       const int i = slot ? slot[c] : c;
@@ -1062,18 +1024,16 @@ class DeviceLoopImpl final : public DeviceLoop {
     });
     out.cohesive_stored = ce[0], out.friction_stored = ce[1], out.damaged = ce[2], out.broken = ce[3];
     out.broken_I = ce[4], out.broken_II = ce[5], out.broken_mixed = ce[6];
-    if (s.scene_.platens.enabled) {
+    const PlatenLoad& platens = s.loads.platens;
+    if (platens.enabled) {
       const int* pn = platen_nodes_.data();
       const real* pk = platen_k_.data();
       const Vec3* anchor = anchor_.data();
-      const real ztop = s.top_z0_ - s.top_offset, zbot = s.bottom_z0_, mu_p = s.scene_.material.friction_platen;
+      const real ztop = platens.top_z0 - platens.top_offset, zbot = platens.bottom_z0, mu_p = platens.friction;
       out.platen_stored = Exec::template sum<1>(int(platen_nodes_.size()), [=] FDEM_LAMBDA(int i, real* acc) {
-        const int n = pn[i];
-        const bool near_top = x[n].z > 0.5 * (ztop + zbot);
-        Vec3 a = anchor[i];
-        acc[0] += platen_node_force(x[n] - Vec3{0, 0, near_top ? ztop : zbot}, Vec3{0, 0, near_top ? -1.0 : 1.0}, pk[i],
-                                    mu_p, a)
-                      .stored;
+        Vec3 a = anchor[i];  // measuring must not move the anchor
+        bool near_top = false;
+        acc[0] += nearer_platen_force(x[pn[i]], ztop, zbot, pk[i], mu_p, a, near_top).stored;
       })[0];
     }
     if (s.contacts.enabled()) {
@@ -1468,9 +1428,9 @@ class DeviceLoopImpl final : public DeviceLoop {
   /// f(the loop's array, the ContactSet's vector) for each contact array both hold.
   template <class Set, class F>
   void contact_arrays(Set& c, F&& f) {
-    f(pairs_, c.pairs_), f(spring_, c.spring), f(eval_, c.eval_), f(pair_force_, c.pair_force_);
-    f(gather_node_, c.gather_node_), f(gather_ptr_, c.gather_ptr_), f(gather_slot_, c.gather_slot_);
-    f(watch_nodes_, c.watch_nodes_), f(watch_x_, c.watch_x_);
+    f(pairs_, c.pairs), f(spring_, c.spring), f(eval_, c.eval), f(pair_force_, c.pair_force);
+    f(gather_node_, c.gather_node), f(gather_ptr_, c.gather_ptr), f(gather_slot_, c.gather_slot);
+    f(watch_nodes_, c.watch_nodes), f(watch_x_, c.watch_x);
   }
 
   /// Cpu backend: the contact pass updates each pair's spring where it reads it (next_spring_
@@ -1527,7 +1487,7 @@ class DeviceLoopImpl final : public DeviceLoop {
     const int* wn = watch_nodes_.data();
     const Vec3* wx = watch_x_.data();
     const Vec3* x = x_.data();
-    const real lim2 = 0.25 * cs.buffer_ * cs.buffer_;
+    const real lim2 = 0.25 * cs.buffer() * cs.buffer();
     static_assert(kMoved == kAdded + 1, "the activation's and the watch's counts");
     Exec::template sum_to<2>(
         flags + nw,
@@ -1572,413 +1532,38 @@ class DeviceLoopImpl final : public DeviceLoop {
   /// test_broad_phase holds to a brute-force search: bounds, count, scan, fill, sort, runs, pair
   /// test), with the filters (a joining CE6, shared nodes), springs carried over by (a, b), the
   /// gather index and the watch list. Only counts come back to the host.
-  void rebuild_pairs(Solver& s) {
-    using namespace device_build;
+  void rebuild_pairs(const LoopParts& s) {
     ContactSet& cs = s.contacts;
     contact_apart_for_rebuild();
-    // Pairs in global order: a is the tet of lower global id, sorted by
-    // the global ids of (a, b) (the local ids after a growth of the contact ghosts are not).
-    const long* tg = tet_global_.size() > 0 ? tet_global_.data() : nullptr;
-    auto gid = [=] FDEM_LAMBDA(int t) -> long { return tg ? tg[t] : long(t); };
-    const int nt = int(V0_.size()), nn = int(x_.size());
-    const Vec3* x = x_.data();
-    const int* tn = tet_nodes_.data();
-    const std::uint8_t* active = active_.data();
-
-    // Active tets, ascending.
-    flags_.resize(std::max(nt, nn));
-    offsets_.resize(std::max(nt, nn));
-    long* fl = flags_.data();
-    long* of = offsets_.data();
-    Exec::forall(nt, [=] FDEM_LAMBDA(int t) { fl[t] = active[t] == 1; });
-    const int na = int(Exec::scan(nt, fl, of));
-    ids_.resize(na);
-    int* ids = ids_.data();
-    Exec::forall(nt, [=] FDEM_LAMBDA(int t) {
-      if (active[t] == 1) ids[of[t]] = t;
-    });
-
-    const std::uint8_t* own_n = own_node_.data();
-    const bool all_owned = !s.dd_.distributed();
-
-    // Boxes inflated by half the buffer.
-    boxes_.resize(na);
-    Aabb* boxes = boxes_.data();
-    const real half = 0.5 * cs.buffer_;
-    Exec::forall(na, [=] FDEM_LAMBDA(int k) {
-      const int* q = tn + 4 * ids[k];
-      Aabb b{x[q[0]], x[q[0]]};
-      for (int i = 1; i < 4; ++i)
-        for (int d = 0; d < 3; ++d) {
-          b.lo[d] = x[q[i]][d] < b.lo[d] ? x[q[i]][d] : b.lo[d];
-          b.hi[d] = x[q[i]][d] > b.hi[d] ? x[q[i]][d] : b.hi[d];
-        }
-      for (int d = 0; d < 3; ++d) b.lo[d] -= half, b.hi[d] += half;
-      boxes[k] = b;
-    });
-
-    long entries = 0, tested = 0, npairs = 0;
-    real cell = 0;
-    if (na > 0) {
-      const auto mx = Exec::template max<6>(na, [=] FDEM_LAMBDA(int k, real* acc) {
-        const Aabb& b = boxes[k];
-        for (int d = 0; d < 3; ++d) {
-          acc[d] = -b.lo[d] > acc[d] ? -b.lo[d] : acc[d];
-          acc[3 + d] = b.hi[d] > acc[3 + d] ? b.hi[d] : acc[3 + d];
-        }
-      });
-      const auto ex = Exec::template sum<2>(na, [=] FDEM_LAMBDA(int k, real* acc) {
-        const Aabb& b = boxes[k];
-        real e = max3(b.hi.x - b.lo.x, b.hi.y - b.lo.y, b.hi.z - b.lo.z);
-        acc[0] += e > 0 ? e : 0;
-        for (int d = 0; d < 3; ++d) acc[1] += !(finite_value(b.lo[d]) && finite_value(b.hi[d]));
-      });
-      if (ex[1] > 0) throw RunError("contact broad phase: a box has a non-finite coordinate (the run is unstable)");
-      Grid grid{{-mx[0], -mx[1], -mx[2]}, 0};
-      const real span = std::max({mx[3] + mx[0], mx[4] + mx[1], mx[5] + mx[2], real(0)});
-      cell = 2 * ex[0] / na;
-      if (!(cell > 0)) cell = span > 0 ? 1e-6 * span : 1;
-      grid.cell = cell;
-
-      // Cells per box; the cell grows until the boxes cover at most 64 cells each on average.
-      const long budget = 64L * na;
-      counts_.resize(na);
-      long* counts = counts_.data();
-      for (;;) {
-        while (span / grid.cell > std::ldexp(1.0, 50)) grid.cell *= 2;
-        const Grid g = grid;
-        const real total = Exec::template sum<1>(na, [=] FDEM_LAMBDA(int k, real* acc) {
-          counts[k] = g.cells_of(boxes[k], budget);
-          acc[0] += real(counts[k]);
-        })[0];
-        if (total <= real(budget)) break;
-        grid.cell *= 2;
-      }
-      cell = grid.cell;
-      entry_offsets_.resize(na);
-      long* eo = entry_offsets_.data();
-      entries = Exec::scan(na, counts, eo);
-      entries_.resize(entries);
-      BinEntry* en = entries_.data();
-      const Grid g = grid;
-      Exec::forall(na, [=] FDEM_LAMBDA(int k) {
-        const Aabb& b = boxes[k];
-        const std::int64_t lx = g.index(b.lo.x, 0), ly = g.index(b.lo.y, 1), lz = g.index(b.lo.z, 2);
-        const std::int64_t hx = g.index(b.hi.x, 0), hy = g.index(b.hi.y, 1), hz = g.index(b.hi.z, 2);
-        long w = eo[k];
-        for (std::int64_t ix = lx; ix <= hx; ++ix)
-          for (std::int64_t iy = ly; iy <= hy; ++iy)
-            for (std::int64_t iz = lz; iz <= hz; ++iz) en[w++] = BinEntry{ix, iy, iz, k};
-      });
-      Exec::sort(en, entries, [] FDEM_LAMBDA(const BinEntry& a, const BinEntry& b) {
-        if (a.ix != b.ix) return a.ix < b.ix;
-        if (a.iy != b.iy) return a.iy < b.iy;
-        if (a.iz != b.iz) return a.iz < b.iz;
-        return a.box < b.box;
-      });
-
-      // Runs of one cell: flag the first entry of each, scan, scatter the starts.
-      head_.resize(entries);
-      head_offsets_.resize(entries);
-      long* hd = head_.data();
-      long* ho = head_offsets_.data();
-      Exec::forall(int(entries), [=] FDEM_LAMBDA(int k) {
-        hd[k] = k == 0 || en[k - 1].ix != en[k].ix || en[k - 1].iy != en[k].iy || en[k - 1].iz != en[k].iz;
-      });
-      const long cells = Exec::scan(entries, hd, ho);
-      cell_start_.resize(cells + 1);
-      long* cst = cell_start_.data();
-      const long total_entries = entries;
-      Exec::forall(int(entries), [=] FDEM_LAMBDA(int k) {
-        if (hd[k]) cst[ho[k]] = k;
-        if (k == 0) cst[cells] = total_entries;
-      });
-
-      // Pair test per cell, twice: count, then write at the scanned offsets. A pair is kept by
-      // the cell of the low corner of the two boxes' intersection, once; pairs sharing a node
-      // are dropped unless a CE6 joins them.
-      const int* tce = tet_ce6_.data();
-      const int* cet = ce6_tets_.data();
-      auto test = [=] FDEM_LAMBDA(long c, ContactPair* out, long* tested_out) -> long {
-        const long b0 = cst[c], e0 = cst[c + 1];
-        const BinEntry key = en[b0];
-        long kept = 0, seen = 0;
-        for (long j = b0; j < e0; ++j) {
-          const Aabb& ba = boxes[en[j].box];
-          for (long k = j + 1; k < e0; ++k) {
-            const Aabb& bb = boxes[en[k].box];
-            ++seen;
-            if (!boxes_overlap(ba, bb)) continue;
-            if (g.index(ba.lo.x > bb.lo.x ? ba.lo.x : bb.lo.x, 0) != key.ix ||
-                g.index(ba.lo.y > bb.lo.y ? ba.lo.y : bb.lo.y, 1) != key.iy ||
-                g.index(ba.lo.z > bb.lo.z ? ba.lo.z : bb.lo.z, 2) != key.iz)
-              continue;
-            int ta = ids[en[j].box], tb = ids[en[k].box];
-            if (gid(ta) > gid(tb)) {
-              const int t = ta;
-              ta = tb, tb = t;
-            }
-            int joint = -1;
-            for (int i = 0; i < 4; ++i) {
-              const int ce = tce[4 * ta + i];
-              if (ce >= 0 && (cet[2 * ce] == tb || cet[2 * ce + 1] == tb)) joint = ce;
-            }
-            if (joint < 0) {
-              bool share = false;
-              for (int i = 0; i < 4; ++i)
-                for (int l = 0; l < 4; ++l) share = share || tn[4 * ta + i] == tn[4 * tb + l];
-              if (share) continue;
-            }
-            if (!all_owned) {  // a pair acting on no owned node does not matter on this rank
-              bool any = false;
-              for (int i = 0; i < 4; ++i) any = any || own_n[tn[4 * ta + i]] || own_n[tn[4 * tb + i]];
-              if (!any) continue;
-            }
-            if (out) out[kept] = ContactPair{ta, tb, joint};
-            ++kept;
-          }
-        }
-        if (tested_out) *tested_out = seen;
-        return kept;
-      };
-      cell_counts_.resize(cells);
-      cell_offsets_.resize(cells);
-      long* cc = cell_counts_.data();
-      long* co = cell_offsets_.data();
-      tested = long(Exec::template sum<1>(int(cells), [=] FDEM_LAMBDA(int c, real* acc) {
-        long seen = 0;
-        cc[c] = test(c, nullptr, &seen);
-        acc[0] += real(seen);
-      })[0]);
-      npairs = Exec::scan(cells, cc, co);
-      next_pairs_.resize(npairs);
-      ContactPair* np = next_pairs_.data();
-      Exec::forall(int(cells), [=] FDEM_LAMBDA(int c) { test(c, np + co[c], nullptr); });
-      Exec::sort(np, npairs, [=] FDEM_LAMBDA(const ContactPair& a, const ContactPair& b) {
-        return gid(a.a) != gid(b.a) ? gid(a.a) < gid(b.a) : gid(a.b) < gid(b.b);
-      });
-    } else {
-      next_pairs_.resize(0);
-    }
-
-    // Friction springs carry over to the pairs that stay (both lists in that order).
-    next_spring_.resize(npairs);
-    {
-      const ContactPair* oldp = pairs_.data();
-      const Vec3* olds = spring_.data();
-      const long nold = long(pairs_.size());
-      const ContactPair* np = next_pairs_.data();
-      Vec3* ns = next_spring_.data();
-      Exec::forall(int(npairs), [=] FDEM_LAMBDA(int i) {
-        long lo = 0, hi = nold;
-        while (lo < hi) {
-          const long mid = (lo + hi) / 2;
-          const bool less =
-              gid(oldp[mid].a) != gid(np[i].a) ? gid(oldp[mid].a) < gid(np[i].a) : gid(oldp[mid].b) < gid(np[i].b);
-          if (less)
-            lo = mid + 1;
-          else
-            hi = mid;
-        }
-        ns[i] = lo < nold && oldp[lo].a == np[i].a && oldp[lo].b == np[i].b ? olds[lo] : Vec3{0, 0, 0};
-      });
-    }
+    CandidateInputs in;
+    in.tets = int(V0_.size()), in.nodes = int(x_.size());
+    in.x = x_.data(), in.tet_nodes = tet_nodes_.data(), in.active = active_.data();
+    in.tet_global = tet_global_.size() > 0 ? tet_global_.data() : nullptr;
+    in.own_node = s.layout.distributed() ? own_node_.data() : nullptr;
+    in.tet_ce6 = tet_ce6_.data(), in.ce6_tets = ce6_tets_.data(), in.buffer = cs.buffer();
+    const BroadPhaseStats st = candidates_.find_pairs(in, next_pairs_);
+    candidates_.carry_springs(in, pairs_, spring_, next_pairs_, next_spring_);
     const long grown_before = pairs_.times_grown() + pair_force_.times_grown();
     std::swap(pairs_, next_pairs_);
     std::swap(spring_, next_spring_);
-    eval_.resize(npairs);
-    pair_force_.resize(8 * npairs);
+    eval_.resize(st.pairs);
+    pair_force_.resize(8 * st.pairs);
     t_.pair_growth += pairs_.times_grown() + pair_force_.times_grown() - grown_before;
-
-    // Gather index: (node, slot) records sorted by node then slot; runs per node.
-    const long nslots = 8 * npairs;
-    node_slots_.resize(nslots);
-    NodeSlot* rec = node_slots_.data();
-    const ContactPair* pp = pairs_.data();
-    Exec::forall(int(npairs), [=] FDEM_LAMBDA(int p) {
-      for (int i = 0; i < 4; ++i) {
-        rec[8 * p + i] = NodeSlot{tn[4 * pp[p].a + i], 8 * p + i};
-        rec[8 * p + 4 + i] = NodeSlot{tn[4 * pp[p].b + i], 8 * p + 4 + i};
-      }
-    });
-    Exec::sort(rec, nslots, [] FDEM_LAMBDA(const NodeSlot& a, const NodeSlot& b) {
-      return a.node != b.node ? a.node < b.node : a.slot < b.slot;
-    });
-    head_.resize(nslots);
-    head_offsets_.resize(nslots);
-    long* hd = head_.data();
-    long* ho = head_offsets_.data();
-    Exec::forall(int(nslots), [=] FDEM_LAMBDA(int k) { hd[k] = k == 0 || rec[k - 1].node != rec[k].node; });
-    const long ng = Exec::scan(nslots, hd, ho);
-    gather_node_.resize(ng);
-    gather_ptr_.resize(nslots > 0 ? ng + 1 : 1);
-    gather_slot_.resize(nslots);
-    int* gn = gather_node_.data();
-    int* gp = gather_ptr_.data();
-    int* gs = gather_slot_.data();
-    Exec::forall(int(nslots), [=] FDEM_LAMBDA(int k) {
-      if (hd[k]) gn[ho[k]] = rec[k].node, gp[ho[k]] = k;
-      gs[k] = rec[k].slot;
-    });
-    Exec::forall(1, [=] FDEM_LAMBDA(int) { gp[ng] = int(nslots); });
-
-    // Watch list: the nodes of the active tets (ascending) and their positions now.
-    Exec::forall(nn, [=] FDEM_LAMBDA(int n) { fl[n] = 0; });
-    Exec::forall(na, [=] FDEM_LAMBDA(int k) {
-      for (int i = 0; i < 4; ++i) raise_flag(fl + tn[4 * ids[k] + i]);  // (a node two active tets share)
-    });
-    const long nw = Exec::scan(nn, fl, of);
-    watch_nodes_.resize(nw);
-    watch_x_.resize(nw);
-    int* wn = watch_nodes_.data();
-    Vec3* wx = watch_x_.data();
-    Exec::forall(nn, [=] FDEM_LAMBDA(int n) {
-      if (fl[n]) wn[of[n]] = n, wx[of[n]] = x[n];
-    });
-
-    cs.dirty_ = false;
+    candidates_.gather_index(in, pairs_, gather_node_, gather_ptr_, gather_slot_);
+    candidates_.watch_list(in, watch_nodes_, watch_x_);
+    cs.rebuild_due = false;
     ++cs.times.rebuilds;
-    cs.stats_ = BroadPhaseStats{na, entries, tested, npairs, cell};
+    cs.last_build = st;
     pairs_on_host_ = false;
-    // The cpu backend gives the build's scratch back, as host code's locals would: its memory
-    // counts against the run's. A GPU keeps it, since an allocation there waits for the device.
-    if (b_ == Backend::cpu) {
-      auto release = [](auto&... a) { (a.release(), ...); };
-      release(flags_, offsets_, counts_, entry_offsets_, head_, head_offsets_, cell_start_, cell_counts_, cell_offsets_,
-              ids_, boxes_, entries_, node_slots_, next_pairs_);
+    if (b_ == Backend::cpu) {  // (CandidateBuild::release_scratch)
+      candidates_.release_scratch();
+      next_pairs_.release();
       contact_in_place(cs);
     }
   }
 
-  /// Several ranks: the halo's packed layout (partition/halo.hpp) as device index lists.
-  void plan_halo(const Solver& s) {
-    const Halo& h = *s.halo_;
-    std::vector<int> ft;
-    for (const Neighbour& nb : s.dd_.neighbours)
-      for (int t : nb.shared_tets) ft.push_back(t);
-    halo_flag_tet_.upload(ft);
-    flag_send_.resize(h.flag_size());
-    flag_recv_.resize(h.flag_size());
-    host_fsend_.resize(h.flag_size());  // also with direct MPI: the merged flags for the node lists
-    host_frecv_.resize(h.flag_size());
-    shared_active_ = -1;
-    plan_node_lists(s);
-  }
-
-  /// The node lists (they grow as tets activate, Halo::follow_flags) as device index lists.
-  void plan_node_lists(const Solver& s) {
-    const Halo& h = *s.halo_;
-    std::vector<int> sn, sx, sv, rn, rx, rv;
-    recv_range_.assign(1, 0);
-    for (std::size_t i = 0; i < h.neighbours(); ++i) {
-      const auto& a = h.send_nodes(i);
-      for (std::size_t j = 0; j < a.size(); ++j) sn.push_back(a[j]), sx.push_back(int(h.send_offset(i) + j));
-      const auto& b = h.recv_nodes(i);
-      for (std::size_t j = 0; j < b.size(); ++j) rn.push_back(b[j]), rx.push_back(int(h.recv_offset(i) + j));
-      // The v of a neighbour's nodes follow their x: offset + count.
-      for (std::size_t j = 0; j < a.size(); ++j) sv.push_back(int(h.send_offset(i) + a.size() + j));
-      for (std::size_t j = 0; j < b.size(); ++j) rv.push_back(int(h.recv_offset(i) + b.size() + j));
-      recv_range_.push_back(int(rn.size()));
-    }
-    halo_send_node_.upload(sn);
-    halo_send_x_.upload(sx);
-    halo_send_v_.upload(sv);
-    halo_recv_node_.upload(rn);
-    halo_recv_x_.upload(rx);
-    halo_recv_v_.upload(rv);
-    halo_send_.resize(h.send_size());
-    halo_recv_.resize(h.recv_size());
-    if (!direct_mpi_) {
-      host_send_.resize(h.send_size());
-      host_recv_.resize(h.recv_size());
-    }
-  }
-
-  /// Ghost nodes take their owners' x and v: packed on the device, handed to MPI (device buffers
-  /// with GPU-aware MPI, else staged through the host), unpacked on the device. With `only`:
-  /// the neighbours i with only[i] set (Halo::exchange_nodes).
-  void halo_update(Solver& s, const std::vector<char>* only = nullptr) {
-    const double w0 = MPI_Wtime();
-    const Vec3* x = x_.data();
-    const Vec3* v = v_.data();
-    Vec3* buf = halo_send_.data();
-    const int* sn = halo_send_node_.data();
-    const int* sx = halo_send_x_.data();
-    const int* sv = halo_send_v_.data();
-    Exec::forall(int(halo_send_node_.size()), [=] FDEM_LAMBDA(int j) {
-      buf[sx[j]] = x[sn[j]];
-      buf[sv[j]] = v[sn[j]];
-    });
-    if (direct_mpi_) {
-      Exec::synchronize();  // the packing kernel has finished before MPI reads the buffer
-      s.halo_->exchange_nodes(halo_send_.data(), halo_recv_.data(), only);
-    } else {
-      halo_send_.download(host_send_.data());
-      s.halo_->exchange_nodes(host_send_.data(), host_recv_.data(), only);
-      halo_recv_.upload(host_recv_.data(), host_recv_.size());
-    }
-    if (!only) {
-      unpack_halo(0, recv_range_.back());
-    } else {
-      for (std::size_t i = 0; i + 1 < recv_range_.size(); ++i)
-        if ((*only)[i]) unpack_halo(recv_range_[i], recv_range_[i + 1]);
-    }
-    s.halo_seconds_ += MPI_Wtime() - w0;
-  }
-
-  /// Entries first .. last-1 of the receive index lists: ghost x and v from the receive buffer.
-  void unpack_halo(int first, int last) {
-    Vec3* xw = x_.data();
-    Vec3* vw = v_.data();
-    const Vec3* in = halo_recv_.data();
-    const int* rn = halo_recv_node_.data();
-    const int* rx = halo_recv_x_.data();
-    const int* rv = halo_recv_v_.data();
-    Exec::forall(last - first, [=] FDEM_LAMBDA(int k) {
-      const int j = first + k;
-      xw[rn[j]] = in[rx[j]];
-      vw[rn[j]] = in[rv[j]];
-    });
-  }
-
-  /// Activation flags OR-ed among the ranks holding a tet; true when one was raised here.
-  /// When the shared tets' active flags changed, the node lists follow them and the new
-  /// ghosts are refreshed from their owners at once (Halo::follow_flags).
-  bool merge_flags(Solver& s) {
-    const std::uint8_t* active = active_.data();
-    std::uint8_t* out = flag_send_.data();
-    const int* ft = halo_flag_tet_.data();
-    const int nf = int(halo_flag_tet_.size());
-    Exec::forall(nf, [=] FDEM_LAMBDA(int j) { out[j] = active[ft[j]]; });
-    if (direct_mpi_) {
-      Exec::synchronize();
-      s.halo_->exchange_flags(flag_send_.data(), flag_recv_.data());
-    } else {
-      flag_send_.download(host_fsend_.data());
-      s.halo_->exchange_flags(host_fsend_.data(), host_frecv_.data());
-      flag_recv_.upload(host_frecv_.data(), host_frecv_.size());
-    }
-    std::uint8_t* aw = active_.data();
-    const std::uint8_t* in = flag_recv_.data();
-    const std::uint8_t* mine = flag_send_.data();
-    const std::array<real, 2> r = Exec::template sum<2>(nf, [=] FDEM_LAMBDA(int j, real* acc) {
-      if (in[j] == 1 && raise_flag(aw + ft[j])) acc[0] += 1;  // (a tet listed for two ranks: raised once)
-      acc[1] += in[j] == 1 || mine[j] == 1;
-    });
-    if (long(r[1]) != shared_active_) {  // flags only rise: an unchanged count is an unchanged set
-      shared_active_ = long(r[1]);
-      if (direct_mpi_) {
-        flag_send_.download(host_fsend_.data());
-        flag_recv_.download(host_frecv_.data());
-      }
-      s.halo_->follow_flags(host_fsend_.data(), host_frecv_.data());
-      if (!s.halo_->grown().empty()) {
-        plan_node_lists(s);
-        halo_update(s, &s.halo_->grown());
-      }
-    }
-    return r[0] > 0;
-  }
+  /// Several ranks: ghost nodes take their owners' x and v (HaloPasses::update_nodes).
+  void halo_update(const LoopParts& s) { halo_.update_nodes(*s.layout.halo, x_, v_, s.layout.halo_seconds); }
 
   /// Contact on the candidate list: one launch per pair (the narrow phase, friction, the pair's
   /// forces written once, and their power with the velocities now; its sums to kTouching to
@@ -1987,7 +1572,7 @@ class DeviceLoopImpl final : public DeviceLoop {
   /// platens' launch instead: compute_forces). The springs are read from spring_ and written to
   /// next_spring_, which becomes the state when the caller swaps them: a pass queued ahead of a
   /// rebuild (compute_forces) leaves the springs the rebuild carries over untouched.
-  void contact_pairs(const Solver& s, Clock::time_point& t0, bool gather) {
+  void contact_pairs(const LoopParts& s, Clock::time_point& t0, bool gather) {
     const ContactSet& cs = s.contacts;
     const int np = int(pairs_.size());
     next_spring_.resize(np);
@@ -2006,7 +1591,7 @@ class DeviceLoopImpl final : public DeviceLoop {
     Vec3* pf = pair_force_.data();
     const Vec3* spring_in = spring_.data();
     Vec3* spring_out = next_spring_.data();
-    const real P = cs.penalty_, mu_rock = cs.mu_, dt = s.dt_;
+    const real P = cs.penalty(), mu_rock = cs.friction(), dt = s.dt;
     static_assert(kConDiss == kTouching + 1 && kConStored == kTouching + 2 && kConPower == kTouching + 3,
                   "the contact pass's sums");
     Exec::template sum_to<4>(
@@ -2072,7 +1657,7 @@ class DeviceLoopImpl final : public DeviceLoop {
   /// The powers of the last contact pair forces (-sum f.v, ContactSet::power) and confining
   /// pressure forces with the velocities now, added to kConPowerNew and kPressurePowerNew in
   /// one launch (the pairs, then the faces); with `watch`, the broad phase's watch too (the
-  /// watched nodes after them: those that moved half of watch->buffer_ since the list was
+  /// watched nodes after them: those that moved half of watch->buffer() since the list was
   /// built, counted into kWatched; where the fused pass steps, this saves the watch a launch).
   void contact_pressure_powers(bool contact, bool pressure, const ContactSet* watch = nullptr) {
     const int np = contact ? int(pairs_.size()) : 0, nf = pressure ? int(lat_force_.size()) : 0;
@@ -2080,7 +1665,7 @@ class DeviceLoopImpl final : public DeviceLoop {
     const int* wn = watch_nodes_.data();
     const Vec3* wx = watch_x_.data();
     const Vec3* x = x_.data();
-    const real lim2 = watch ? 0.25 * watch->buffer_ * watch->buffer_ : 0;
+    const real lim2 = watch ? 0.25 * watch->buffer() * watch->buffer() : 0;
     const Vec3* v = v_.data();
     const int* tn = tet_nodes_.data();
     const ContactPair* pairs = pairs_.data();
@@ -2116,6 +1701,7 @@ class DeviceLoopImpl final : public DeviceLoop {
   }
 
  private:
+  LoopParts p_;  // the run the loop steps
   Backend b_;
   bool constants_ = false, timing_ = false;
   // The last force evaluation's scalars are in sums_ [0, kBad) and not yet in the Solver.
@@ -2123,26 +1709,15 @@ class DeviceLoopImpl final : public DeviceLoop {
   // One rank: a step's integration sums are on the device, its bookkeeping not yet done.
   bool advance_pending_ = false;
   bool pairs_on_host_ = true;  // the host ContactSet holds the current pair list and indices
-  // The broad phase's scratch arrays (kept between builds, so they are allocated once).
+  // The candidate list's build (its scratch kept between builds on a GPU) and what it reads.
+  CandidateBuild<Exec> candidates_;
   DeviceArray<long> tet_global_;  // several ranks with contact: pairs in global order (rebuild_pairs)
-  DeviceArray<long> flags_, offsets_, counts_, entry_offsets_, head_, head_offsets_, cell_start_, cell_counts_,
-      cell_offsets_;
-  DeviceArray<int> ids_, tet_ce6_, ce6_tets_;
-  DeviceArray<Aabb> boxes_;
-  DeviceArray<device_build::BinEntry> entries_;
-  DeviceArray<device_build::NodeSlot> node_slots_;
-  // Several ranks: the halo's packed buffers and their index lists (plan_halo), host staging.
-  DeviceArray<int> halo_send_node_, halo_send_x_, halo_send_v_, halo_recv_node_, halo_recv_x_, halo_recv_v_,
-      halo_flag_tet_;
-  DeviceArray<Vec3> halo_send_, halo_recv_;
-  DeviceArray<std::uint8_t> flag_send_, flag_recv_;
-  std::vector<Vec3> host_send_, host_recv_;            // staging (empty when direct_mpi_)
-  std::vector<std::uint8_t> host_fsend_, host_frecv_;  // staging, and the merged flags for the lists
-  bool direct_mpi_;              // device buffers straight to MPI (partition/halo.hpp), fixed at construction
-  std::vector<int> recv_range_;  // neighbour i's entries of the receive index lists: [i], [i+1]
-  long shared_active_ = -1;      // active flags among the shared tets at the last merge
-  bool flags_merged_ = false;    // false from an upload of the host's flags to the next merge
-  bool merge_wanted_ = false;    // several ranks: a rank raised a flag (the step's reduction said)
+  DeviceArray<int> tet_ce6_, ce6_tets_;
+  // Several ranks: the halo exchanges (HaloPasses).
+  HaloPasses<Exec> halo_;
+  bool direct_mpi_;            // device buffers straight to MPI (partition/halo.hpp), fixed at construction
+  bool flags_merged_ = false;  // false from an upload of the host's flags to the next merge
+  bool merge_wanted_ = false;  // several ranks: a rank raised a flag (the step's reduction said)
   // Several ranks: the last force evaluation's sums on this rank, read with the integration's and
   // waiting for the step's reduction (take_reduced); on the hydrostatic path, its platen
   // reactions summed over the ranks (compute_forces).
@@ -2190,8 +1765,7 @@ class DeviceLoopImpl final : public DeviceLoop {
   // list (lateral_of_; lat_force_ by lat_ptr_), read only for the tets flagged in ext_tet_
   // (bit 0: a node in the gather list, bit 1: on a platen or a lateral face; ext_static_).
   bool step_pending_ = false, step_contact_ = false, step_pressure_ = false, elements_pending_ = false;
-  const Solver* solver_ = nullptr;  // the last upload's
-  long ext_nodes_ = 0;              // nodes of the tets ext_static_ flags (the traffic model)
+  long ext_nodes_ = 0;  // nodes of the tets ext_static_ flags (the traffic model)
   real step_dt_ = 0;
   DeviceArray<Vec3> x2_, v2_, contact_sum_, platen_force_;
   DeviceArray<int> fixed_of_, gather_of_, platen_of_, lateral_of_;

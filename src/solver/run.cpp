@@ -417,7 +417,7 @@ RunSession::RunSession(Solver& solver, std::ostream& log, const RunOptions& opti
   t0_ = std::chrono::steady_clock::now();
   next_progress_ = out_.progress_interval;
   first_step_ = solver_.step_count();
-  progress0_ = end_progress(end_, first_step_, solver_.time(), solver_.top_offset / solver_.model().height0,
+  progress0_ = end_progress(end_, first_step_, solver_.time(), solver_.platen_travel() / solver_.model().height0,
                             sum_.peak_stress, mon_.axial_stress);
   growths_seen_ = solver_.ghost_growths();
 }
@@ -431,7 +431,7 @@ bool RunSession::all_ranks(bool ok) const {
 
 std::string RunSession::end_reason(bool monitor_now) const {
   const long n = solver_.step_count();
-  const real strain = solver_.top_offset / solver_.model().height0;
+  const real strain = solver_.platen_travel() / solver_.model().height0;
   std::string reason;
   if (end_.steps > 0 && n >= end_.steps) reason = "step count " + std::to_string(end_.steps) + " reached";
   if (end_.time > 0 && solver_.time() >= end_.time) reason = "end time reached";
@@ -701,7 +701,7 @@ void RunSession::progress(const std::string& reason) {
   const real wall = elapsed();
   if (reason.empty() && !(out_.progress_interval > 0 && wall >= next_progress_)) return;
   const long n = solver_.step_count();
-  const real strain = solver_.top_offset / solver_.model().height0;
+  const real strain = solver_.platen_travel() / solver_.model().height0;
   const real done = end_progress(end_, n, solver_.time(), strain, sum_.peak_stress, mon_.axial_stress) - progress0_;
   const real rate = (n - first_step_) / std::max(wall, real(1e-9));
   char line[256];

@@ -355,7 +355,7 @@ TEST(Ranks, ContactPairAcrossRanksGivesOneRankForces) {
     touching_d = std::max(touching_d, md.contacts);
   }
   // Candidate pairs with one tet here and one on another rank.
-  for (const ContactPair& p : d->contacts.pairs()) across += d->owned_tets()[p.a] != d->owned_tets()[p.b];
+  for (const ContactPair& p : d->contacts.pairs) across += d->owned_tets()[p.a] != d->owned_tets()[p.b];
   across = sum_over_ranks(across);
   if (world_size() > 1) {
     EXPECT_GT(across, 0);

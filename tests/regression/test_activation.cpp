@@ -45,7 +45,7 @@ Outcome run(const std::string& activation) {
     for (const auto& q : m.tet_nodes) at_ends += end_node[q[0]] || end_node[q[1]] || end_node[q[2]] || end_node[q[3]];
     EXPECT_EQ(row.active_tets, at_ends);
   }
-  while (s.top_offset / s.model().height0 < 0.006) {
+  while (s.platen_travel() / s.model().height0 < 0.006) {
     s.step();
     if (s.step_count() % 50) continue;
     row = s.measure();

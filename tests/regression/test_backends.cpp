@@ -96,18 +96,18 @@ TEST_P(DebugSchedule, FracturingBoxWithContactAndPressureMatchesCpu) {
     }
   }
   EXPECT_GT(anchored, ra.broken) << "damaged CE6s that did not break keep anchors too";
-  EXPECT_EQ(cpu->contacts.active(), dbg->contacts.active());
+  EXPECT_EQ(cpu->contacts.active, dbg->contacts.active);
   // Exactly the tets around the broken CE6s and at the loaded ends (the device raises each flag
   // once, raise_flag, whichever broken CE6s share it).
   const std::vector<std::uint8_t> expected = flags_from_breaks(*dbg);
-  EXPECT_EQ(expected, dbg->contacts.active());
+  EXPECT_EQ(expected, dbg->contacts.active);
   EXPECT_GT(std::count(expected.begin(), expected.end(), 1),
             backend_solver(backend_fracture_scene("cpu"))->contacts.active_count())
       << "the breaks should activate tets beyond the loaded ends";
   // The candidate lists built on the device (broad phase, filters, order) are the host's.
   ASSERT_EQ(cpu->contacts.pair_count(), dbg->contacts.pair_count());
   for (long k = 0; k < cpu->contacts.pair_count(); ++k) {
-    const ContactPair &p = cpu->contacts.pairs()[k], &q = dbg->contacts.pairs()[k];
+    const ContactPair &p = cpu->contacts.pairs[k], &q = dbg->contacts.pairs[k];
     ASSERT_TRUE(p.a == q.a && p.b == q.b && p.joint == q.joint) << "pair " << k;
   }
   EXPECT_TRUE(same_bits(cpu->contacts.spring, dbg->contacts.spring));
@@ -219,18 +219,18 @@ TEST(DebugBackend, AStepLeftToTheFusedPassIsDoneWhenTheStateIsRead) {
   ASSERT_TRUE(stepping->device_loop()->integrates());
   ASSERT_FALSE(plain->device_loop()->integrates());
   AdvanceSums a, b;
-  EXPECT_FALSE(stepping->device_loop()->advance(*stepping, stepping->dt(), a));
-  EXPECT_FALSE(plain->device_loop()->advance(*plain, plain->dt(), b));
-  stepping->device_loop()->download(*stepping);
-  plain->device_loop()->download(*plain);
+  EXPECT_FALSE(stepping->device_loop()->advance(stepping->dt(), a));
+  EXPECT_FALSE(plain->device_loop()->advance(plain->dt(), b));
+  stepping->device_loop()->download();
+  plain->device_loop()->download();
   EXPECT_TRUE(same_bits(stepping->x, plain->x))
       << "max relative difference " << max_rel_diff(stepping->x, plain->x, 1e-9);
   EXPECT_TRUE(same_bits(stepping->v, plain->v));
   EXPECT_TRUE(same_bits(stepping->f, plain->f));
   // The step's bookkeeping (the works of contact and pressure over it, with the velocities after
   // it) comes with the next force evaluation, as on a step of the solver.
-  stepping->device_loop()->compute_forces(*stepping);
-  plain->device_loop()->compute_forces(*plain);
+  stepping->device_loop()->compute_forces();
+  plain->device_loop()->compute_forces();
   for (int i = 0; i < 10; ++i) stepping->step(), plain->step();
   const Monitors ml = stepping->measure(), mp = plain->measure();
   EXPECT_GT(std::fabs(ml.external_work), 0);

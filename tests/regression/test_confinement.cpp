@@ -53,7 +53,7 @@ TEST(Confinement, HydrostaticPathThenHeldWhileTheAxialLoadGrows) {
   bool held = false;
   int hydro_rows = 0;
   Monitors row;
-  while (s.top_offset / s.model().height0 < 6e-4) {
+  while (s.platen_travel() / s.model().height0 < 6e-4) {
     s.step();
     if (s.step_count() % 50) continue;
     row = s.measure();

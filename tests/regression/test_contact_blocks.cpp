@@ -164,7 +164,7 @@ TEST(ContactBlocks, FrictionHistorySurvivesACandidateListRebuild) {
     if (!in_upper(m, n, 1)) s.prescribe(int(n), 7, {0, 0, 0});
   while (s.time() < 2e-4) s.step();
   s.sync_host();
-  const std::vector<ContactPair> pairs = s.contacts.pairs();
+  const std::vector<ContactPair> pairs = s.contacts.pairs;
   const std::vector<Vec3> springs = s.contacts.spring;
   real total = 0;
   for (const Vec3& u : springs) total += norm(u);
@@ -174,12 +174,12 @@ TEST(ContactBlocks, FrictionHistorySurvivesACandidateListRebuild) {
   s.step();
   s.sync_host();
   ASSERT_EQ(s.contacts.times.rebuilds, builds + 1);
-  ASSERT_EQ(s.contacts.pairs().size(), pairs.size());
+  ASSERT_EQ(s.contacts.pairs.size(), pairs.size());
   // One step later each spring has moved by at most |v| dt: nothing was reset.
   real change = 0, after = 0;
   for (std::size_t p = 0; p < pairs.size(); ++p) {
-    ASSERT_EQ(s.contacts.pairs()[p].a, pairs[p].a);
-    ASSERT_EQ(s.contacts.pairs()[p].b, pairs[p].b);
+    ASSERT_EQ(s.contacts.pairs[p].a, pairs[p].a);
+    ASSERT_EQ(s.contacts.pairs[p].b, pairs[p].b);
     change += norm(s.contacts.spring[p] - springs[p]);
     after += norm(s.contacts.spring[p]);
   }
@@ -204,7 +204,7 @@ TEST(ContactBlocks, CohesiveFacesOnARegionBorderAreCandidatesToo) {
     ++border;
     const int a = std::min(m.ce6_tets[c][0], m.ce6_tets[c][1]), b = std::max(m.ce6_tets[c][0], m.ce6_tets[c][1]);
     bool found = false;
-    for (const ContactPair& p : s.contacts.pairs()) found = found || (p.a == a && p.b == b && p.joint == int(c));
+    for (const ContactPair& p : s.contacts.pairs) found = found || (p.a == a && p.b == b && p.joint == int(c));
     EXPECT_TRUE(found) << "CE6 #" << c << " with " << shared << " shared node pair(s) has no contact pair";
   }
   EXPECT_GT(border, 0) << "the region border should hold CE6s with single-node pairs";
@@ -349,10 +349,10 @@ int shear_break_handover(const std::string& activation) {
   // The force a pair joined by CE6 c carried in the last evaluation (0 when no such pair).
   auto joint_force = [&](int c) {
     real sum = 0;
-    const auto& pairs = s.contacts.pairs();
+    const auto& pairs = s.contacts.pairs;
     for (std::size_t p = 0; p < pairs.size(); ++p)
       if (pairs[p].joint == c)
-        for (int i = 0; i < 8; ++i) sum += norm(s.contacts.pair_forces()[8 * p + i]);
+        for (int i = 0; i < 8; ++i) sum += norm(s.contacts.pair_force[8 * p + i]);
     return sum;
   };
   std::vector<char> broken(mid.size(), 0);

@@ -43,7 +43,7 @@ Outcome run(Solver& s, real strain, long max_steps, int every = 50) {
   Outcome o;
   try {
     o.last = s.measure();
-    while (s.step_count() < max_steps && (strain <= 0 || s.top_offset / s.model().height0 < strain)) {
+    while (s.step_count() < max_steps && (strain <= 0 || s.platen_travel() / s.model().height0 < strain)) {
       s.step();
       if (s.step_count() % every == 0) {
         o.last = s.measure();
@@ -399,7 +399,7 @@ TEST(Stability, ConfiningPressureFifteenMPa) {
   Outcome o;
   real worst = 0;
   try {
-    while (solver.top_offset / solver.model().height0 < 0.012) {
+    while (solver.platen_travel() / solver.model().height0 < 0.012) {
       solver.step();
       if (solver.step_count() % 50) continue;
       const Monitors m = solver.measure();
@@ -454,17 +454,17 @@ TEST(Stability, AFragmentFlyingFarKeepsTheBroadPhaseSmall) {
   Solver solver(s, build_model(a, s));
   const Model& m = solver.model();
   for (std::size_t n = 0; n < m.X.size(); ++n)
-    if (m.node_vertex[n] >= off) solver.v[n] = {0, 0, 1e4};    // m/s
-  const BroadPhaseStats first = solver.contacts.last_build();  // built with the first forces
+    if (m.node_vertex[n] >= off) solver.v[n] = {0, 0, 1e4};  // m/s
+  const BroadPhaseStats first = solver.contacts.last_build;  // built with the first forces
   auto upper = [&](int t) { return m.node_vertex[m.tet_nodes[t][0]] >= off; };
   auto across = [&] {
     long n = 0;
-    for (const ContactPair& p : solver.contacts.pairs()) n += upper(p.a) != upper(p.b);
+    for (const ContactPair& p : solver.contacts.pairs) n += upper(p.a) != upper(p.b);
     return n;
   };
   const long first_pairs = solver.contacts.pair_count(), first_across = across();
   Outcome o = run(solver, 0, 5000, 1000);
-  const BroadPhaseStats last = solver.contacts.last_build();
+  const BroadPhaseStats last = solver.contacts.last_build;
   real top = -1e300;
   for (const Vec3& p : solver.x) top = std::max(top, p.z);
   std::printf(

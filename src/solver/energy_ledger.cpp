@@ -1,0 +1,48 @@
+#include "solver/energy_ledger.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/format.hpp"
+#include "solver/stable_step.hpp"
+
+namespace fdem {
+
+std::string instability_advice(const Scene& scene, const StableStep& stable, real dt, const EnergyLedger& e,
+                               long touching) {
+  const SolverSettings& s = scene.solver;
+  const Material& mat = scene.material;
+  const real bound = stable.dt / scene.solver.time_step_safety;
+  const real ratio = dt / bound;
+  const real E = mat.youngs_modulus;
+  const real p_ce6 =
+      std::max({mat.cohesive_penalty_open, mat.cohesive_penalty_tangential, mat.cohesive_penalty_overlap});
+  std::string cause;
+  if (ratio > 1)
+    cause = "the time step " + fmt(dt, 3) + " s is " + fmt(ratio, 3) + " x the stable-step bound " + fmt(bound, 3) +
+            " s (limited by " + stable.limit + ")";
+  else if (s.mass_scaling >= 100)
+    cause = "mass scaling m = " + fmt(s.mass_scaling, 3) +
+            ": the loading is no longer quasi-static and the inertia of the fragments dominates";
+  else if (scene.contact.enabled() && touching > 0 && e.contact < -0.01 * std::max(std::fabs(e.input()), e.floor))
+    cause = "tet-tet contact has put " + fmt(-e.contact, 3) + " J in (" + std::to_string(touching) +
+            " pairs touching, penalty " + fmt(mat.contact_penalty, 3) + " Pa = " + fmt(mat.contact_penalty / E, 3) +
+            " E): the potential contact force is not exactly conservative, and overlapping fragments can feed "
+            "energy in whatever the time step (docs/stability.md)";
+  else if (p_ce6 > 1000 * E)
+    cause = "the cohesive penalty " + fmt(p_ce6, 3) + " Pa (" + fmt(p_ce6 / E, 3) + " E)";
+  else
+    cause = "large deformation or fragment overlap beyond the stable-step bound " + fmt(bound, 3) + " s (limited by " +
+            stable.limit + "); the time step is " + fmt(ratio, 3) + " of it";
+  const std::string step_fix =
+      s.time_step > 0 ? "lower solver.time_step (now " + fmt(s.time_step, 3) + " s, " + fmt(ratio, 3) +
+                            " x the stable-step bound), or set it to 0 for the bound times solver.time_step_safety"
+                      : "lower solver.time_step_safety (now " + fmt(s.time_step_safety, 3) +
+                            ", <= 1 is stable for the small-strain model)";
+  return "Cause: " + cause + ". Fix: " + step_fix +
+         ", lower the penalties (material.contact_penalty, "
+         "material.cohesive_penalty_*), or lower solver.mass_scaling (now " +
+         fmt(s.mass_scaling, 3) + ")";
+}
+
+}  // namespace fdem

@@ -1,0 +1,76 @@
+#include "solver/loads.hpp"
+
+#include <algorithm>
+
+#include "physics/integrate.hpp"
+
+namespace fdem {
+
+real ConfiningPressure::pressure_at(real time, real axial) const {
+  return confining_pressure(hydrostatic, target, hydrostatic ? target : ramped_speed(time, target, ramp), axial);
+}
+
+void PrescribedVelocities::set(int n, int components, Vec3 v) {
+  const auto s = slot.emplace(n, int(node.size()));
+  if (s.second) {
+    node.push_back(n);
+    mask.push_back(components);
+    velocity.push_back(v);
+    return;
+  }
+  const int i = s.first->second;
+  mask[i] |= components;
+  for (int d = 0; d < 3; ++d)
+    if (components >> d & 1) velocity[i][d] = v[d];
+}
+
+namespace {
+
+/// Lateral faces: surface faces not lying on the top or bottom end.
+std::vector<std::array<int, 3>> lateral_faces(const Model& m) {
+  std::vector<char> top(m.X.size(), 0), bottom(m.X.size(), 0);
+  for (int n : m.top_nodes) top[n] = 1;
+  for (int n : m.bottom_nodes) bottom[n] = 1;
+  std::vector<std::array<int, 3>> faces;
+  for (const auto& q : m.surface_faces) {
+    const bool on_top = top[q[0]] && top[q[1]] && top[q[2]];
+    const bool on_bottom = bottom[q[0]] && bottom[q[1]] && bottom[q[2]];
+    if (!on_top && !on_bottom) faces.push_back(q);
+  }
+  return faces;
+}
+
+}  // namespace
+
+Loads make_loads(const Scene& scene, const Model& m, real wave_speed) {
+  Loads l;
+  const real transits = 10 * m.height0 / wave_speed;
+  PlatenLoad& p = l.platens;
+  p.enabled = scene.platens.enabled;
+  p.speed = scene.platens.velocity;
+  p.ramp = scene.platens.ramp_time > 0 ? scene.platens.ramp_time : transits;
+  p.friction = scene.material.friction_platen;
+  p.top_z0 = m.box_max.z;
+  p.bottom_z0 = m.box_min.z;
+  p.k.resize(m.platen_nodes.size());
+  p.anchor.resize(m.platen_nodes.size());
+  for (std::size_t i = 0; i < m.platen_nodes.size(); ++i) {
+    p.k[i] = scene.material.contact_penalty * m.platen_node_area[i] / m.platen_node_h[i];
+    const Vec3 X = m.X[m.platen_nodes[i]];
+    p.anchor[i] = {X.x, X.y, 0};
+  }
+  ConfiningPressure& c = l.confinement;
+  c.enabled = scene.confinement.enabled;
+  c.hydrostatic = scene.confinement.path == ConfinementPath::hydrostatic;
+  c.target = scene.confinement.pressure;
+  c.ramp = scene.confinement.ramp_time > 0 ? scene.confinement.ramp_time : transits;
+  if (c.enabled) {
+    c.faces = lateral_faces(m);
+    c.face_force.assign(c.faces.size(), Vec3{0, 0, 0});
+  }
+  l.gravity.enabled = scene.has_gravity();
+  l.gravity.g = scene.gravity;
+  return l;
+}
+
+}  // namespace fdem

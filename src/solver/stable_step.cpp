@@ -1,0 +1,98 @@
+#include "solver/stable_step.hpp"
+
+#include <mpi.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/format.hpp"
+#include "physics/tet4.hpp"
+#include "physics/time_step.hpp"
+
+namespace fdem {
+
+StableStep stable_step_bound(const Model& m, const Scene& scene, const ElementLaws& laws,
+                             const std::vector<real>& platen_k, const RankLayout& layout) {
+  // An upper bound of the model's highest frequency, node by node (Gershgorin on the rows
+  // of M^-1 K, with Weyl's inequality for the sum of parts): the TET4's own eigenvalue
+  // (exact per element) plus, for every CE6 node pair and platen spring at the node, the
+  // row sum of its stiffness over the node's mass. A split node sits in up to three CE6s,
+  // so a one-pair estimate would overstate the stable step by up to sqrt(3).
+  const Material& mat = scene.material;
+  const real rho = scene.solver.mass_scaling * mat.density;
+  const std::size_t nn = m.X.size();
+  std::vector<real> w2_tet(nn, 0), c_tet(nn, 0), g_ce6(nn, 0), g_platen(nn, 0);
+  for (std::size_t t = 0; t < m.tet_nodes.size(); ++t) {
+    const real w2 = tet4_max_eigenvalue(m.tet_Xinv[t], laws.lambda, laws.mu, rho);
+    const real c = tet4_max_eigenvalue(m.tet_Xinv[t], 0, 0.5 * m.tet_eta[t], rho);
+    for (int n : m.tet_nodes[t]) {
+      w2_tet[n] = std::max(w2_tet[n], w2);
+      c_tet[n] = std::max(c_tet[n], c);
+    }
+  }
+  const real P = std::max({mat.cohesive_penalty_open, mat.cohesive_penalty_tangential, mat.cohesive_penalty_overlap});
+  for (std::size_t c = 0; c < m.ce6_nodes.size(); ++c) {
+    const auto& q = m.ce6_nodes[c];
+    const real area = 0.5 * norm(cross(m.X[q[1]] - m.X[q[0]], m.X[q[2]] - m.X[q[0]]));
+    const real k = P * area / (3 * m.ce6_h[c]);  // row sum of the pair's relative stiffness
+    for (int i = 0; i < 3; ++i)
+      if (q[i] != q[i + 3]) {  // a pair that is one node (region border) has no spring
+        g_ce6[q[i]] += 2 * k / m.mass[q[i]];
+        g_ce6[q[i + 3]] += 2 * k / m.mass[q[i + 3]];
+      }
+  }
+  // Tet-tet contact: two faces of area A pressed together stiffen by about 4 P_n A (1/h_a + 1/h_b)
+  // (the potential gradient is 4/h at a face of altitude h); shared by the face's three nodes,
+  // doubled for the Gershgorin row of the coupled pair, for up to three faces of a tet at a node.
+  std::vector<real> g_con(nn, 0);
+  if (scene.contact.enabled())
+    for (std::size_t t = 0; t < m.tet_nodes.size(); ++t) {
+      Vec3 xe[4];
+      for (int i = 0; i < 4; ++i) xe[i] = m.X[m.tet_nodes[t][i]];
+      real amax = 0;
+      for (int k = 0; k < 4; ++k)
+        amax = std::max(amax, 0.5 * norm(cross(xe[(k + 2) % 4] - xe[(k + 1) % 4], xe[(k + 3) % 4] - xe[(k + 1) % 4])));
+      const real k_face = 8 * mat.contact_penalty * amax / tet4_min_altitude(xe);
+      for (int n : m.tet_nodes[t]) g_con[n] = std::max(g_con[n], 2 * k_face / m.mass[n]);
+    }
+  if (scene.platens.enabled)
+    for (std::size_t i = 0; i < m.platen_nodes.size(); ++i)
+      g_platen[m.platen_nodes[i]] += platen_k[i] / m.mass[m.platen_nodes[i]];
+
+  StableStep st;
+  st.dt = st.dt_tet = st.dt_ce6 = st.dt_platen = st.dt_contact = 1e300;
+  std::size_t lim = 0;
+  for (std::size_t n = 0; n < nn; ++n) {
+    if (!layout.own_node[n]) continue;  // a ghost's row lacks the elements beyond this rank
+    const real dt = damped_stable_step(w2_tet[n] + g_ce6[n] + g_platen[n] + g_con[n], c_tet[n]);
+    if (dt < st.dt) st.dt = dt, lim = n;
+    st.dt_tet = std::min(st.dt_tet, damped_stable_step(w2_tet[n], c_tet[n]));
+    if (g_ce6[n] > 0) st.dt_ce6 = std::min(st.dt_ce6, 2 / std::sqrt(g_ce6[n]));
+    if (g_platen[n] > 0) st.dt_platen = std::min(st.dt_platen, 2 / std::sqrt(g_platen[n]));
+    if (g_con[n] > 0) st.dt_contact = std::min(st.dt_contact, 2 / std::sqrt(g_con[n]));
+  }
+  const real w2 = w2_tet[lim] + g_ce6[lim] + g_platen[lim] + g_con[lim];
+  auto pct = [&](real part) { return std::to_string(int(std::lround(100 * part / w2))) + " %"; };
+  const long lim_id = layout.dd.distributed() ? layout.dd.node_global[lim] : long(lim);
+  st.limit = "node " + std::to_string(lim_id + 1) + " (its squared frequency: TET4 " + pct(w2_tet[lim]) +
+             ", CE6 penalty " + fmt(P, 3) + " Pa " + pct(g_ce6[lim]) + ", platen " + pct(g_platen[lim]) + ", contact " +
+             pct(g_con[lim]) + ")";
+  if (layout.dd.distributed()) {  // the smallest over the ranks, and the limit named by the rank that has it
+    struct {
+      double dt;
+      int rank;
+    } mine{st.dt, layout.dd.rank}, best{};
+    MPI_Allreduce(&mine, &best, 1, MPI_DOUBLE_INT, MPI_MINLOC, layout.comm);
+    real parts[4] = {st.dt_tet, st.dt_ce6, st.dt_platen, st.dt_contact};
+    MPI_Allreduce(MPI_IN_PLACE, parts, 4, MPI_DOUBLE, MPI_MIN, layout.comm);
+    st.dt = best.dt;
+    st.dt_tet = parts[0], st.dt_ce6 = parts[1], st.dt_platen = parts[2], st.dt_contact = parts[3];
+    int len = int(st.limit.size());
+    MPI_Bcast(&len, 1, MPI_INT, best.rank, layout.comm);
+    st.limit.resize(len);
+    MPI_Bcast(st.limit.data(), len, MPI_CHAR, best.rank, layout.comm);
+  }
+  return st;
+}
+
+}  // namespace fdem
