@@ -145,145 +145,203 @@ class DeviceLoopImpl final : public DeviceLoop {
   const DeviceTimes& times() const override { return t_; }
 
   void upload() override {
-    const LoopParts& s = p_;
     const auto t0 = now();
-    const Model& m = s.model;
     if (!constants_) {
-      place(tet_nodes_, reinterpret_cast<const int*>(m.tet_nodes.data()), 4 * m.tet_nodes.size());
-      place(tet_order_, m.tet_colours.order);
-      // CE6 arrays in colour order (the CE6s no colour holds, on several ranks, after them), so
-      // that a colour's launch reads them contiguously.
-      const std::size_t nce = m.ce6_nodes.size();
-      ce6_perm_ = m.ce6_colours.order;
-      std::vector<int> slot(nce, -1);
-      for (std::size_t k = 0; k < ce6_perm_.size(); ++k) slot[ce6_perm_[k]] = int(k);
-      for (std::size_t i = 0; i < nce; ++i)
-        if (slot[i] < 0) slot[i] = int(ce6_perm_.size()), ce6_perm_.push_back(int(i));
-      if (ce6_perm_.size() != nce)  // the rank-file loader refuses such a colouring
-        throw RunError("device loop: the CE6 colouring lists a CE6 more than once");
-      // CE6 ids are colour order (model/build.cpp): on one rank the slots are the ids, and the
-      // per-CE6 arrays are the host's (in place on the cpu backend); no slot map then.
-      ce6_by_id_ = true;
-      for (std::size_t k = 0; k < nce; ++k) ce6_by_id_ = ce6_by_id_ && ce6_perm_[k] == int(k);
-      if (ce6_by_id_)
-        ce6_slot_.release();
-      else
-        ce6_slot_.upload(slot);
-      ce6_coloured_ = int(m.ce6_colours.order.size());
-      ce6p_ = s.laws.ce6;
-      place_in_slots(ce6_nodes_, m.ce6_nodes);
-      place(Xinv_, m.tet_Xinv);
-      place(V0_, m.tet_V0);
-      place(eta_, m.tet_eta);
-      place_in_slots(ce6_h_, m.ce6_h);
-      place(mass_, m.mass);  // (1/m: divided where needed, no array read for it)
-      // Every node's mass a quarter of its one tet's, rho V0 / 4 (model/build.cpp), to the bit:
-      // then the fused pass computes it from V0, which it reads anyway, instead of reading it.
-      const real rho = s.scene.solver.mass_scaling * s.scene.material.density;
-      std::vector<int> tets_of(m.X.size(), 0);
-      mass_from_volume_ = true;
-      for (std::size_t t = 0; t < m.tet_nodes.size() && mass_from_volume_; ++t)
-        for (int n : m.tet_nodes[t]) {
-          mass_from_volume_ = mass_from_volume_ && ++tets_of[n] == 1 && m.mass[n] == rho * m.tet_V0[t] / 4;
-          if (!mass_from_volume_) break;
-        }
-      node_density_ = mass_from_volume_ ? rho : 0;
-      place(platen_nodes_, m.platen_nodes);
-      place(platen_k_, s.loads.platens.k);
-      place(node_vertex_, m.node_vertex);
-      place(X_, m.X);
-      if (s.layout.dd.distributed() && s.contacts.enabled()) {
-        place(plan_x_, s.contacts.plan_x());
-        place(tet_global_, s.layout.dd.tet_global);
-      }
-      place(lateral_nodes_, m.lateral_nodes);
-      place(own_node_, s.layout.own_node);
-      place(own_tet_, s.layout.own_tet);
-      place_in_slots(own_ce6_, s.layout.own_ce6);
-      place(tet_assigns_, s.layout.tet_assigns);
-      assigned_corners_ = 0;
-      for (std::uint8_t a : s.layout.tet_assigns)
-        assigned_corners_ += (a & 1) + (a >> 1 & 1) + (a >> 2 & 1) + (a >> 3 & 1);
-      gravity_ = s.loads.gravity.enabled;
-      g_ = s.loads.gravity.g;
-      place(unreached_, s.layout.unreached_nodes);
-      plan_fused();
-      // The fused pass integrates (make_device_loop: one rank, every node a tet's).
-      if (integrates_ && (s.layout.halo || s.layout.dd.distributed() || !s.layout.unreached_nodes.empty()))
-        throw RunError(
-            "device loop: the fused pass cannot integrate this run (several ranks or nodes outside the tets)");
-      step_contact_ = s.contacts.enabled();
-      step_pressure_ = s.loads.confinement.enabled;
-      if (s.layout.halo) halo_.plan(*s.layout.halo, s.layout.dd);
-      // Monitor rows: the tets whose reference centroid lies in the middle third of the height.
-      std::vector<std::uint8_t> mid(m.tet_nodes.size());
-      const real z_lo = m.box_min.z + (m.box_max.z - m.box_min.z) / 3,
-                 z_hi = m.box_max.z - (m.box_max.z - m.box_min.z) / 3;
-      for (std::size_t t = 0; t < mid.size(); ++t) {
-        const auto& q = m.tet_nodes[t];
-        const real zc = 0.25 * (m.X[q[0]].z + m.X[q[1]].z + m.X[q[2]].z + m.X[q[3]].z);
-        mid[t] = zc >= z_lo && zc <= z_hi;
-      }
-      mid_third_.upload(mid);
-      if (s.contacts.enabled()) {
-        place(vt_ptr_, s.contacts.vertex_tet_ptr());
-        place(vt_tets_, s.contacts.vertex_tets());
-        // The broad phase's filters: the CE6s on each tet's faces and the tets of each CE6.
-        place(tet_ce6_, reinterpret_cast<const int*>(s.contacts.tet_ce6().data()), 4 * s.contacts.tet_ce6().size());
-        place(ce6_tets_, reinterpret_cast<const int*>(m.ce6_tets.data()), 2 * m.ce6_tets.size());
-      }
-      // Confining pressure: the lateral faces and, per node, the faces it sums in face order
-      // (the reference stepper's order, so the sums agree bit for bit).
-      const auto& faces = s.loads.confinement.faces;
-      place(lat_faces_, reinterpret_cast<const int*>(faces.data()), 3 * faces.size());
-      std::vector<std::array<int, 2>> nf;
-      for (int i = 0; i < int(faces.size()); ++i)
-        for (int n : faces[i]) nf.push_back({n, i});
-      std::stable_sort(nf.begin(), nf.end(), [](const auto& a, const auto& b) { return a[0] < b[0]; });
-      std::vector<int> node, ptr{0}, face;
-      for (std::size_t k = 0; k < nf.size(); ++k) {
-        if (k > 0 && nf[k][0] != nf[k - 1][0]) ptr.push_back(int(k));
-        if (k == 0 || nf[k][0] != nf[k - 1][0]) node.push_back(nf[k][0]);
-        face.push_back(nf[k][1]);
-      }
-      if (!nf.empty()) ptr.push_back(int(nf.size()));
-      lat_node_.upload(node);
-      lat_ptr_.upload(ptr);
-      lat_face_.upload(face);
-      if (integrates_) {  // where the platens' and the pressure's forces wait for the pass
-        std::vector<int> pof(m.X.size(), -1), lof(m.X.size(), -1);
-        if (s.loads.platens.enabled)
-          for (std::size_t i = 0; i < m.platen_nodes.size(); ++i) pof[m.platen_nodes[i]] = int(i);
-        if (s.loads.confinement.enabled)
-          for (std::size_t k = 0; k < node.size(); ++k) lof[node[k]] = int(k);
-        std::vector<std::uint8_t> ext(m.tet_nodes.size(), 0);
-        for (std::size_t t = 0; t < ext.size(); ++t)
-          for (int n : m.tet_nodes[t])
-            if (pof[n] >= 0 || lof[n] >= 0) ext[t] = 2;
-        ext_nodes_ = 4 * long(std::count(ext.begin(), ext.end(), 2));
-        platen_of_.upload(pof);
-        lateral_of_.upload(lof);
-        ext_static_.upload(ext);
-        ext_tet_.upload(ext);
-        platen_force_.resize(m.platen_nodes.size());
-        gather_of_.upload(std::vector<int>(m.X.size(), -1));
-      }
+      place_elements(p_);
+      place_layout_and_loads(p_);
+      mark_middle_third(p_.model);
+      if (p_.contacts.enabled()) place_contact_topology(p_);
+      place_held_forces(p_, place_lateral_faces(p_.loads.confinement.faces));
       constants_ = true;
     }
+    upload_state(p_);
+    t_.copies += seconds_since(t0);
+  }
+
+  // The parts of upload(). (Public where they hold a pass: nvcc's extended lambdas need their
+  // enclosing function public.)
+
+  /// The elements' constants: connectivity, colour order, the CE6 slots, the shape constants and
+  /// the masses.
+  void place_elements(const LoopParts& s) {
+    const Model& m = s.model;
+    place(tet_nodes_, reinterpret_cast<const int*>(m.tet_nodes.data()), 4 * m.tet_nodes.size());
+    place(tet_order_, m.tet_colours.order);
+    // CE6 arrays in colour order (the CE6s no colour holds, on several ranks, after them), so
+    // that a colour's launch reads them contiguously.
+    const std::size_t nce = m.ce6_nodes.size();
+    ce6_perm_ = m.ce6_colours.order;
+    std::vector<int> slot(nce, -1);
+    for (std::size_t k = 0; k < ce6_perm_.size(); ++k) slot[ce6_perm_[k]] = int(k);
+    for (std::size_t i = 0; i < nce; ++i)
+      if (slot[i] < 0) slot[i] = int(ce6_perm_.size()), ce6_perm_.push_back(int(i));
+    if (ce6_perm_.size() != nce)  // the rank-file loader refuses such a colouring
+      throw RunError("device loop: the CE6 colouring lists a CE6 more than once");
+    // CE6 ids are colour order (model/build.cpp): on one rank the slots are the ids, and the
+    // per-CE6 arrays are the host's (in place on the cpu backend); no slot map then.
+    ce6_by_id_ = true;
+    for (std::size_t k = 0; k < nce; ++k) ce6_by_id_ = ce6_by_id_ && ce6_perm_[k] == int(k);
+    if (ce6_by_id_)
+      ce6_slot_.release();
+    else
+      ce6_slot_.upload(slot);
+    ce6_coloured_ = int(m.ce6_colours.order.size());
+    ce6p_ = s.laws.ce6;
+    place_in_slots(ce6_nodes_, m.ce6_nodes);
+    place(Xinv_, m.tet_Xinv);
+    place(V0_, m.tet_V0);
+    place(eta_, m.tet_eta);
+    place_in_slots(ce6_h_, m.ce6_h);
+    place(mass_, m.mass);  // (1/m: divided where needed, no array read for it)
+    // Every node's mass a quarter of its one tet's, rho V0 / 4 (model/build.cpp), to the bit:
+    // then the fused pass computes it from V0, which it reads anyway, instead of reading it.
+    const real rho = s.scene.solver.mass_scaling * s.scene.material.density;
+    std::vector<int> tets_of(m.X.size(), 0);
+    mass_from_volume_ = true;
+    for (std::size_t t = 0; t < m.tet_nodes.size() && mass_from_volume_; ++t)
+      for (int n : m.tet_nodes[t]) {
+        mass_from_volume_ = mass_from_volume_ && ++tets_of[n] == 1 && m.mass[n] == rho * m.tet_V0[t] / 4;
+        if (!mass_from_volume_) break;
+      }
+    node_density_ = mass_from_volume_ ? rho : 0;
+  }
+
+  /// This rank's layout (ownership, first touch, the halo), the constants of the loads, and the
+  /// schedule's checks.
+  void place_layout_and_loads(const LoopParts& s) {
+    const Model& m = s.model;
+    place(platen_nodes_, m.platen_nodes);
+    place(platen_k_, s.loads.platens.k);
+    place(node_vertex_, m.node_vertex);
+    place(X_, m.X);
+    if (s.layout.dd.distributed() && s.contacts.enabled()) {
+      place(plan_x_, s.contacts.plan_x());
+      place(tet_global_, s.layout.dd.tet_global);
+    }
+    place(lateral_nodes_, m.lateral_nodes);
+    place(own_node_, s.layout.own_node);
+    place(own_tet_, s.layout.own_tet);
+    place_in_slots(own_ce6_, s.layout.own_ce6);
+    place(tet_assigns_, s.layout.tet_assigns);
+    assigned_corners_ = 0;
+    for (std::uint8_t a : s.layout.tet_assigns)
+      assigned_corners_ += (a & 1) + (a >> 1 & 1) + (a >> 2 & 1) + (a >> 3 & 1);
+    gravity_ = s.loads.gravity.enabled;
+    g_ = s.loads.gravity.g;
+    place(unreached_, s.layout.unreached_nodes);
+    plan_fused();
+    // The fused pass integrates (make_device_loop: one rank, every node a tet's).
+    if (integrates_ && (s.layout.halo || s.layout.dd.distributed() || !s.layout.unreached_nodes.empty()))
+      throw RunError("device loop: the fused pass cannot integrate this run (several ranks or nodes outside the tets)");
+    step_contact_ = s.contacts.enabled();
+    step_pressure_ = s.loads.confinement.enabled;
+    if (s.layout.halo) halo_.plan(*s.layout.halo, s.layout.dd);
+  }
+
+  /// Monitor rows: the tets whose reference centroid lies in the middle third of the height.
+  void mark_middle_third(const Model& m) {
+    std::vector<std::uint8_t> mid(m.tet_nodes.size());
+    const real z_lo = m.box_min.z + (m.box_max.z - m.box_min.z) / 3,
+               z_hi = m.box_max.z - (m.box_max.z - m.box_min.z) / 3;
+    for (std::size_t t = 0; t < mid.size(); ++t) {
+      const auto& q = m.tet_nodes[t];
+      const real zc = 0.25 * (m.X[q[0]].z + m.X[q[1]].z + m.X[q[2]].z + m.X[q[3]].z);
+      mid[t] = zc >= z_lo && zc <= z_hi;
+    }
+    mid_third_.upload(mid);
+  }
+
+  /// Contact's constants: the activation's vertex -> tets lists and the candidate filters.
+  void place_contact_topology(const LoopParts& s) {
+    const Model& m = s.model;
+    place(vt_ptr_, s.contacts.vertex_tet_ptr());
+    place(vt_tets_, s.contacts.vertex_tets());
+    // The broad phase's filters: the CE6s on each tet's faces and the tets of each CE6.
+    place(tet_ce6_, reinterpret_cast<const int*>(s.contacts.tet_ce6().data()), 4 * s.contacts.tet_ce6().size());
+    place(ce6_tets_, reinterpret_cast<const int*>(m.ce6_tets.data()), 2 * m.ce6_tets.size());
+  }
+
+  /// Confining pressure: the lateral faces and, per node, the faces it sums in face order (the
+  /// reference stepper's order, so the sums agree bit for bit). Returns the nodes.
+  std::vector<int> place_lateral_faces(const std::vector<std::array<int, 3>>& faces) {
+    place(lat_faces_, reinterpret_cast<const int*>(faces.data()), 3 * faces.size());
+    std::vector<std::array<int, 2>> nf;
+    for (int i = 0; i < int(faces.size()); ++i)
+      for (int n : faces[i]) nf.push_back({n, i});
+    std::stable_sort(nf.begin(), nf.end(), [](const auto& a, const auto& b) { return a[0] < b[0]; });
+    std::vector<int> node, ptr{0}, face;
+    for (std::size_t k = 0; k < nf.size(); ++k) {
+      if (k > 0 && nf[k][0] != nf[k - 1][0]) ptr.push_back(int(k));
+      if (k == 0 || nf[k][0] != nf[k - 1][0]) node.push_back(nf[k][0]);
+      face.push_back(nf[k][1]);
+    }
+    if (!nf.empty()) ptr.push_back(int(nf.size()));
+    lat_node_.upload(node);
+    lat_ptr_.upload(ptr);
+    lat_face_.upload(face);
+    return node;
+  }
+
+  /// Where the fused pass integrates: the lists that hold the platens' and the pressure's forces
+  /// for the pass (`lateral_nodes`: the pressure's nodes).
+  void place_held_forces(const LoopParts& s, const std::vector<int>& lateral_nodes) {
+    if (!integrates_) return;
+    const Model& m = s.model;
+    std::vector<int> pof(m.X.size(), -1), lof(m.X.size(), -1);
+    if (s.loads.platens.enabled)
+      for (std::size_t i = 0; i < m.platen_nodes.size(); ++i) pof[m.platen_nodes[i]] = int(i);
+    if (s.loads.confinement.enabled)
+      for (std::size_t k = 0; k < lateral_nodes.size(); ++k) lof[lateral_nodes[k]] = int(k);
+    std::vector<std::uint8_t> ext(m.tet_nodes.size(), 0);
+    for (std::size_t t = 0; t < ext.size(); ++t)
+      for (int n : m.tet_nodes[t])
+        if (pof[n] >= 0 || lof[n] >= 0) ext[t] = 2;
+    ext_nodes_ = 4 * long(std::count(ext.begin(), ext.end(), 2));
+    platen_of_.upload(pof);
+    lateral_of_.upload(lof);
+    ext_static_.upload(ext);
+    ext_tet_.upload(ext);
+    platen_force_.resize(m.platen_nodes.size());
+    gather_of_.upload(std::vector<int>(m.X.size(), -1));
+  }
+
+  /// The evolving state, host to loop (on the cpu backend borrowed, in place).
+  void upload_state(const LoopParts& s) {
     discard_pending();  // the host copy, its scalars included, is the state
     place(x_, s.x);
     place(v_, s.v);
     place(f_, s.f);
-    // The second copies of double-buffered state are the loop's own. On the cpu backend a swap
-    // can have left one borrowing the host's arrays, which the first copy borrows again now: the
-    // pass would then read and write one array.
-    auto own_copy = [](auto& second, std::size_t n) {
-      if (second.borrowed()) second.release();
-      second.resize(n);
-    };
     if (integrates_) own_copy(x2_, s.x.size()), own_copy(v2_, s.v.size());
-    // The CE6 state: the host's arrays where the slots are the ids (in place on the cpu backend),
-    // else uploaded in id order and put into slots on the device.
+    upload_ce6_state(s);
+    place_in_slots(broke_, s.ce6_broke);
+    place(anchor_, s.loads.platens.anchor);
+    place(fixed_node_, s.loads.prescribed.node);
+    place(fixed_mask_, s.loads.prescribed.mask);
+    place(fixed_v_, s.loads.prescribed.velocity);
+    step_pending_ = false;                                  // the host's state is the state
+    if (integrates_ && !s.loads.prescribed.node.empty()) {  // each node's place in the prescribed lists
+      std::vector<int> of(s.x.size(), -1);
+      for (std::size_t i = 0; i < s.loads.prescribed.node.size(); ++i) of[s.loads.prescribed.node[i]] = int(i);
+      fixed_of_.upload(of);
+    } else {
+      fixed_of_.resize(0);
+    }
+    place(lat_force_, s.loads.confinement.face_force);
+    if (s.contacts.enabled()) upload_contact_state(s.contacts);
+  }
+
+  /// The second copy of a double-buffered array, n elements, the loop's own. On the cpu backend a
+  /// swap can have left it borrowing the host's array, which the first copy borrows again at an
+  /// upload: the pass would then read and write one array.
+  template <class T>
+  static void own_copy(DeviceArray<T>& second, std::size_t n) {
+    if (second.borrowed()) second.release();
+    second.resize(n);
+  }
+
+  /// The CE6 state: the host's arrays where the slots are the ids (in place on the cpu backend),
+  /// else uploaded in id order and put into slots on the device; the fused pass's second copies.
+  void upload_ce6_state(const LoopParts& s) {
     if (ce6_by_id_) {
       place(dmg_, s.ce6.damage);
       place(slip_, s.ce6.anchors);
@@ -313,35 +371,21 @@ class DeviceLoopImpl final : public DeviceLoop {
       ce6_flag_.upload(fl);
       ce6_flag_next_.upload(fl);
     }
-    place_in_slots(broke_, s.ce6_broke);
-    place(anchor_, s.loads.platens.anchor);
-    place(fixed_node_, s.loads.prescribed.node);
-    place(fixed_mask_, s.loads.prescribed.mask);
-    place(fixed_v_, s.loads.prescribed.velocity);
-    step_pending_ = false;                                  // the host's state is the state
-    if (integrates_ && !s.loads.prescribed.node.empty()) {  // each node's place in the prescribed lists
-      std::vector<int> of(s.x.size(), -1);
-      for (std::size_t i = 0; i < s.loads.prescribed.node.size(); ++i) of[s.loads.prescribed.node[i]] = int(i);
-      fixed_of_.upload(of);
-    } else {
-      fixed_of_.resize(0);
+  }
+
+  /// Contact's state: flags, pairs, springs, forces and indices; the gather list followed anew.
+  void upload_contact_state(const ContactSet& c) {
+    place(active_, c.active);
+    flags_merged_ = false;
+    // Every node out of the old gather list (on the cpu backend the list this loop borrowed may
+    // have been overwritten by a checkpoint's).
+    if (integrates_) {
+      int* of = gather_of_.data();
+      Exec::forall(int(gather_of_.size()), [=] FDEM_LAMBDA(int n) { of[n] = -1; });
     }
-    place(lat_force_, s.loads.confinement.face_force);
-    if (s.contacts.enabled()) {
-      const ContactSet& c = s.contacts;
-      place(active_, c.active);
-      flags_merged_ = false;
-      // Every node out of the old gather list (on the cpu backend the list this loop borrowed may
-      // have been overwritten by a checkpoint's).
-      if (integrates_) {
-        int* of = gather_of_.data();
-        Exec::forall(int(gather_of_.size()), [=] FDEM_LAMBDA(int n) { of[n] = -1; });
-      }
-      upload_pairs(c);
-      pairs_on_host_ = true;
-      if (integrates_) follow_gather(true);
-    }
-    t_.copies += seconds_since(t0);
+    upload_pairs(c);
+    pairs_on_host_ = true;
+    if (integrates_) follow_gather(true);
   }
 
   void download() override {
@@ -479,14 +523,7 @@ class DeviceLoopImpl final : public DeviceLoop {
     const bool finish = advance_pending_;
     if (forces_pending_ && !finish) settle();
     const bool prev = forces_pending_;
-    const Model& m = s.model;
-    const int nn = int(x_.size());
-    const Vec3* x = x_.data();
-    const Vec3* v = v_.data();
-    Vec3* f = f_.data();
-    const real* mass = mass_.data();
     real* sums = sums_.data();
-    const std::uint8_t* own_n = own_node_.data();
     auto t0 = now();
     // Where the fused pass integrates, the element part of an evaluation waits for the next step:
     // that step's pass computes the elements at the state the last evaluation left, adds the
@@ -504,42 +541,7 @@ class DeviceLoopImpl final : public DeviceLoop {
     const device_pass::KeepAndClear keep_and_clear{sums, prev, stepping ? kSums : kBad};
     if (!stepping) Exec::forall(1, [=] FDEM_LAMBDA(int) { keep_and_clear(); });
 
-    // Gravity starts the sum; without it the TET4 pass assigns each node's first force (the
-    // nodes it does not reach are zeroed here), so f is not written twice. (A fused pass that
-    // integrates starts each force itself.)
-    const Vec3 g = s.loads.gravity.g;
-    if (integrates_) {
-    } else if (!gravity_) {
-      const int* un = unreached_.data();
-      Exec::forall(int(unreached_.size()), [=] FDEM_LAMBDA(int k) { f[un[k]] = Vec3{0, 0, 0}; });
-    } else {
-      Exec::template sum_to<1>(
-          nn,
-          [=] FDEM_LAMBDA(int n, real* acc) {
-            f[n] = mass[n] * g;
-            if (own_n[n]) acc[0] += dot(f[n], v[n]);
-          },
-          sums + kGravity);
-    }
-
-    // TET4 and CE6: fused in one pass, or colour by colour (plan_fused_pass); where the fused
-    // pass integrates, the last evaluation's, with the step.
-    if (stepping) {
-      fused_pass<kStep>(m, s.laws.lambda, s.laws.mu, sums, keep_and_clear);
-      t0 = lap(t0, t_.ce6);          // (the TET4 and integration columns stay empty)
-      x = x_.data(), v = v_.data();  // swapped: the moved state; the powers of the last forces with it
-      // (gravity's: in the pass), and in the same launch the broad phase's watch (timed here, as
-      // energy, not as activation)
-      contact_pressure_powers(s.contacts.enabled(), s.loads.confinement.enabled,
-                              s.contacts.enabled() ? &s.contacts : nullptr);
-      t0 = lap(t0, t_.energy);
-    } else if (integrates_) {
-    } else if (fused_) {
-      fused_pass<kForces>(m, s.laws.lambda, s.laws.mu, sums);
-      t0 = lap(t0, t_.ce6);  // (the TET4 column stays empty)
-    } else {
-      colour_forces(m, s.laws.lambda, s.laws.mu, sums, t0);
-    }
+    element_forces(s, stepping, keep_and_clear, t0);
     // The broad phase's watch: has a node of an active tet moved half the buffer? (A count.)
     const int nc = int(dmg_.size());
     ContactSet& cs = s.contacts;
@@ -565,30 +567,10 @@ class DeviceLoopImpl final : public DeviceLoop {
     const bool gather_with_platens = ahead && s.loads.platens.enabled;
     if (ahead) contact_pairs(s, t0, !gather_with_platens);
     if (integrates_)
-      platens_and_pressure(s, x, v, f, finish ? s.loads.platens.top_offset_after(s.dt) : s.loads.platens.top_offset,
+      platens_and_pressure(s, finish ? s.loads.platens.top_offset_after(s.dt) : s.loads.platens.top_offset,
                            finish ? (s.time + s.dt) : s.time, gather_with_platens, t0);
     device::read_finish(b_, a.data(), sizeof a);
-    if (stepping) {  // the last evaluation's sums: its contact, platens and pressure (kPrev), its elements (the pass)
-      std::array<real, kBad> b;
-      for (int k = 0; k < kBad; ++k) b[k] = a[kPrev + k];
-      for (int k : {kGravity, kVisc, kInverted, kCoh, kFric, kBreaks}) b[k] = a[k];
-      b[kAdded] = 0;
-      if (a[kInverted] > 0) {           // rare: the host names the element in the state the pass read (the
-        apply_force_sums(s, b.data());  // first copies of x and v, the CE6 states before it),
-        std::swap(x_, x2_);             // before the step is counted, as the colour passes do
-        std::swap(v_, v2_);
-        std::swap(dmg_, dmg_next_);
-        std::swap(slip_, slip_next_);
-        std::swap(ce6_flag_, ce6_flag_next_);
-        download();
-        s.book.report_inverted();
-      }
-      if (a[kBreaks] > 0) {       // the pass broke CE6s: their vicinity joins the candidates now, for
-        activate(cs, nc, false);  // this evaluation's contact (with contact, one value more to the host)
-        if (cs.enabled()) device::to_host(b_, &b[kAdded], sums_.data() + kAdded, sizeof(real));
-      }
-      apply_force_sums(s, b.data());
-    }
+    if (stepping) take_stepped_sums(s, a);
     if (finish) {  // the step that led here: its bookkeeping, checks and clock (may throw)
       advance_pending_ = false;
       if (prev && !stepping) apply_force_sums(s, a.data() + kPrev);
@@ -604,48 +586,17 @@ class DeviceLoopImpl final : public DeviceLoop {
       s.book.report_inverted();
     }
     if (!integrates_) s.loads.gravity.power = a[kGravity];  // (integrating: with the evaluation's sums)
-    // Several ranks: a flag raised on any rank holding a tet reaches the others before the broad
-    // phase looks at the flags. The ranks merge them together, and only when one of them raised a
-    // flag since the last merge (or took flags from its host): one number in the step's reduction
-    // (take_reduced) instead of the flags' exchange and its three copies, on the steps (most)
-    // that raise none. A layout grown since (Solver::grow_contact_ghosts, on every rank at once)
-    // brings its host's flags with no reduction in between: every rank merges then.
-    if (s.layout.halo && cs.enabled()) {
-      if ((merge_wanted_ || !flags_merged_) &&
-          halo_.merge_flags(*s.layout.halo, active_, x_, v_, s.layout.halo_seconds))
-        cs.rebuild_due = true;
-      merge_wanted_ = false;
-      flags_merged_ = true;
-    }
+    if (s.layout.halo && cs.enabled()) merge_shared_flags(s);
 
-    // Tet-tet contact: the candidate list rebuilt on the device when flags changed or a node
-    // moved half the buffer; narrow phase, friction and the deterministic per-node sum (queued
-    // ahead above, or now).
-    if (cs.enabled()) {
-      const bool rebuild = cs.rebuild_due || a[kMoved] > 0 || a[kWatched] > 0;
-      if (rebuild) {
-        if (integrates_) follow_gather(false);
-        rebuild_pairs(s);
-        if (integrates_) follow_gather(true);
-        ++t_.rebuilds;
-      }
-      t0 = lap(t0, t_.broad);
-      if (rebuild && ahead) {  // the pairs' sums queued ahead go
-        real* sums_now = sums_.data();
-        Exec::forall(kConPower + 1 - kTouching, [=] FDEM_LAMBDA(int k) { sums_now[kTouching + k] = 0; });
-      }
-      if (rebuild || !ahead) contact_pairs(s, t0, true);
-      std::swap(spring_, next_spring_);  // the springs of the pairs' last pass are now the state
-      // The run's report reads the contact set's clocks (friction: in the narrow phase's pass).
-      cs.times.broad = t_.broad;
-      cs.times.narrow = t_.narrow + t_.contact_sum;
-    }
+    // Tet-tet contact: the candidate list rebuilt when flags changed or a node moved half the
+    // buffer; the pairs (queued ahead above, or now).
+    if (cs.enabled()) contact_forces(s, cs.rebuild_due || a[kMoved] > 0 || a[kWatched] > 0, ahead, t0);
 
     // Adaptive activation, on the evaluations where a CE6 broke (activate()), for the next
     // evaluation's contact. (Where the fused pass integrates: with the pass's breaks, above.)
     if (!integrates_ && a[kBreaks] > 0) activate(cs, nc, false);
     t0 = lap(t0, t_.activation);
-    if (!integrates_) platens_and_pressure(s, x, v, f, s.loads.platens.top_offset, s.time, false, t0);
+    if (!integrates_) platens_and_pressure(s, s.loads.platens.top_offset, s.time, false, t0);
     // The scalars stay on the device: one rank reads them with the next evaluation's first copy,
     // several ranks with the integration's sums (advance()), and sum them over the ranks in the
     // step's one reduction (take_reduced); or settle() before either.
@@ -653,12 +604,129 @@ class DeviceLoopImpl final : public DeviceLoop {
     elements_pending_ = integrates_;
   }
 
+  // The parts of compute_forces(). (Public where they hold a pass: nvcc's extended lambdas need
+  // their enclosing function public.)
+
+  /// The elements' forces (and where the fused pass steps, the step and the powers of the last
+  /// forces with the moved state), gravity's start of the sums, or the zeroed unreached nodes.
+  void element_forces(const LoopParts& s, bool stepping, const device_pass::KeepAndClear& keep_and_clear,
+                      std::chrono::steady_clock::time_point& t0) {
+    const Model& m = s.model;
+    const int nn = int(x_.size());
+    const Vec3* v = v_.data();
+    Vec3* f = f_.data();
+    const real* mass = mass_.data();
+    real* sums = sums_.data();
+    const std::uint8_t* own_n = own_node_.data();
+    // Gravity starts the sum; without it the TET4 pass assigns each node's first force (the
+    // nodes it does not reach are zeroed here), so f is not written twice. (A fused pass that
+    // integrates starts each force itself.)
+    const Vec3 g = s.loads.gravity.g;
+    if (integrates_) {
+    } else if (!gravity_) {
+      const int* un = unreached_.data();
+      Exec::forall(int(unreached_.size()), [=] FDEM_LAMBDA(int k) { f[un[k]] = Vec3{0, 0, 0}; });
+    } else {
+      Exec::template sum_to<1>(
+          nn,
+          [=] FDEM_LAMBDA(int n, real* acc) {
+            f[n] = mass[n] * g;
+            if (own_n[n]) acc[0] += dot(f[n], v[n]);
+          },
+          sums + kGravity);
+    }
+
+    // TET4 and CE6: fused in one pass, or colour by colour (plan_fused_pass); where the fused
+    // pass integrates, the last evaluation's, with the step.
+    if (stepping) {
+      fused_pass<kStep>(m, s.laws.lambda, s.laws.mu, sums, keep_and_clear);
+      t0 = lap(t0, t_.ce6);  // (the TET4 and integration columns stay empty)
+      // (x and v swapped: the moved state.) The powers of the last forces with it
+      // (gravity's: in the pass), and in the same launch the broad phase's watch (timed here, as
+      // energy, not as activation)
+      contact_pressure_powers(s.contacts.enabled(), s.loads.confinement.enabled,
+                              s.contacts.enabled() ? &s.contacts : nullptr);
+      t0 = lap(t0, t_.energy);
+    } else if (integrates_) {
+    } else if (fused_) {
+      fused_pass<kForces>(m, s.laws.lambda, s.laws.mu, sums);
+      t0 = lap(t0, t_.ce6);  // (the TET4 column stays empty)
+    } else {
+      colour_forces(m, s.laws.lambda, s.laws.mu, sums, t0);
+    }
+  }
+
+  /// Where the fused pass stepped: the last evaluation's sums (its contact, platens and pressure
+  /// at kPrev; its elements from the pass) to the Solver, from the copy a; an inverted TET4 named
+  /// in the state the pass read; the vicinity of the CE6s it broke activated.
+  void take_stepped_sums(const LoopParts& s, const std::array<real, kAll>& a) {
+    ContactSet& cs = s.contacts;
+    const int nc = int(dmg_.size());
+    std::array<real, kBad> b;
+    for (int k = 0; k < kBad; ++k) b[k] = a[kPrev + k];
+    for (int k : {kGravity, kVisc, kInverted, kCoh, kFric, kBreaks}) b[k] = a[k];
+    b[kAdded] = 0;
+    if (a[kInverted] > 0) {           // rare: the host names the element in the state the pass read (the
+      apply_force_sums(s, b.data());  // first copies of x and v, the CE6 states before it),
+      std::swap(x_, x2_);             // before the step is counted, as the colour passes do
+      std::swap(v_, v2_);
+      std::swap(dmg_, dmg_next_);
+      std::swap(slip_, slip_next_);
+      std::swap(ce6_flag_, ce6_flag_next_);
+      download();
+      s.book.report_inverted();
+    }
+    if (a[kBreaks] > 0) {       // the pass broke CE6s: their vicinity joins the candidates now, for
+      activate(cs, nc, false);  // this evaluation's contact (with contact, one value more to the host)
+      if (cs.enabled()) device::to_host(b_, &b[kAdded], sums_.data() + kAdded, sizeof(real));
+    }
+    apply_force_sums(s, b.data());
+  }
+
+  /// Several ranks: a flag raised on any rank holding a tet reaches the others before the broad
+  /// phase looks at the flags. The ranks merge them together, and only when one of them raised a
+  /// flag since the last merge (or took flags from its host): one number in the step's reduction
+  /// (take_reduced) instead of the flags' exchange and its three copies, on the steps (most) that
+  /// raise none. A layout grown since (Solver::grow_contact_ghosts, on every rank at once) brings
+  /// its host's flags with no reduction in between: every rank merges then.
+  void merge_shared_flags(const LoopParts& s) {
+    if ((merge_wanted_ || !flags_merged_) && halo_.merge_flags(*s.layout.halo, active_, x_, v_, s.layout.halo_seconds))
+      s.contacts.rebuild_due = true;
+    merge_wanted_ = false;
+    flags_merged_ = true;
+  }
+
+  /// Tet-tet contact: the candidate list rebuilt where `rebuild`; narrow phase, friction and the
+  /// deterministic per-node sum, unless they ran `ahead` of the copy on the list as it stands.
+  void contact_forces(const LoopParts& s, bool rebuild, bool ahead, std::chrono::steady_clock::time_point& t0) {
+    ContactSet& cs = s.contacts;
+    if (rebuild) {
+      if (integrates_) follow_gather(false);
+      rebuild_pairs(s);
+      if (integrates_) follow_gather(true);
+      ++t_.rebuilds;
+    }
+    t0 = lap(t0, t_.broad);
+    if (rebuild && ahead) {  // the pairs' sums queued ahead go
+      real* sums_now = sums_.data();
+      Exec::forall(kConPower + 1 - kTouching, [=] FDEM_LAMBDA(int k) { sums_now[kTouching + k] = 0; });
+    }
+    if (rebuild || !ahead) contact_pairs(s, t0, true);
+    std::swap(spring_, next_spring_);  // the springs of the pairs' last pass are now the state
+    // The run's report reads the contact set's clocks (friction: in the narrow phase's pass).
+    cs.times.broad = t_.broad;
+    cs.times.narrow = t_.narrow + t_.contact_sum;
+  }
+
   /// The platens' and the confining pressure's forces at the state in x and v, with the top
   /// platen at top_offset (m) and the pressure's ramp at `time` (s): added to f, or where the
   /// fused pass integrates, held for it. `gather`: the contact pairs' per-node sum in the
   /// platens' launch (where the fused pass integrates). t0: the passes' clock.
-  void platens_and_pressure(const LoopParts& s, const Vec3* x, const Vec3* v, Vec3* f, real top_offset, real time,
-                            bool gather, std::chrono::steady_clock::time_point& t0) {
+  void platens_and_pressure(const LoopParts& s, real top_offset, real time, bool gather,
+                            std::chrono::steady_clock::time_point& t0) {
+    const Vec3* x = x_.data();
+    const Vec3* v = v_.data();
+    Vec3* f = f_.data();
     const PlatenLoad& platens = s.loads.platens;
     const ContactSet& cs = s.contacts;
     real* sums = sums_.data();
