@@ -124,7 +124,7 @@ inline int host_workers() {
 }
 /// Launches of fewer iterations run on the calling thread: starting OpenMP's team costs about as
 /// much as that many light iterations (clearing a sum, the prescribed nodes, a small model's
-/// contact), and a step makes about twenty launches.
+/// contact), and a step makes about twenty launches. On one thread no launch starts a team.
 #ifndef FDEM_HOST_SERIAL_BELOW
 #define FDEM_HOST_SERIAL_BELOW 64
 #endif
@@ -148,7 +148,7 @@ inline void host_parallel_for(int n, Fn fn) {
   share(0);
   for (std::thread& th : others) th.join();
 #elif defined(_OPENMP)
-  if (n < kHostSerialBelow) {
+  if (n < kHostSerialBelow || host_workers() == 1) {  // (no team to start)
     for (int k = 0; k < n; ++k) fn(k, 0);
     return;
   }
@@ -281,7 +281,7 @@ struct HostExecutor {
 #if !defined(FDEM_HOST_RACE_THREADS)
     if (order() == HostOrder::forward) {
       real acc[N] = {};
-      if (n < kHostSerialBelow) {
+      if (n < kHostSerialBelow || host_workers() == 1) {  // (no team to start)
         for (int i = 0; i < n; ++i) body(i, acc);
       } else {
 #pragma omp parallel for schedule(static) reduction(+ : acc[:N])

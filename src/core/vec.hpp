@@ -142,6 +142,11 @@ FDEM_HD real von_mises(const Sym3& s) {
   return std::sqrt(real(0.5) * (a * a + b * b + c * c) + 3 * (s.yz * s.yz + s.xz * s.xz + s.xy * s.xy));
 }
 
+/// All three components zero (of either sign).
+FDEM_HD bool is_zero(Vec3 a) {
+  return a.x == 0 && a.y == 0 && a.z == 0;
+}
+
 /// A finite number (NaN and inf fail), on host and device alike.
 FDEM_HD bool finite_value(real a) {
   return a - a == 0;

@@ -98,7 +98,7 @@ FDEM_HD void tet_edge(int e, int& i, int& j, int& k, int& l) {
   l = E[e][3];
 }
 
-FDEM_HD Planes tet_planes(const Vec3 (&b)[4]) {
+FDEM_HD_INLINE Planes tet_planes(const Vec3 (&b)[4]) {
   Planes P;
   P.C = centroid4(b);
   for (int k = 0; k < 4; ++k) {
@@ -122,7 +122,7 @@ FDEM_HD Planes tet_planes(const Vec3 (&b)[4]) {
 }
 
 /// True if some face plane of b has all of a's vertices on or beyond it: no overlap volume.
-FDEM_HD bool separated_by(const Planes& pb, const Vec3 (&a)[4]) {
+FDEM_HD_INLINE bool separated_by(const Planes& pb, const Vec3 (&a)[4]) {
   for (int k = 0; k < 4; ++k) {
     bool out = true;
     for (int i = 0; i < 4 && out; ++i) out = dot(pb.n[k], a[i] - pb.o[k]) <= 0;
@@ -216,7 +216,8 @@ FDEM_HD void faces_inside(const Vec3 (&a)[4], const Vec3 (&b)[4], const Planes& 
 
 /// Normal contact forces between tets a and b (current positions), penalty P (Pa).
 /// fa and fb are overwritten. Symmetric: swapping a and b swaps fa and fb.
-FDEM_HD ContactEval contact_tet_pair(const Vec3 (&a)[4], const Vec3 (&b)[4], real P, Vec3 (&fa)[4], Vec3 (&fb)[4]) {
+FDEM_HD_INLINE ContactEval contact_tet_pair(const Vec3 (&a)[4], const Vec3 (&b)[4], real P, Vec3 (&fa)[4],
+                                            Vec3 (&fb)[4]) {
   using namespace contact_detail;
   ContactEval e{{0, 0, 0}, {0, 0, 0}, 0};
   for (int i = 0; i < 4; ++i) fa[i] = fb[i] = Vec3{0, 0, 0};

@@ -1671,6 +1671,7 @@ class DeviceLoopImpl final : public DeviceLoop {
           Vec3 fa[4], fb[4];  // the normal forces, then friction's added
           // A joint broken in this evaluation (its flag still up) still holds its faces.
           const int js = slot && cp.joint >= 0 ? slot[cp.joint] : cp.joint;
+          bool pushes = false;  // some force not zero: only then has the pair a power
           if (js >= 0 && (!ce6_broken(st[js]) || (fresh && fresh[js]))) {
             for (int i = 0; i < 4; ++i) fa[i] = fb[i] = Vec3{0, 0, 0};
             ev[k] = ContactEval{{0, 0, 0}, {0, 0, 0}, 0};
@@ -1680,9 +1681,11 @@ class DeviceLoopImpl final : public DeviceLoop {
             for (int i = 0; i < 4; ++i) xa[i] = x[na[i]], xb[i] = x[nb[i]];
             const ContactEval e = contact_tet_pair(xa, xb, P, fa, fb);
             ev[k] = e;
+            for (int i = 0; i < 4; ++i) pushes = pushes || !is_zero(fa[i]) || !is_zero(fb[i]);
             if (!(e.weight > 0)) {
               spring_out[k] = Vec3{0, 0, 0};
             } else {
+              pushes = true;
               if (own_t[cp.a]) acc[0] += 1;
               Vec3 va[4], vb[4], ga[4], gb[4];
               for (int i = 0; i < 4; ++i) {
@@ -1702,7 +1705,8 @@ class DeviceLoopImpl final : public DeviceLoop {
           }
           Vec3* fp = pf + 8 * k;
           for (int i = 0; i < 4; ++i) fp[i] = fa[i], fp[4 + i] = fb[i];
-          device_pass::subtract_pair_power(fa, fb, na, nb, v, own_n, acc[3]);
+          // (A pair without force adds -0 to the power, which leaves every sum as it is.)
+          if (pushes) device_pass::subtract_pair_power(fa, fb, na, nb, v, own_n, acc[3]);
         },
         sums_.data() + kTouching);
     t0 = lap(t0, t_.narrow);
@@ -1759,10 +1763,13 @@ class DeviceLoopImpl final : public DeviceLoop {
           const Vec3* fp = pf + 8 * k;
           int na[4], nb[4];
           Vec3 fa[4], fb[4];
+          bool pushes = false;  // (a pair without force adds -0: skipped, the same sum)
           for (int i = 0; i < 4; ++i) {
-            na[i] = tn[4 * pairs[k].a + i], nb[i] = tn[4 * pairs[k].b + i];
             fa[i] = fp[i], fb[i] = fp[4 + i];
+            pushes = pushes || !is_zero(fa[i]) || !is_zero(fb[i]);
           }
+          if (!pushes) return;
+          for (int i = 0; i < 4; ++i) na[i] = tn[4 * pairs[k].a + i], nb[i] = tn[4 * pairs[k].b + i];
           device_pass::subtract_pair_power(fa, fb, na, nb, v, own_n, acc[0]);
         },
         sums_.data() + kConPowerNew);
