@@ -1529,10 +1529,14 @@ class DeviceLoopImpl final : public DeviceLoop {
 
   /// Cpu backend, before a rebuild: the arrays it makes anew let go of the ContactSet's vectors
   /// (the old pairs and springs stay borrowed: the rebuild reads them to carry the springs over).
-  void contact_apart_for_rebuild() {
+  /// Those vectors are not read again before the new arrays move in (contact_in_place): freed
+  /// now, so that the old and the new are not held together.
+  void contact_apart_for_rebuild(ContactSet& c) {
     if (b_ != Backend::cpu) return;
     auto release = [](auto&... a) { (a.release(), ...); };
     release(next_spring_, eval_, pair_force_, gather_node_, gather_ptr_, gather_slot_, watch_nodes_, watch_x_);
+    auto free_all = [](auto&... h) { ((std::remove_reference_t<decltype(h)>{}.swap(h)), ...); };
+    free_all(c.eval, c.pair_force, c.gather_node, c.gather_ptr, c.gather_slot, c.watch_nodes, c.watch_x);
   }
 
  public:  // (public: nvcc's device lambdas cannot live in private member functions)
@@ -1602,7 +1606,7 @@ class DeviceLoopImpl final : public DeviceLoop {
   /// gather index and the watch list. Only counts come back to the host.
   void rebuild_pairs(const LoopParts& s) {
     ContactSet& cs = s.contacts;
-    contact_apart_for_rebuild();
+    contact_apart_for_rebuild(cs);
     CandidateInputs in;
     in.tets = int(V0_.size()), in.nodes = int(x_.size());
     in.x = x_.data(), in.tet_nodes = tet_nodes_.data(), in.active = active_.data();
