@@ -1,7 +1,5 @@
 #include "solver/loads.hpp"
 
-#include <algorithm>
-
 #include "physics/integrate.hpp"
 
 namespace fdem {
