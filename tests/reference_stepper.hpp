@@ -15,8 +15,8 @@
 #include <vector>
 
 #include "contact/broad_phase.hpp"
-#include "model/model.hpp"
 #include "model/laws.hpp"
+#include "model/model.hpp"
 #include "physics/cohesive6.hpp"
 #include "physics/contact.hpp"
 #include "physics/integrate.hpp"
@@ -65,12 +65,7 @@ class ReferenceStepper {
   void step() {
     const real speed = s_.platens.enabled ? ramped_speed(time + 0.5 * dt_, s_.platens.velocity, platen_ramp_) : 0;
     for (std::size_t n = 0; n < x.size(); ++n) central_difference(x[n], v[n], f[n], 1 / m_.mass[n], dt_);
-    for (const Fixed& p : fixed_)
-      for (int d = 0; d < 3; ++d)
-        if (p.mask >> d & 1) {
-          x[p.node][d] += dt_ * (p.velocity[d] - v[p.node][d]);
-          v[p.node][d] = p.velocity[d];
-        }
+    for (const Fixed& p : fixed_) prescribe_velocity(x[p.node], v[p.node], p.mask, p.velocity, dt_);
     top_offset = top_offset + speed * dt_;
     time = time + dt_;
     ++steps;
@@ -130,9 +125,9 @@ class ReferenceStepper {
       const int n = m_.platen_nodes[i];
       const bool near_top = x[n].z > 0.5 * (ztop + zbot);  // a node meets the nearer platen only
       const real k = s_.material.contact_penalty * m_.platen_node_area[i] / m_.platen_node_h[i];
-      const PlatenEval e = platen_node_force(x[n] - Vec3{0, 0, near_top ? ztop : zbot},
-                                             Vec3{0, 0, near_top ? -1.0 : 1.0}, k, s_.material.friction_platen,
-                                             platen_anchor[i]);
+      const PlatenEval e =
+          platen_node_force(x[n] - Vec3{0, 0, near_top ? ztop : zbot}, Vec3{0, 0, near_top ? -1.0 : 1.0}, k,
+                            s_.material.friction_platen, platen_anchor[i]);
       f[n] += e.force;
       (near_top ? force_top : force_bottom) += e.force.z;
     }

@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <cstdlib>
+#include <iterator>
+#include <limits>
 #include <string>
 #include <utility>
 
@@ -48,6 +50,54 @@ int device_blocks_per_sm() {
                    ": not a choice of the fused pass's resident blocks per multiprocessor. Fix: "
                    "FDEM_CUDA_BLOCKS_PER_SM=1 (the default: every register the kernel wants, one block of 256 "
                    "threads per multiprocessor) or 2 (half the registers, the rest spilled), or unset it");
+}
+
+void poison_host_state(const LoopParts& s, bool scalars_waiting, bool integrates) {
+  const real nan = std::numeric_limits<real>::quiet_NaN();
+  const Vec3 bad{nan, nan, nan};
+  for (auto* a : {&s.x, &s.v, &s.f, &s.loads.platens.anchor, &s.loads.confinement.face_force})
+    std::fill(a->begin(), a->end(), bad);
+  for (Ce6Damage& c : s.ce6.damage) c.D[0] = c.D[1] = c.D[2] = nan, c.mode = -1;
+  for (Ce6Anchors& c : s.ce6.anchors) std::fill(std::begin(c.a), std::end(c.a), bad);
+  std::fill(s.ce6_broke.begin(), s.ce6_broke.end(), 0xAA);
+  if (s.contacts.enabled()) {
+    ContactSet& c = s.contacts;
+    std::fill(c.active.begin(), c.active.end(), 0xAA);
+    std::fill(c.spring.begin(), c.spring.end(), bad);
+    std::fill(c.pair_force.begin(), c.pair_force.end(), bad);
+    std::fill(c.eval.begin(), c.eval.end(), ContactEval{bad, bad, nan});
+  }
+  // The last evaluation's scalars not yet settled: read before settle() they are NaN.
+  if (!scalars_waiting) return;
+  s.loads.platens.force_top = s.loads.platens.force_bottom = s.energy.p_contact = s.energy.contact_spring = nan;
+  s.energy.p_viscous = s.energy.p_cohesive = s.energy.p_friction = nan;
+  if (integrates) s.loads.gravity.power = nan;  // (with the elements' sums there)
+  if (s.loads.confinement.enabled) s.loads.confinement.pressure = s.loads.confinement.power = nan;
+}
+
+std::vector<std::uint8_t> middle_third_tets(const Model& m) {
+  std::vector<std::uint8_t> mid(m.tet_nodes.size());
+  const real z_lo = m.box_min.z + (m.box_max.z - m.box_min.z) / 3, z_hi = m.box_max.z - (m.box_max.z - m.box_min.z) / 3;
+  for (std::size_t t = 0; t < mid.size(); ++t) {
+    const auto& q = m.tet_nodes[t];
+    const real zc = 0.25 * (m.X[q[0]].z + m.X[q[1]].z + m.X[q[2]].z + m.X[q[3]].z);
+    mid[t] = zc >= z_lo && zc <= z_hi;
+  }
+  return mid;
+}
+
+std::vector<std::uint8_t> tets_on_loads(const LoopParts& s, const std::vector<int>& lateral_nodes) {
+  const Model& m = s.model;
+  std::vector<std::uint8_t> loaded(m.X.size(), 0);
+  if (s.loads.platens.enabled)
+    for (int n : m.platen_nodes) loaded[n] = 1;
+  if (s.loads.confinement.enabled)
+    for (int n : lateral_nodes) loaded[n] = 1;
+  std::vector<std::uint8_t> ext(m.tet_nodes.size(), 0);
+  for (std::size_t t = 0; t < ext.size(); ++t)
+    for (int n : m.tet_nodes[t])
+      if (loaded[n]) ext[t] = 2;
+  return ext;
 }
 
 bool plan_fused_pass(const Model& m, FusedPlan& plan) {

@@ -219,6 +219,18 @@ DeviceSchedule device_schedule(Backend b);
 /// naming it.
 int device_blocks_per_sm();
 
+// Host work of the device loop, the same for every Exec (solver/device_loop.cpp).
+/// Debug backend: the host copies of the evolving state filled with NaN (flags with 0xAA), and
+/// the last force evaluation's scalars where they wait on the device (`scalars_waiting`; with
+/// gravity's power where the fused pass `integrates`).
+void poison_host_state(const LoopParts& s, bool scalars_waiting, bool integrates);
+/// Per tet, 1 where its reference centroid lies in the middle third of the height (the monitor
+/// rows' lateral stress).
+std::vector<std::uint8_t> middle_third_tets(const Model& m);
+/// Per tet, 2 where a node lies on a platen or on the pressure's `lateral_nodes` (each where
+/// that load is on), else 0: the tets whose held forces the fused pass that integrates reads.
+std::vector<std::uint8_t> tets_on_loads(const LoopParts& s, const std::vector<int>& lateral_nodes);
+
 /// The device loop of backend b on a run's parts. Throws InputError when the CUDA backend was not
 /// built or no GPU is visible.
 std::unique_ptr<DeviceLoop> make_device_loop(Backend b, const LoopParts& parts);

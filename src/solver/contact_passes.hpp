@@ -1,0 +1,415 @@
+#pragma once
+// Tet-tet contact in the device loop, on any Exec (core/forall.hpp): adaptive activation, the
+// broad phase's watch, the candidate list's build (solver/candidate_build.hpp), the pairs'
+// narrow phase and friction (physics/contact.hpp), and the deterministic per-node sum of their
+// forces. ContactSet (solver/contact_set.hpp) is the host copy of this state.
+#include <cstdint>
+#include <type_traits>
+#include <utility>
+
+#include "core/forall.hpp"
+#include "physics/cohesive6.hpp"
+#include "physics/contact.hpp"
+#include "solver/candidate_build.hpp"
+#include "solver/device_loop.hpp"
+#include "solver/loop_sums.hpp"
+#include "solver/pass_support.hpp"
+
+namespace fdem {
+
+namespace device_pass {
+/// A contact pair's power: -f.v of its forces fa (on nodes na) and fb (on nb), subtracted from
+/// acc node by node, owned nodes only.
+FDEM_HD void subtract_pair_power(const Vec3 (&fa)[4], const Vec3 (&fb)[4], const int (&na)[4], const int (&nb)[4],
+                                 const Vec3* v, const std::uint8_t* own_n, real& acc) {
+  for (int i = 0; i < 4; ++i) {
+    if (own_n[na[i]]) acc -= dot(fa[i], v[na[i]]);
+    if (own_n[nb[i]]) acc -= dot(fb[i], v[nb[i]]);
+  }
+}
+}  // namespace device_pass
+
+/// What the pairs' pass reads besides the contact state.
+struct PairInputs {
+  const int* tet_nodes;          // 4 per tet
+  const int* ce6_slot;           // per CE6 id its slot (null: the slots are the ids)
+  const Ce6Damage* damage;       // per CE6 slot
+  const std::uint8_t* fresh;     // per CE6 slot, its break flag still up (null: not read)
+  const std::uint8_t* own_tet;   // per tet, 1 where this rank owns it
+  const std::uint8_t* own_node;  // per node, the same
+  const Vec3* x;                 // m
+  const Vec3* v;                 // m/s
+  real dt;                       // s
+};
+
+template <class Exec>
+class ContactPasses : SumSlots {
+ public:
+  /// `held`: the fused pass integrates, and the pairs' per-node sum waits for it in an array of
+  /// its own (contact_sum_), each node knowing its place (gather_of_).
+  void set_backend(Backend b, bool held) {
+    b_ = b, held_ = held;
+    auto set = [&](auto&... a) { (a.set_backend(b), ...); };
+    set(node_vertex_, vt_ptr_, vt_tets_, tet_ce6_, ce6_tets_, tet_global_, watch_nodes_, gather_node_, gather_ptr_,
+        gather_slot_, gather_of_);
+    set(plan_x_, watch_x_, spring_, next_spring_, pair_force_, contact_sum_, active_, pairs_, next_pairs_, eval_);
+    candidates_.set_backend(b);
+  }
+
+  /// The constants: activation's vertex -> tets lists, the candidate filters (the CE6s on each
+  /// tet's faces, the tets of each CE6), and on several ranks the tets' global ids and the
+  /// positions the contact ghosts were gathered at.
+  void place(const LoopParts& s) {
+    const Model& m = s.model;
+    const ContactSet& c = s.contacts;
+    fdem::place(b_, node_vertex_, m.node_vertex);
+    fdem::place(b_, vt_ptr_, c.vertex_tet_ptr());
+    fdem::place(b_, vt_tets_, c.vertex_tets());
+    fdem::place(b_, tet_ce6_, reinterpret_cast<const int*>(c.tet_ce6().data()), 4 * c.tet_ce6().size());
+    fdem::place(b_, ce6_tets_, reinterpret_cast<const int*>(m.ce6_tets.data()), 2 * m.ce6_tets.size());
+    if (s.layout.dd.distributed()) {
+      fdem::place(b_, plan_x_, c.plan_x());
+      fdem::place(b_, tet_global_, s.layout.dd.tet_global);
+    }
+    if (held_) gather_of_.upload(std::vector<int>(m.X.size(), -1));
+  }
+
+  /// Contact's state: flags, pairs, springs, forces and indices; the gather list followed anew.
+  void upload_state(const ContactSet& c) {
+    fdem::place(b_, active_, c.active);
+    // Every node out of the old gather list (on the cpu backend the list this loop borrowed may
+    // have been overwritten by a checkpoint's).
+    if (held_) {
+      int* of = gather_of_.data();
+      Exec::forall(int(gather_of_.size()), [=] FDEM_LAMBDA(int n) { of[n] = -1; });
+    }
+    contact_arrays(c, [&](auto& d, const auto& h) { fdem::place(b_, d, h); });
+    springs_in_place(c);
+    pairs_on_host_ = true;
+    if (held_) follow_gather(true);
+  }
+
+  void download_state(ContactSet& c) {
+    active_.download(c.active);
+    c.recount_active();
+    spring_.download(c.spring);
+    eval_.download(c.eval);
+    pair_force_.download(c.pair_force);
+    if (pairs_on_host_) return;  // else built on the device since the last copy
+    pairs_.download(c.pairs);
+    gather_node_.download(c.gather_node);
+    gather_ptr_.download(c.gather_ptr);
+    gather_slot_.download(c.gather_slot);
+    watch_nodes_.download(c.watch_nodes);
+    watch_x_.download(c.watch_x);
+    pairs_on_host_ = true;
+  }
+
+  DeviceArray<std::uint8_t>& active() { return active_; }
+  long pairs() const { return long(pairs_.size()); }
+  long gathered_nodes() const { return long(gather_node_.size()); }
+  /// Per node its place in the gather list (-1: none), where the sum is held.
+  const int* gather_place() const { return gather_of_.data(); }
+  const Vec3* held_sum() const { return contact_sum_.data(); }
+
+  /// One launch: over `flags` CE6 slots, adaptive activation: the vicinity of each CE6 whose
+  /// break flag is up (every tet sharing a vertex of its face, ce6_nodes: 6 per slot) joins the
+  /// candidates and the flag goes down (kAdded counts the tets added, which marks the set dirty
+  /// with the evaluation's sums); with `watch` and contact, the broad phase's watch (kMoved:
+  /// nodes of active tets that moved half the buffer since the list was built). Flags only
+  /// rise, each with one atomic operation (raise_flag), so a tet at the vertices of several
+  /// breaking CE6s is raised and counted once, whatever the iterations' order.
+  void activate(const ContactSet& cs, int flags, bool with_watch, const int* ce6_nodes, std::uint8_t* broke,
+                const Vec3* x, real* sums) {
+    const bool on = cs.enabled();
+    const int nw = with_watch && on ? int(watch_nodes_.size()) : 0;
+    const int* cn = ce6_nodes;
+    const int* nv = node_vertex_.data();
+    const int* vptr = vt_ptr_.data();
+    const int* vtets = vt_tets_.data();
+    std::uint8_t* active = active_.data();
+    const Watch moved = watch(cs.buffer());
+    static_assert(kMoved == kAdded + 1, "the activation's and the watch's counts");
+    Exec::template sum_to<2>(
+        flags + nw,
+        [=] FDEM_LAMBDA(int i, real* acc) {
+          if (i >= flags) {
+            if (moved.moved(i - flags, x)) acc[1] += 1;
+            return;
+          }
+          if (!broke[i]) return;
+          broke[i] = 0;
+          if (!on) return;
+          for (int j = 0; j < 3; ++j) {
+            const int vtx = nv[cn[6 * i + j]];
+            for (int k = vptr[vtx]; k < vptr[vtx + 1]; ++k)  // (a tet two broken CE6s share: raised once)
+              if (raise_flag(active + vtets[k])) acc[0] += 1;
+          }
+        },
+        sums + kAdded);
+  }
+
+  /// Held sums: `into`, each node of the gather list gets its place in it (gather_of_);
+  /// otherwise the listed nodes leave (before the list changes).
+  void follow_gather(bool into) {
+    const int* gn = gather_node_.data();
+    int* of = gather_of_.data();
+    Exec::forall(int(gather_node_.size()), [=] FDEM_LAMBDA(int k) { of[gn[k]] = into ? k : -1; });
+    if (into) contact_sum_.resize(gather_node_.size());
+  }
+
+  /// The candidate list (the passes of contact/broad_phase.cpp's find_box_pairs, which
+  /// test_broad_phase holds to a brute-force search), with the filters (a joining CE6, shared
+  /// nodes), springs carried over by (a, b), the gather index and the watch list. Only counts
+  /// come back to the host. `own_node`: null on one rank.
+  void rebuild(ContactSet& cs, int tets, int nodes, const Vec3* x, const int* tet_nodes, const std::uint8_t* own_node,
+               DeviceTimes& t) {
+    apart_for_rebuild(cs);
+    CandidateInputs in;
+    in.tets = tets, in.nodes = nodes;
+    in.x = x, in.tet_nodes = tet_nodes, in.active = active_.data();
+    in.tet_global = tet_global_.size() > 0 ? tet_global_.data() : nullptr;
+    in.own_node = own_node;
+    in.tet_ce6 = tet_ce6_.data(), in.ce6_tets = ce6_tets_.data(), in.buffer = cs.buffer();
+    const BroadPhaseStats st = candidates_.find_pairs(in, next_pairs_);
+    candidates_.carry_springs(in, pairs_, spring_, next_pairs_, next_spring_);
+    const long grown_before = pairs_.times_grown() + pair_force_.times_grown();
+    std::swap(pairs_, next_pairs_);
+    std::swap(spring_, next_spring_);
+    eval_.resize(st.pairs);
+    pair_force_.resize(8 * st.pairs);
+    t.pair_growth += pairs_.times_grown() + pair_force_.times_grown() - grown_before;
+    candidates_.gather_index(in, pairs_, gather_node_, gather_ptr_, gather_slot_);
+    candidates_.watch_list(in, watch_nodes_, watch_x_);
+    cs.rebuild_due = false;
+    ++cs.times.rebuilds;
+    cs.last_build = st;
+    pairs_on_host_ = false;
+    if (b_ == Backend::cpu) {  // (CandidateBuild::release_scratch)
+      candidates_.release_scratch();
+      next_pairs_.release();
+      in_place(cs);
+    }
+  }
+
+  /// One launch over the candidate list: the narrow phase, friction, the pair's forces written
+  /// once, and their power with the velocities now (its sums to kTouching to kConPower). The
+  /// springs are read from spring_ and written to next_spring_, which become the state at
+  /// springs_settled(): a pass run ahead of a rebuild leaves the springs it carries over as
+  /// they were.
+  void pairs(const ContactSet& cs, const PairInputs& in, real* sums) {
+    const int np = int(pairs_.size());
+    next_spring_.resize(np);
+    const ContactPair* pairs = pairs_.data();
+    ContactEval* ev = eval_.data();
+    Vec3* pf = pair_force_.data();
+    const Vec3* spring_in = spring_.data();
+    Vec3* spring_out = next_spring_.data();
+    const real P = cs.penalty(), mu_rock = cs.friction();
+    static_assert(kConDiss == kTouching + 1 && kConStored == kTouching + 2 && kConPower == kTouching + 3,
+                  "the contact pass's sums");
+    Exec::template sum_to<4>(
+        np,
+        [=] FDEM_LAMBDA(int k, real* acc) {
+          const ContactPair cp = pairs[k];
+          int na[4], nb[4];
+          for (int i = 0; i < 4; ++i) na[i] = in.tet_nodes[4 * cp.a + i], nb[i] = in.tet_nodes[4 * cp.b + i];
+          Vec3 fa[4], fb[4];  // the normal forces, then friction's added
+          // A joint broken in this evaluation (its flag still up) still holds its faces.
+          const int js = in.ce6_slot && cp.joint >= 0 ? in.ce6_slot[cp.joint] : cp.joint;
+          bool pushes = false;  // some force not zero: only then has the pair a power
+          if (js >= 0 && (!ce6_broken(in.damage[js]) || (in.fresh && in.fresh[js]))) {
+            for (int i = 0; i < 4; ++i) fa[i] = fb[i] = Vec3{0, 0, 0};
+            ev[k] = ContactEval{{0, 0, 0}, {0, 0, 0}, 0};
+            spring_out[k] = Vec3{0, 0, 0};
+          } else {
+            Vec3 xa[4], xb[4];
+            for (int i = 0; i < 4; ++i) xa[i] = in.x[na[i]], xb[i] = in.x[nb[i]];
+            const ContactEval e = contact_tet_pair(xa, xb, P, fa, fb);
+            ev[k] = e;
+            for (int i = 0; i < 4; ++i) pushes = pushes || !is_zero(fa[i]) || !is_zero(fb[i]);
+            if (!(e.weight > 0)) {
+              spring_out[k] = Vec3{0, 0, 0};
+            } else {
+              pushes = true;
+              if (in.own_tet[cp.a]) acc[0] += 1;
+              Vec3 va[4], vb[4], ga[4], gb[4];
+              for (int i = 0; i < 4; ++i) {
+                va[i] = in.v[na[i]], vb[i] = in.v[nb[i]];
+                ga[i] = gb[i] = Vec3{0, 0, 0};
+              }
+              const real k_t = contact_tangential_stiffness(xa, xb, P);
+              Vec3 spring = spring_in[k];
+              const real d = contact_friction(xa, xb, va, vb, e, mu_rock, k_t, in.dt, spring, ga, gb);
+              spring_out[k] = spring;
+              if (in.own_tet[cp.a]) {
+                acc[1] += d;
+                acc[2] += 0.5 * k_t * dot(spring, spring);
+              }
+              for (int i = 0; i < 4; ++i) fa[i] += ga[i], fb[i] += gb[i];
+            }
+          }
+          Vec3* fp = pf + 8 * k;
+          for (int i = 0; i < 4; ++i) fp[i] = fa[i], fp[4 + i] = fb[i];
+          // (A pair without force adds -0 to the power, which leaves every sum as it is.)
+          if (pushes) device_pass::subtract_pair_power(fa, fb, na, nb, in.v, in.own_node, acc[3]);
+        },
+        sums + kTouching);
+  }
+
+  /// The springs of the pairs' last pass are now the state.
+  void springs_settled() { std::swap(spring_, next_spring_); }
+
+  /// The sum of the pair forces at gather node k.
+  struct Gather {
+    const int* ptr;
+    const int* slot;
+    const Vec3* pair_force;
+    FDEM_HD Vec3 at(int k) const {
+      Vec3 sum{0, 0, 0};
+      for (int j = ptr[k]; j < ptr[k + 1]; ++j) sum += pair_force[slot[j]];
+      return sum;
+    }
+  };
+  Gather gather() const { return Gather{gather_ptr_.data(), gather_slot_.data(), pair_force_.data()}; }
+
+  /// The deterministic per-node sum of the pairs' forces: added to f, or held for the fused pass.
+  void add_forces(Vec3* f) {
+    const int* gn = gather_node_.data();
+    const Gather g = gather();
+    Vec3* held = held_ ? contact_sum_.data() : nullptr;
+    Exec::forall(int(gather_node_.size()), [=] FDEM_LAMBDA(int k) {
+      const Vec3 sum = g.at(k);
+      if (held)
+        held[k] = sum;
+      else
+        f[gn[k]] += sum;
+    });
+  }
+  /// The per-node sum held for the fused pass, where a launch the loop shares writes it.
+  Vec3* held_sum_out() { return contact_sum_.data(); }
+
+  /// The power of pair k's last forces with the velocities v (-sum f.v, ContactSet::power).
+  struct Power {
+    const int* tet_nodes;
+    const ContactPair* pairs;
+    const Vec3* pair_force;
+    FDEM_HD void subtract(int k, const Vec3* v, const std::uint8_t* own_n, real& acc) const {
+      const Vec3* fp = pair_force + 8 * k;
+      int na[4], nb[4];
+      Vec3 fa[4], fb[4];
+      bool pushes = false;  // (a pair without force adds -0: skipped, the same sum)
+      for (int i = 0; i < 4; ++i) {
+        fa[i] = fp[i], fb[i] = fp[4 + i];
+        pushes = pushes || !is_zero(fa[i]) || !is_zero(fb[i]);
+      }
+      if (!pushes) return;
+      for (int i = 0; i < 4; ++i) na[i] = tet_nodes[4 * pairs[k].a + i], nb[i] = tet_nodes[4 * pairs[k].b + i];
+      device_pass::subtract_pair_power(fa, fb, na, nb, v, own_n, acc);
+    }
+  };
+  Power power(const int* tet_nodes) const { return Power{tet_nodes, pairs_.data(), pair_force_.data()}; }
+
+  /// The broad phase's watch: has watched node i moved half the buffer since the list was built?
+  struct Watch {
+    const int* node;
+    const Vec3* at;
+    real lim2;  // m^2, a quarter of the buffer squared
+    FDEM_HD bool moved(int i, const Vec3* x) const {
+      const Vec3 d = x[node[i]] - at[i];
+      return dot(d, d) > lim2;
+    }
+  };
+  Watch watch(real buffer) const { return Watch{watch_nodes_.data(), watch_x_.data(), 0.25 * buffer * buffer}; }
+  int watched() const { return int(watch_nodes_.size()); }
+
+  /// A monitor row's counts: this rank's active tets and pairs.
+  void measure(const std::uint8_t* own_t, MonitorSums& out) const {
+    const std::uint8_t* active = active_.data();
+    const ContactPair* pairs = pairs_.data();
+    out.active_tets = Exec::template sum<1>(
+        int(active_.size()), [=] FDEM_LAMBDA(int t, real* acc) { acc[0] += active[t] == 1 && own_t[t]; })[0];
+    out.contact_pairs = Exec::template sum<1>(int(pairs_.size()),
+                                              [=] FDEM_LAMBDA(int k, real* acc) { acc[0] += own_t[pairs[k].a]; })[0];
+  }
+
+  /// Several ranks: the positions the contact ghosts were gathered at.
+  const Vec3* plan_x() const { return plan_x_.data(); }
+
+  /// Bytes a step's pairs read and write: the pair, its evaluation written, its spring read and
+  /// written, 8 node ids and the 8 nodes' x and v, 8 forces written (narrow phase and friction
+  /// in one pass); the gather reads the forces; the new velocities' power reads the ids, forces
+  /// and v again.
+  double bytes_per_step() const {
+    const double vec = sizeof(Vec3);
+    return double(pairs_.size()) * (sizeof(ContactPair) + sizeof(ContactEval) + 2 * vec + 2 * 8 * sizeof(int) +
+                                    16 * vec + 8 * vec + 8 * vec + 16 * vec);
+  }
+
+ private:
+  /// f(the loop's array, the ContactSet's vector) for each contact array both hold.
+  template <class Set, class F>
+  void contact_arrays(Set& c, F&& f) {
+    f(pairs_, c.pairs), f(spring_, c.spring), f(eval_, c.eval), f(pair_force_, c.pair_force);
+    f(gather_node_, c.gather_node), f(gather_ptr_, c.gather_ptr), f(gather_slot_, c.gather_slot);
+    f(watch_nodes_, c.watch_nodes), f(watch_x_, c.watch_x);
+  }
+
+  /// Cpu backend: the pairs' pass updates each pair's spring where it reads it (next_spring_
+  /// is spring_), which is safe because a pair reads and writes only its own. Not where the
+  /// fused pass integrates: that schedule may run the pairs twice in one evaluation, so it keeps
+  /// the springs from before the first run apart, in a next_spring_ of the loop's own (one that
+  /// still borrows a vector lets go: the vector may have moved).
+  void springs_in_place(const ContactSet& c) {
+    if (b_ != Backend::cpu) return;
+    if (held_)
+      next_spring_.release();
+    else
+      fdem::place(b_, next_spring_, c.spring);
+  }
+
+  /// Cpu backend, after a rebuild made the contact arrays in the loop's own memory: they move
+  /// into the ContactSet's vectors, which the loop then works on in place (one copy per rebuild,
+  /// none per step, and the contact state held once).
+  void in_place(ContactSet& c) {
+    contact_arrays(c, [](auto& d, auto& h) {
+      if (d.data() != h.data()) h.assign(d.data(), d.data() + d.size());
+      d.borrow(h);
+    });
+    springs_in_place(c);
+    pairs_on_host_ = true;
+  }
+
+  /// Cpu backend, before a rebuild: the arrays it makes anew let go of the ContactSet's vectors
+  /// (the old pairs and springs stay borrowed: the rebuild reads them to carry the springs over).
+  /// Those vectors are not read again before the new arrays move in (in_place): freed now, so
+  /// that the old and the new are not held together.
+  void apart_for_rebuild(ContactSet& c) {
+    if (b_ != Backend::cpu) return;
+    auto release = [](auto&... a) { (a.release(), ...); };
+    release(next_spring_, eval_, pair_force_, gather_node_, gather_ptr_, gather_slot_, watch_nodes_, watch_x_);
+    auto free_all = [](auto&... h) { ((std::remove_reference_t<decltype(h)>{}.swap(h)), ...); };
+    free_all(c.eval, c.pair_force, c.gather_node, c.gather_ptr, c.gather_slot, c.watch_nodes, c.watch_x);
+  }
+
+  Backend b_ = Backend::cpu;
+  bool held_ = false;
+  bool pairs_on_host_ = true;  // the host ContactSet holds the current pair list and indices
+  // The candidate list's build (its scratch kept between builds on a GPU) and what it reads.
+  CandidateBuild<Exec> candidates_;
+  DeviceArray<long> tet_global_;  // several ranks: pairs in global order
+  DeviceArray<int> node_vertex_, vt_ptr_, vt_tets_, tet_ce6_, ce6_tets_;
+  DeviceArray<Vec3> plan_x_;
+  DeviceArray<std::uint8_t> active_;
+  DeviceArray<ContactPair> pairs_, next_pairs_;
+  DeviceArray<Vec3> spring_, next_spring_, pair_force_;
+  DeviceArray<ContactEval> eval_;
+  DeviceArray<int> gather_node_, gather_ptr_, gather_slot_, watch_nodes_;
+  DeviceArray<Vec3> watch_x_;
+  // Where the fused pass integrates: per node its place in the gather list (-1: none) and the
+  // pairs' sum held there.
+  DeviceArray<int> gather_of_;
+  DeviceArray<Vec3> contact_sum_;
+};
+
+}  // namespace fdem
