@@ -21,10 +21,10 @@ std::uint64_t fnv1a64(const void* data, std::size_t size, std::uint64_t h) {
   return h;
 }
 
-void write_checkpoint(const std::string& path, const CheckpointOut& out) {
+void write_checkpoint(const std::string& path, const CheckpointOut& out, CheckpointKind kind) {
   const std::string& payload = out.payload();
   std::string text(kHeader, '\0');
-  const std::uint32_t version = kCheckpointVersion;
+  const std::uint32_t version = kind == CheckpointKind::rank_file ? kRankFileVersion : kCheckpointVersion;
   const std::uint64_t size = payload.size(), sum = fnv1a64(payload.data(), payload.size());
   std::memcpy(&text[0], kMagic, 8);
   std::memcpy(&text[8], &version, 4);
@@ -63,9 +63,10 @@ CheckpointIn read_checkpoint(const std::string& path, CheckpointKind kind) {
   std::memcpy(&version, &text[8], 4);
   std::memcpy(&size, &text[12], 8);
   std::memcpy(&sum, &text[20], 8);
-  if (version != kCheckpointVersion)
+  const std::uint32_t expected = rank_file ? kRankFileVersion : kCheckpointVersion;
+  if (version != expected)
     throw InputError(path + ": " + name + " format version " + std::to_string(version) + ", this fdem reads version " +
-                     std::to_string(kCheckpointVersion) +
+                     std::to_string(expected) +
                      ". Fix: " + (rank_file ? again + " (this version's)" : "continue with the fdem that wrote it"));
   if (size != text.size() - kHeader)
     bad("payload of " + std::to_string(text.size() - kHeader) + " bytes, the header says " + std::to_string(size) +

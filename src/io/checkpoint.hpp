@@ -21,8 +21,11 @@
 namespace fdem {
 
 // 2: CE6 state stores its mode beside the damage. 3: CE6 ids are colour order (model/build.cpp),
-// so a model built now numbers its CE6s, their states and broken_ce6.csv's ids anew.
-constexpr std::uint32_t kCheckpointVersion = 3;
+// so a model built now numbers its CE6s, their states and broken_ce6.csv's ids anew. 4: each
+// part of the state writes its own section (Solver::save_state). Rank files stay at 3: their
+// content did not change.
+constexpr std::uint32_t kCheckpointVersion = 4;
+constexpr std::uint32_t kRankFileVersion = 3;
 
 /// Collects values for a checkpoint payload.
 class CheckpointOut {
@@ -122,11 +125,12 @@ constexpr std::uint64_t kFnvSeed = 1469598103934665603ull;
 /// result as seed to hash a stream piece by piece.
 std::uint64_t fnv1a64(const void* data, std::size_t size, std::uint64_t seed = kFnvSeed);
 
-/// Writes header and payload to path atomically; throws OutputError.
-void write_checkpoint(const std::string& path, const CheckpointOut& out);
 /// What a file in the checkpoint format holds (a run's checkpoint, or a rank file of fdem
-/// partition), so that its errors name it and give its own fix.
+/// partition), so that its errors name it and give its own fix, and its format version.
 enum class CheckpointKind { checkpoint, rank_file };
+/// Writes header and payload to path atomically; throws OutputError.
+void write_checkpoint(const std::string& path, const CheckpointOut& out,
+                      CheckpointKind kind = CheckpointKind::checkpoint);
 
 /// Reads and verifies a checkpoint file; throws InputError naming the file, what is wrong with
 /// it and the fix.

@@ -102,6 +102,7 @@ void ContactSet::check_reach(const Model& m, const std::vector<Vec3>& x) const {
 
 void ContactSet::save(CheckpointOut& out) const {
   out.put(enabled_);
+  out.put(touching);
   if (!enabled_) return;
   out.put(active);
   out.put(active_count_);
@@ -124,6 +125,7 @@ void ContactSet::load(CheckpointIn& in, const std::vector<std::uint8_t>* appende
   bool enabled = false;
   in.get(enabled);
   if (enabled != enabled_) in.mismatch("contact.activation differs: 'none' in one of them");
+  in.get(touching);
   if (!enabled_) return;
   const std::size_t nt = active.size(), nn = plan_x_.size();
   in.get(active);

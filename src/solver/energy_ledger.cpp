@@ -8,6 +8,24 @@
 
 namespace fdem {
 
+namespace {
+/// f(value) for every value of the ledger's checkpoint part, in its order.
+template <class Ledger, class F>
+void each_saved(Ledger& e, F&& f) {
+  for (auto* r : {&e.external, &e.cohesive, &e.friction, &e.viscous, &e.platen_friction, &e.contact, &e.contact_slip,
+                  &e.initial_kinetic, &e.contact_spring, &e.p_cohesive, &e.p_friction, &e.p_viscous, &e.p_contact})
+    f(*r);
+}
+}  // namespace
+
+void EnergyLedger::save(CheckpointOut& out) const {
+  each_saved(*this, [&](const real& r) { out.put(r); });
+}
+
+void EnergyLedger::load(CheckpointIn& in) {
+  each_saved(*this, [&](real& r) { in.get(r); });
+}
+
 std::string instability_advice(const Scene& scene, const StableStep& stable, real dt, const EnergyLedger& e,
                                long touching) {
   const SolverSettings& s = scene.solver;

@@ -3,9 +3,14 @@
 // evaluation's powers, from which the next interval's works begin. The monitor rows balance it
 // against what is stored, dissipated and moving; a kinetic energy far above the work put in
 // stops the run with advice on the likely cause.
+#include <algorithm>
+#include <cmath>
 #include <string>
 
+#include "core/error.hpp"
+#include "core/format.hpp"
 #include "core/vec.hpp"
+#include "io/checkpoint.hpp"
 #include "scene/scene.hpp"
 
 namespace fdem {
@@ -27,8 +32,58 @@ struct EnergyLedger {
   real p_cohesive = 0, p_friction = 0, p_viscous = 0, p_contact = 0;
   real floor = 0;  // J, the scale below which the balance's error is measured against it
 
+  /// Its part of a checkpoint: the works and the last powers (the floor comes from the scene).
+  void save(CheckpointOut& out) const;
+  void load(CheckpointIn& in);
+
   /// J, the work put in: external work and the initial kinetic energy.
   real input() const { return external + initial_kinetic; }
+
+  /// The elements' and the top platen's works over a step of dt (s) from the last force
+  /// evaluation's powers; the platen moved down at `platen_speed` (m/s) against `force_top` (N).
+  void add_step_works(real dt, real force_top, real platen_speed) {
+    external += force_top * (-platen_speed * dt);
+    viscous += p_viscous * dt;
+    cohesive += p_cohesive * dt;
+    friction += p_friction * dt;
+  }
+
+  /// J, what the ledger holds stored, dissipated and moving, with the kinetic, strain and
+  /// platen-spring energies a monitor row measures (the CE6s' stored energy is in `cohesive`,
+  /// the friction springs' of broken faces in `friction`).
+  real accounted(real kinetic, real strain, real platen_stored) const {
+    return kinetic + strain + cohesive + friction + viscous + platen_stored + platen_friction + contact;
+  }
+  /// The balance's relative error: |input - accounted| over the input (or the floor).
+  real balance_error(real accounted) const {
+    return std::fabs(input() - accounted) / std::max(std::fabs(input()), floor);
+  }
+
+  /// The checks that stop an unstable run with RunError. `at`: "step n (t = ... s)"; `advice`
+  /// returns instability_advice() (built only when a check fails). `own_work`: prescribed
+  /// velocities (tests) bring work the ledger does not count, so the runaway and balance checks
+  /// are off.
+  /// A kinetic energy ke (J) far above the work put in.
+  template <class Advice>
+  void check_runaway(real ke, bool own_work, const std::string& at, Advice&& advice) const {
+    if (own_work || ke <= 2 * std::fabs(input()) + floor) return;
+    throw RunError(at + ": kinetic energy " + fmt(ke, 3) + " J against external work " + fmt(input(), 3) +
+                   " J: the run is unstable. " + advice());
+  }
+  /// A monitor row's checks, in this order: an energy no longer finite, the runaway check with
+  /// the row's kinetic energy ke (J), and (tolerance > 0) a balance off by more than it.
+  template <class Advice>
+  void check_row(real accounted, real ke, real tolerance, bool own_work, const std::string& at, Advice&& advice) const {
+    if (!std::isfinite(accounted))
+      throw RunError(at + ": an energy is no longer finite: the run is unstable. " + advice());
+    check_runaway(ke, own_work, at, advice);
+    const real error = balance_error(accounted);
+    if (tolerance > 0 && !own_work && std::fabs(input()) > 100 * floor && error > tolerance)
+      throw RunError(at + ": the energy balance is off by " + fmt(100 * error, 3) + " % of the work put in (" +
+                     fmt(input(), 3) + " J against " + fmt(accounted, 3) +
+                     " J stored, dissipated and kinetic), above solver.max_energy_error " + fmt(100 * tolerance, 3) +
+                     " %: the run is unstable. " + advice());
+  }
 };
 
 /// What an unstable run is told: "Cause: ... Fix: ...", the time step against its bound, mass

@@ -8,6 +8,56 @@ real ConfiningPressure::pressure_at(real time, real axial) const {
   return confining_pressure(hydrostatic, target, hydrostatic ? target : ramped_speed(time, target, ramp), axial);
 }
 
+void PlatenLoad::save(CheckpointOut& out) const {
+  out.put(top_offset);
+  out.put(force_top);
+  out.put(force_bottom);
+  out.put(anchor);
+}
+
+void PlatenLoad::load(CheckpointIn& in) {
+  const std::size_t nodes = anchor.size();
+  in.get(top_offset);
+  in.get(force_top);
+  in.get(force_bottom);
+  in.get(anchor);
+  if (anchor.size() != nodes) in.mismatch("the platen nodes differ");
+}
+
+void ConfiningPressure::save(CheckpointOut& out) const {
+  out.put(pressure);
+  out.put(power);
+  out.put(face_force);
+}
+
+void ConfiningPressure::load(CheckpointIn& in, bool ghosts_appended) {
+  const std::size_t faces_now = face_force.size();
+  in.get(pressure);
+  in.get(power);
+  in.get(face_force);
+  if (ghosts_appended) face_force.resize(faces_now, Vec3{0, 0, 0});  // faces of the ghosts: never owned
+  if (face_force.size() != faces_now) in.mismatch("the lateral surface differs");
+}
+
+void GravityLoad::save(CheckpointOut& out) const {
+  out.put(power);
+}
+void GravityLoad::load(CheckpointIn& in) {
+  in.get(power);
+}
+
+void Loads::save(CheckpointOut& out) const {
+  platens.save(out);
+  confinement.save(out);
+  gravity.save(out);
+}
+
+void Loads::load(CheckpointIn& in, bool ghosts_appended) {
+  platens.load(in);
+  confinement.load(in, ghosts_appended);
+  gravity.load(in);
+}
+
 void PrescribedVelocities::set(int n, int components, Vec3 v) {
   const auto s = slot.emplace(n, int(node.size()));
   if (s.second) {

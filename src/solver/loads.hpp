@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "core/vec.hpp"
+#include "io/checkpoint.hpp"
 #include "model/model.hpp"
 #include "physics/confinement.hpp"
 #include "scene/scene.hpp"
@@ -33,6 +34,9 @@ struct PlatenLoad {
   real top_offset_after(real dt) const { return top_offset + step_speed * dt; }
   /// Mean of the two reactions over the loaded area area0 (m^2), compression positive, Pa.
   real axial_stress(real area0) const { return mean_axial_stress(force_top, force_bottom, area0); }
+  /// Its part of a checkpoint: travel, reactions, anchors.
+  void save(CheckpointOut& out) const;
+  void load(CheckpointIn& in);
 };
 
 /// Confining pressure on the lateral surface (scene `confinement`): a follower load, -p a / 3
@@ -51,6 +55,10 @@ struct ConfiningPressure {
   /// The pressure an evaluation at `time` (s) applies, after platen reactions of axial stress
   /// `axial` (Pa, the hydrostatic path).
   real pressure_at(real time, real axial) const;
+  /// Its part of a checkpoint: the pressure, its power and the face forces. `ghosts_appended`:
+  /// the checkpoint's layout lacks the faces of contact ghosts gathered since (zero forces).
+  void save(CheckpointOut& out) const;
+  void load(CheckpointIn& in, bool ghosts_appended);
 };
 
 /// Gravity (scene `gravity`, m/s^2) on every node's mass.
@@ -58,6 +66,8 @@ struct GravityLoad {
   bool enabled = false;
   Vec3 g{0, 0, 0};
   real power = 0;  // W, of the last evaluation's forces
+  void save(CheckpointOut& out) const;
+  void load(CheckpointIn& in);
 };
 
 /// Prescribed velocity components of nodes (tests; the boundary conditions to come).
@@ -76,7 +86,10 @@ struct Loads {
   PlatenLoad platens;
   ConfiningPressure confinement;
   GravityLoad gravity;
-  PrescribedVelocities prescribed;
+  PrescribedVelocities prescribed;  // (set by the caller, not saved: a checkpoint counts them)
+  /// Each load's part of a checkpoint, in turn.
+  void save(CheckpointOut& out) const;
+  void load(CheckpointIn& in, bool ghosts_appended);
 };
 
 /// The loads of `scene` on model m. `wave_speed` (m/s, the P-wave speed with mass scaling) sets

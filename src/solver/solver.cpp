@@ -211,10 +211,11 @@ void Solver::check_step_count() const {
 void Solver::check_runaway(real ke) const {
   // Energy enters only through the platens, the pressure and gravity; prescribed velocities
   // (tests) bring their own.
-  const real input = energy_.external + energy_.initial_kinetic;
-  if (!loads_.prescribed.node.empty() || ke <= 2 * std::fabs(input) + energy_.floor) return;
-  throw RunError("step " + std::to_string(step_) + " (t = " + fmt(time_, 3) + " s): kinetic energy " + fmt(ke, 3) +
-                 " J against external work " + fmt(input, 3) + " J: the run is unstable. " + instability_advice());
+  energy_.check_runaway(ke, !loads_.prescribed.node.empty(), where(), [&] { return instability_advice(); });
+}
+
+std::string Solver::where() const {
+  return "step " + std::to_string(step_) + " (t = " + fmt(time_, 3) + " s)";
 }
 
 std::string Solver::instability_advice() const {
@@ -275,10 +276,7 @@ bool Solver::finish_step(const AdvanceSums& a) {
     if (st.n_more > 0) dev_->take_reduced(packed.data() + k);
   }
   // Energies of the interval [t, t+dt] from the forces at t.
-  energy_.external += loads_.platens.force_top * (-speed * dt);
-  energy_.viscous += energy_.p_viscous * dt;
-  energy_.cohesive += energy_.p_cohesive * dt;
-  energy_.friction += energy_.p_friction * dt;
+  energy_.add_step_works(dt, loads_.platens.force_top, speed);
   if (all.bad > 0 || all.lost > 0) sync_host();
   check_finite(long(all.bad));
   if (all.lost > 0) {  // every rank stops: those with the node name it
@@ -349,22 +347,12 @@ Monitors Solver::measure() {
   // Brazilian test: axial_stress is P / (D t) for a line-loaded disc.
   if (m.line_loaded) r.indirect_tensile = 2 / M_PI * r.axial_stress;
   // (sums.friction_stored, the friction-spring energy of broken faces, is counted with their work)
-  const real internal = ke + se + energy_.cohesive + energy_.friction + energy_.viscous + pl_stored +
-                        energy_.platen_friction + energy_.contact;
-  const real input = energy_.external + energy_.initial_kinetic;
-  r.energy_error = std::fabs(input - internal) / std::max(std::fabs(input), energy_.floor);
-  if (!std::isfinite(internal))
-    throw RunError("step " + std::to_string(step_) + " (t = " + fmt(time_, 3) +
-                   " s): an energy is no longer finite: the run is unstable. " + instability_advice());
-  check_runaway(ke);
+  const real accounted = energy_.accounted(ke, se, pl_stored);
+  r.energy_error = energy_.balance_error(accounted);
   // The energy balance: work put in against everything stored, dissipated and moving. Runs
   // with prescribed node velocities (tests) do not account for the work those do.
-  const real tol = scene_.solver.max_energy_error;
-  if (tol > 0 && loads_.prescribed.node.empty() && std::fabs(input) > 100 * energy_.floor && r.energy_error > tol)
-    throw RunError("step " + std::to_string(step_) + " (t = " + fmt(time_, 3) + " s): the energy balance is off by " +
-                   fmt(100 * r.energy_error, 3) + " % of the work put in (" + fmt(input, 3) + " J against " +
-                   fmt(internal, 3) + " J stored, dissipated and kinetic), above solver.max_energy_error " +
-                   fmt(100 * tol, 3) + " %: the run is unstable. " + instability_advice());
+  energy_.check_row(accounted, ke, scene_.solver.max_energy_error, !loads_.prescribed.node.empty(), where(),
+                    [&] { return instability_advice(); });
   return r;
 }
 
@@ -490,36 +478,13 @@ void Solver::save(CheckpointOut& out) const {
 void Solver::save_state(CheckpointOut& out) const {
   out.put(step_);
   out.put(time_);
-  out.put(loads_.platens.top_offset);
   out.put(x);
   out.put(v);
   out.put(f);
-  out.put(ce6.states());  // (one Ce6State each, as before the state was split in two)
+  out.put(ce6.states());
   out.put(ce6_broke_);
-  out.put(loads_.platens.anchor);
-  // The scalars of format 3, in its order; the last slot is no longer used and stays 0.
-  const real scalars[] = {loads_.platens.force_top,
-                          loads_.platens.force_bottom,
-                          energy_.external,
-                          energy_.cohesive,
-                          energy_.friction,
-                          energy_.viscous,
-                          energy_.platen_friction,
-                          energy_.p_cohesive,
-                          energy_.p_friction,
-                          energy_.p_viscous,
-                          energy_.initial_kinetic,
-                          energy_.contact,
-                          energy_.contact_slip,
-                          energy_.contact_spring,
-                          energy_.p_contact,
-                          loads_.gravity.power,
-                          loads_.confinement.pressure,
-                          loads_.confinement.power,
-                          0};
-  for (real r : scalars) out.put(r);
-  out.put(contacts.touching);
-  out.put(loads_.confinement.face_force);
+  loads_.save(out);
+  energy_.save(out);
   contacts.save(out);
 }
 
@@ -546,9 +511,7 @@ void Solver::load(CheckpointIn& in) {
 void Solver::load_state(CheckpointIn& in, const GhostState* appended) {
   in.get(step_);
   in.get(time_);
-  in.get(loads_.platens.top_offset);
-  const std::size_t nn = x.size(), nc = ce6.size(), np = loads_.platens.anchor.size(),
-                    nl = loads_.confinement.face_force.size();
+  const std::size_t nn = x.size(), nc = ce6.size();
   in.get(x);
   in.get(v);
   in.get(f);
@@ -557,7 +520,6 @@ void Solver::load_state(CheckpointIn& in, const GhostState* appended) {
   ce6 = Ce6States{};
   ce6.append(ce6_saved);
   in.get(ce6_broke_);
-  in.get(loads_.platens.anchor);
   if (appended) {  // the ghosts' state after the old layout's (forces: the next evaluation's)
     x.insert(x.end(), appended->x.begin(), appended->x.end());
     v.insert(v.end(), appended->v.begin(), appended->v.end());
@@ -565,34 +527,10 @@ void Solver::load_state(CheckpointIn& in, const GhostState* appended) {
     ce6.append(appended->ce6);
     ce6_broke_.resize(nc, 0);
   }
-  if (x.size() != nn || v.size() != nn || f.size() != nn || ce6.size() != nc || ce6_broke_.size() != nc ||
-      loads_.platens.anchor.size() != np)
-    in.mismatch("node, CE6 or platen node counts differ");
-  real unused = 0;
-  real* scalars[] = {&loads_.platens.force_top,
-                     &loads_.platens.force_bottom,
-                     &energy_.external,
-                     &energy_.cohesive,
-                     &energy_.friction,
-                     &energy_.viscous,
-                     &energy_.platen_friction,
-                     &energy_.p_cohesive,
-                     &energy_.p_friction,
-                     &energy_.p_viscous,
-                     &energy_.initial_kinetic,
-                     &energy_.contact,
-                     &energy_.contact_slip,
-                     &energy_.contact_spring,
-                     &energy_.p_contact,
-                     &loads_.gravity.power,
-                     &loads_.confinement.pressure,
-                     &loads_.confinement.power,
-                     &unused};
-  for (real* r : scalars) in.get(*r);
-  in.get(contacts.touching);
-  in.get(loads_.confinement.face_force);
-  if (appended) loads_.confinement.face_force.resize(nl, Vec3{0, 0, 0});  // faces of the ghosts: never owned
-  if (loads_.confinement.face_force.size() != nl) in.mismatch("the lateral surface differs");
+  if (x.size() != nn || v.size() != nn || f.size() != nn || ce6.size() != nc || ce6_broke_.size() != nc)
+    in.mismatch("node or CE6 counts differ");
+  loads_.load(in, appended != nullptr);
+  energy_.load(in);
   contacts.load(in, appended ? &appended->active : nullptr);
 }
 

@@ -204,6 +204,8 @@ class Solver : private StepBookkeeping {
   void check_step_count() const;
   /// Throws RunError when the kinetic energy ke (J) far exceeds the work put in.
   void check_runaway(real ke) const;
+  /// "step n (t = ... s)": where a check stopped the run.
+  std::string where() const;
 
   Scene scene_;
   Model model_;
