@@ -330,7 +330,7 @@ int run_command(const CliOptions& o, bool check_only) {
   std::ostream null_stream(&null_buffer);
   std::ostream& log = rank == 0 ? std::cout : null_stream;
   const std::unique_ptr<fdem::Solver> solver =
-      fdem::make_solver(scene, {o.partitioned, o.distribute, o.contact_reach, o.write_mesh}, MPI_COMM_WORLD, log);
+      fdem::make_solver(scene, {o.partitioned, fdem::distribution_named(o.distribute), o.contact_reach, o.write_mesh}, MPI_COMM_WORLD, log);
   fdem::report_model(*solver, log);
   if (check_only) return 0;
   fdem::RunSummary s;

@@ -63,7 +63,7 @@ RankModel read_rank_model(const Scene& scene, const ModelSource& src, int rank, 
 /// job, MPI_Abort.)
 RankModel distribute_model(const Scene& scene, const ModelSource& src, MPI_Comm comm, std::ostream& log) {
   const int rank = rank_in(comm), size = size_of(comm);
-  const bool plex = src.distribute.empty() ? plex_available() : src.distribute == "plex";
+  const bool plex = src.distribute == Distribution::automatic ? plex_available() : src.distribute == Distribution::plex;
   if (plex) require_plex();  // before rank 0 spends minutes on the model
   const std::uint64_t key = model_key(scene);
   Model global;
@@ -138,6 +138,13 @@ PartitionPlan plan_scene(const Scene& scene, const Model& global, int size, doub
 
 std::string rank_file_path(const std::string& folder, int rank) {
   return (fs::path(folder) / ("rank_" + std::to_string(rank) + ".fdp")).string();
+}
+
+Distribution distribution_named(const std::string& name) {
+  if (name.empty()) return Distribution::automatic;
+  if (name == "plex") return Distribution::plex;
+  if (name == "root") return Distribution::root;
+  throw InputError("--distribute " + name + ": not a way to distribute the model. Fix: --distribute plex or root");
 }
 
 std::unique_ptr<Solver> make_solver(const Scene& scene, const ModelSource& source, MPI_Comm comm, std::ostream& log) {

@@ -14,10 +14,16 @@
 
 namespace fdem {
 
+/// Several ranks without rank files: how rank 0's model reaches the ranks (fdem run
+/// --distribute). `automatic`: plex where fdem has PETSc, else root.
+enum class Distribution { automatic, plex, root };
+/// The distribution a --distribute value names ("" = automatic); InputError for another.
+Distribution distribution_named(const std::string& name);
+
 /// Where a run's model comes from and how it reaches the ranks.
 struct ModelSource {
-  std::string partitioned;   // a folder of rank files (fdem partition); "" = build from the scene
-  std::string distribute;    // several ranks: "plex" or "root"; "" = plex where fdem has PETSc
+  std::string partitioned;  // a folder of rank files (fdem partition); "" = build from the scene
+  Distribution distribute = Distribution::automatic;
   double contact_reach = 0;  // m, several ranks; 0 = the default (partition/partition.hpp)
   std::string write_mesh;    // one rank: also write the mesh to this .msh file (fdem check)
 };
