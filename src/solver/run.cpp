@@ -16,11 +16,9 @@
 #include <deque>
 #include <filesystem>
 #include <fstream>
-#include <iomanip>
 #include <iostream>
 #include <memory>
 #include <optional>
-#include <sstream>
 
 #include "core/error.hpp"
 #include "core/format.hpp"
@@ -29,61 +27,11 @@
 #include "io/fields.hpp"
 #include "io/run_lock.hpp"
 #include "solver/frames.hpp"
+#include "solver/run_folder.hpp"
 
 namespace fdem {
 
-const char* const kSummaryHeader =
-    "name,peak_stress_Pa,strain_at_peak,peak_indirect_tensile_Pa,confining_pressure_Pa,platen_velocity_m_s,"
-    "energy_error,broken_ce6,broken_mode_I,broken_mode_II,broken_mixed,broken_area_m2,failure_plane_angle_deg,"
-    "planarity,mean_facet_angle_deg,crack_centroid_x_m,crack_centroid_y_m,crack_centroid_z_m,steps,time_s,wall_s,"
-    "end_reason";
-
 namespace {
-
-const char* kCsvHeader =
-    "step,time_s,axial_strain,axial_stress_Pa,lateral_strain,volumetric_strain,force_top_N,force_bottom_N,"
-    "damaged_ce6,broken_ce6,broken_mode_I,broken_mode_II,broken_mixed,kinetic_J,strain_J,cohesive_stored_J,"
-    "cohesive_dissipated_J,friction_J,viscous_J,platen_stored_J,platen_friction_J,external_work_J,energy_error,"
-    "contact_J,contact_friction_J,active_tets,contact_pairs,contacts,confining_pressure_Pa,"
-    "indirect_tensile_Pa,lateral_stress_Pa";
-
-/// One monitor row (10 significant digits); a row with a non-finite value throws RunError
-/// instead (no output file holds NaN or inf), naming the step and the column.
-std::string monitor_row(const Monitors& m, const Solver& solver) {
-  std::ostringstream o;
-  o << std::setprecision(10);
-  o << m.step << ',' << m.time << ',' << m.axial_strain << ',' << m.axial_stress << ',' << m.lateral_strain << ','
-    << m.volumetric_strain << ',' << m.force_top << ',' << m.force_bottom << ',' << m.damaged << ',' << m.broken << ','
-    << m.broken_I << ',' << m.broken_II << ',' << m.broken_mixed << ',' << m.kinetic << ',' << m.strain << ','
-    << m.cohesive_stored << ',' << m.cohesive_dissipated << ',' << m.friction << ',' << m.viscous << ','
-    << m.platen_stored << ',' << m.platen_friction << ',' << m.external_work << ',' << m.energy_error << ','
-    << m.contact << ',' << m.contact_friction << ',' << m.active_tets << ',' << m.contact_pairs << ',' << m.contacts
-    << ',' << m.confining_pressure << ',' << m.indirect_tensile << ',' << m.lateral_stress << '\n';
-  const std::string row = o.str();
-  if (row.find("nan") != std::string::npos || row.find("inf") != std::string::npos) {
-    std::stringstream names(kCsvHeader), cells(row);
-    std::string name, cell;
-    while (std::getline(names, name, ',') && std::getline(cells, cell, ','))
-      if (cell.find("nan") != std::string::npos || cell.find("inf") != std::string::npos) break;
-    throw RunError("step " + std::to_string(m.step) + ": the monitor " + name + " is " + cell +
-                   ": the run is unstable. " + solver.instability_advice());
-  }
-  return row;
-}
-
-/// One row under kSummaryHeader, written atomically: its presence marks a finished run.
-void write_summary(const std::string& path, const Scene& scene, const RunSummary& r) {
-  std::ostringstream o;
-  o << std::setprecision(10) << kSummaryHeader << '\n';
-  const FracturePattern& f = r.fracture;
-  o << csv_field(scene.name) << ',' << r.peak_stress << ',' << r.strain_at_peak << ',' << r.peak_indirect_tensile << ','
-    << scene.confinement.pressure * scene.confinement.enabled << ',' << scene.platens.velocity << ','
-    << r.last.energy_error << ',' << f.broken << ',' << f.mode_I << ',' << f.mode_II << ',' << f.mixed << ',' << f.area
-    << ',' << f.plane_angle_deg << ',' << f.planarity << ',' << f.mean_facet_angle_deg << ',' << f.centroid.x << ','
-    << f.centroid.y << ',' << f.centroid.z << ',' << r.steps << ',' << r.time << ',' << r.wall_seconds << ','
-    << csv_field(r.end_reason) << '\n';
-  write_file_atomically(path, o.str());
-}
 
 std::string duration(real s) {
   if (!std::isfinite(s) || s < 0) return "?";
@@ -96,47 +44,6 @@ std::string duration(real s) {
     std::snprintf(b, sizeof b, "%dh%02dm", int(s / 3600), int(s / 60) % 60);
   return b;
 }
-
-/// Keeps the newest `keep` checkpoints of a folder and removes the rest.
-void prune_checkpoints(const std::string& folder, std::size_t keep, const std::string& suffix) {
-  std::vector<std::string> all = find_checkpoints(folder, suffix);
-  for (std::size_t i = keep; i < all.size(); ++i) std::filesystem::remove(all[i]);
-}
-
-/// Flushes a file (or folder) to disk; best effort (a checkpoint must not end a run).
-void sync_path(const std::string& path) {
-  const int fd = ::open(path.c_str(), O_RDONLY);
-  if (fd < 0) return;
-  ::fsync(fd);
-  ::close(fd);
-}
-
-/// FNV-1a of the first `bytes` bytes of a file, or false if it is shorter.
-bool hash_prefix(const std::string& path, std::uint64_t bytes, std::uint64_t& hash) {
-  std::ifstream in(path, std::ios::binary);
-  hash = kFnvSeed;
-  std::vector<char> buf(1 << 20);
-  while (bytes > 0 && in) {
-    in.read(buf.data(), std::streamsize(std::min<std::uint64_t>(bytes, buf.size())));
-    const std::uint64_t got = std::uint64_t(in.gcount());
-    hash = fnv1a64(buf.data(), got, hash);
-    bytes -= got;
-    if (got == 0) break;
-  }
-  return bytes == 0;
-}
-
-/// monitors.csv with the length and FNV-1a of all it holds, so that a restart can check that
-/// the file it cuts back is the one its checkpoint was taken with.
-struct MonitorFile {
-  std::ofstream f;
-  std::uint64_t bytes = 0, hash = kFnvSeed;
-  void put(const std::string& text) {
-    f << text;
-    bytes += text.size();
-    hash = fnv1a64(text.data(), text.size(), hash);
-  }
-};
 
 }  // namespace
 
@@ -172,33 +79,6 @@ SignalGuard::~SignalGuard() {
 
 bool stop_requested() {
   return g_signal_request.load() == 2;
-}
-
-std::string checkpoint_suffix(int rank, int size) {
-  return size > 1 ? ".rank" + std::to_string(rank) + "of" + std::to_string(size) + ".ckpt" : ".ckpt";
-}
-
-std::vector<std::string> find_checkpoints(const std::string& path, const std::string& suffix) {
-  namespace fs = std::filesystem;
-  std::error_code ec;
-  const bool one_rank = suffix == ".ckpt";
-  if (one_rank && fs::is_regular_file(path, ec)) return {path};
-  fs::path dir = path;
-  if (fs::is_regular_file(dir, ec)) dir = dir.parent_path();  // several ranks: the folder of the file
-  if (fs::is_directory(dir / "checkpoints", ec)) dir /= "checkpoints";
-  std::vector<std::string> found;
-  auto ends_with = [](const std::string& s, const std::string& e) {
-    return s.size() >= e.size() && s.compare(s.size() - e.size(), e.size(), e) == 0;
-  };
-  if (fs::is_directory(dir, ec))
-    for (const fs::directory_entry& e : fs::directory_iterator(dir, ec)) {
-      const std::string name = e.path().filename().string();
-      if (e.is_regular_file() && ends_with(name, suffix) && (!one_rank || name.find(".rank") == std::string::npos))
-        found.push_back(e.path().string());
-    }
-  // step_<12 digits>.ckpt: the names sort by step.
-  std::sort(found.rbegin(), found.rend());
-  return found;
 }
 
 bool run_python_script(const std::string& script, std::vector<std::string> args) {
@@ -266,51 +146,6 @@ void report_model(const Solver& solver, std::ostream& out) {
               : "safety " + fmt(solver.scene().solver.time_step_safety))
       << ", mass scaling " << solver.scene().solver.mass_scaling << ")\n";
 }
-
-namespace {
-/// Before a fresh run removes or truncates anything of an earlier run in its folder: each of
-/// `names` there is absent or a file it can replace ("checkpoints" a folder), and the folder can
-/// be written. "" if so, else what stands in the way.
-/// Rank 0 takes the lock of the run's folder for the whole job; where it cannot, every rank
-/// throws its InputError.
-std::unique_ptr<RunLock> lock_run_folder(const std::string& folder, const Solver& solver, std::ostream& log) {
-  std::unique_ptr<RunLock> lock;
-  std::string refused;
-  if (solver.rank() == 0) {
-    try {
-      lock = std::make_unique<RunLock>(folder, this_command(), log);
-    } catch (const InputError& e) {
-      refused = e.what();
-    }
-  }
-  if (solver.distributed()) {
-    int n = int(refused.size());
-    MPI_Bcast(&n, 1, MPI_INT, 0, solver.comm());
-    refused.resize(std::size_t(n));
-    MPI_Bcast(refused.data(), n, MPI_CHAR, 0, solver.comm());
-  }
-  if (!refused.empty()) throw InputError(refused);
-  return lock;
-}
-
-std::string replace_problem(const std::string& folder, const std::vector<std::string>& names) {
-  namespace fs = std::filesystem;
-  std::error_code ec;
-  for (const std::string& name : names) {
-    const fs::path p = fs::path(folder) / name;
-    const fs::file_status st = fs::status(p, ec);
-    if (!fs::exists(st)) continue;
-    const bool folder_wanted = name == "checkpoints";
-    if (folder_wanted ? !fs::is_directory(st) : !fs::is_regular_file(st))
-      return p.string() + " is " + (fs::is_directory(st) ? "a folder" : "not a regular file") +
-             " where the run writes its " + (folder_wanted ? "checkpoint folder" : "file");
-    if (!folder_wanted && ::access(p.c_str(), W_OK) != 0)
-      return p.string() + " cannot be written (" + std::strerror(errno) + ")";
-  }
-  if (::access(folder.c_str(), W_OK | X_OK) != 0) return folder + " cannot be written (" + std::strerror(errno) + ")";
-  return "";
-}
-}  // namespace
 
 real end_progress(const EndCondition& end, long step, real time, real axial_strain, real peak, real stress) {
   real p = 0;
@@ -403,7 +238,7 @@ RunSession::RunSession(Solver& solver, std::ostream& log, const RunOptions& opti
     replace_earlier_run();
   if (!csv_.f) throw InputError(scene_.file + ": output.folder: cannot write '" + csv_path_ + "'");
   if (!fields_) {
-    csv_.put(std::string(kCsvHeader) + "\n");
+    csv_.put(std::string(kMonitorsHeader) + "\n");
     fields_ = std::make_unique<FieldWriter>(out_.folder, fields_name_);
   }
   // Several ranks: the merged index after every change of the frames (collective); at once

@@ -37,10 +37,11 @@ struct RunOptions {
 void report_model(const Solver& solver, std::ostream& out);
 
 /// Run the solver to the scene's end condition, holding the lock of the output folder
-/// (io/run_lock.hpp: a second run into it is refused with InputError, nothing written there), writing <folder>/monitors.csv,
-/// <folder>/fields.{h5,xdmf}, <folder>/stress_strain.png and, last and atomically,
-/// <folder>/summary.csv (one row: kSummaryHeader), whose presence marks a finished run. Rethrows RunError after
-/// writing the monitor row and a field frame labelled "diagnostic" where possible.
+/// (io/run_lock.hpp: a second run into it is refused with InputError, nothing written there),
+/// writing <folder>/monitors.csv, <folder>/fields.{h5,xdmf}, <folder>/stress_strain.png and,
+/// last and atomically, <folder>/summary.csv (one row: kSummaryHeader, solver/run_folder.hpp),
+/// whose presence marks a finished run. Rethrows RunError after writing the monitor row and a
+/// field frame labelled "diagnostic" where possible.
 ///
 /// Checkpoints go to <folder>/checkpoints/step_<n>.ckpt (the last two are kept) every
 /// output.checkpoint_interval steps, every output.checkpoint_wall_interval seconds of wall time,
@@ -69,15 +70,6 @@ class SignalGuard {
 /// checks it before starting the next run).
 bool stop_requested();
 
-/// The checkpoints under path (a checkpoint file, a run folder or its checkpoints/ folder),
-/// newest first; InputError if there is none.
-/// Only names ending in `suffix` (checkpoint_suffix; one rank's files by default).
-std::vector<std::string> find_checkpoints(const std::string& path, const std::string& suffix = ".ckpt");
-
-/// The end of a checkpoint file name: ".ckpt" for one rank, ".rank<r>of<n>.ckpt" for rank r of n
-/// (each rank writes its own file of a step: step_<n>.rank<r>of<n>.ckpt).
-std::string checkpoint_suffix(int rank, int size);
-
 /// Runs scripts/<script> with python3 and the arguments, without a shell and with its output
 /// silenced; true when it exited with 0.
 bool run_python_script(const std::string& script, std::vector<std::string> args);
@@ -88,8 +80,5 @@ bool run_python_script(const std::string& script, std::vector<std::string> args)
 /// estimate falls as the stress falls after the peak, where the steps slow down (contact) and
 /// the run ends long before the axial strain; 0 where no condition measures progress.
 real end_progress(const EndCondition& end, long step, real time, real axial_strain, real peak, real stress);
-
-/// Columns of summary.csv.
-extern const char* const kSummaryHeader;
 
 }  // namespace fdem

@@ -16,6 +16,7 @@
 #include "io/run_lock.hpp"
 #include "solver/pipeline.hpp"
 #include "solver/run.hpp"
+#include "solver/run_folder.hpp"
 
 namespace fdem {
 namespace {
