@@ -88,8 +88,6 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     const std::vector<int> lateral = pressure_.place(m, s.loads.confinement, integrates_);
     if (s.contacts.enabled()) contact_.place(s);
     place_held_flags(s, lateral);
-    step_contact_ = s.contacts.enabled();
-    step_pressure_ = s.loads.confinement.enabled;
   }
 
   /// Where the fused pass integrates: the tets with a node on a platen or a lateral face
@@ -147,7 +145,7 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     t_.copies += seconds_since(t0);
   }
 
-  void poison_host() override { poison_host_state(p_, forces_pending_, integrates_); }
+  void poison_host() override { poison_host_state(p_, waiting_.force_sums, integrates_); }
 
   real kinetic2() override {
     materialize();
@@ -177,18 +175,16 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     // A step's integration not read yet (one rank): its sums come with this evaluation's first
     // copy, and so do the last evaluation's scalars, kept at kPrev. A second evaluation without a
     // step between brings the first's scalars to the Solver first.
-    const bool finish = advance_pending_;
-    if (forces_pending_ && !finish) settle();
-    const bool prev = forces_pending_;
+    const bool finish = waiting_.step_sums;
+    if (waiting_.force_sums && !finish) settle();
+    const bool prev = waiting_.force_sums;
     // Where the fused pass integrates, the element part of an evaluation waits for the next step:
     // that step's pass computes the elements at the state the last evaluation left, adds the
     // forces contact, platens and pressure put there, and moves its nodes (fused_pass, kStep).
     // Where it was completed since (complete_forces), the step is a pass of its own.
-    const bool stepping = step_pending_ && elements_pending_;
-    if (step_pending_ && !stepping) {
-      step_pending_ = false;
-      integrate_nodes(step_dt_, nullptr, 0);
-      new_powers(step_contact_, step_pressure_, gravity_.enabled);
+    const bool stepping = waiting_.step && waiting_.elements;
+    if (waiting_.step && !stepping) {
+      take_left_step();
       clock_.lap(t_.integrate);
     }
     // The last evaluation's scalars kept at kPrev, then the slots cleared: one launch, or where
@@ -225,7 +221,7 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     device::read_finish(b_, a.data(), sizeof a);
     if (stepping) take_stepped_sums(s, a);
     if (finish) {  // the step that led here: its bookkeeping, checks and clock (may throw)
-      advance_pending_ = false;
+      waiting_.step_sums = false;
       if (prev && !stepping) apply_force_sums(s, ForceSums::from_slots(a.data() + kPrev));
       if (s.book.finish_step(advance_sums_from(a.data())))
         throw RunError("device loop: a step on one rank asked to gather contact ghosts");
@@ -261,8 +257,8 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     // The scalars stay on the device: one rank reads them with the next evaluation's first copy,
     // several ranks with the integration's sums (advance()), and sum them over the ranks in the
     // step's one reduction (take_reduced); or settle() before either.
-    forces_pending_ = true;
-    elements_pending_ = integrates_;
+    waiting_.force_sums = true;
+    waiting_.elements = integrates_;
   }
 
   // The parts of compute_forces(). (Public where they hold a pass: nvcc's extended lambdas need
@@ -289,7 +285,7 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
       elements_.template fused_pass<Elements::kStep>(in, held_forces(), fused_step(), keep_and_clear);
       std::swap(x_, x2_);  // the moved state
       std::swap(v_, v2_);
-      step_pending_ = elements_pending_ = false;
+      waiting_.step = waiting_.elements = false;
       clock_.lap(t_.ce6);  // (the TET4 and integration columns stay empty)
       // The powers of the last forces with the moved state (gravity's: in the pass), and in the
       // same launch the broad phase's watch (timed here, as energy, not as activation).
@@ -315,7 +311,9 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
                       platens_.held_place(), platens_.held_force(),   pressure_.held()};
   }
   /// The step the fused pass takes: into the second copies of x and v.
-  FusedStep fused_step() { return FusedStep{x2_.data(), v2_.data(), prescribed_.node_step(mass_.data(), step_dt_)}; }
+  FusedStep fused_step() {
+    return FusedStep{x2_.data(), v2_.data(), prescribed_.node_step(mass_.data(), waiting_.step_dt)};
+  }
 
   /// Where the fused pass stepped: the last evaluation's sums (its contact, platens and pressure
   /// at kPrev; its elements from the pass) to the Solver, from the copy a; an inverted TET4 named
@@ -450,11 +448,11 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
 
   void settle() override {
     const LoopParts& s = p_;
-    if (!forces_pending_) return;
+    if (!waiting_.force_sums) return;
     if (s.layout.dd.distributed()) {  // (every rank at once: monitor rows, output, checks after a reduction)
       // (as many values as a step's reduction, zeros first: the same MPI reduction, so the
       // same order of sums whether a monitor row comes between or not)
-      waiting_ = read_sums<kBad>();
+      rank_sums_ = read_sums<kBad>();
       constexpr int k = StepSums::kValues;
       std::array<real, k + std::tuple_size_v<decltype(AdvanceSums::more)>> all{};
       reduction_values(all.data() + k);
@@ -473,8 +471,8 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
 
   void take_reduced(const real* more) override {
     const LoopParts& s = p_;
-    if (forces_pending_) {  // the rank's own sums, the whole model's where they are summed (kWhole)
-      std::array<real, kBad> b = waiting_;
+    if (waiting_.force_sums) {  // the rank's own sums, the whole model's where they are summed (kWhole)
+      std::array<real, kBad> b = rank_sums_;
       for (int k = 0; k < int(kWhole.size()); ++k) b[kWhole[k]] = more[k];
       if (s.loads.confinement.enabled && s.loads.confinement.hydrostatic)  // summed already (compute_forces)
         b[kTop] = reactions_[0], b[kBottom] = reactions_[1];
@@ -483,12 +481,12 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     merge_wanted_ = merge_wanted_ || more[kWhole.size()] > 0;
   }
 
-  void discard_pending() override { forces_pending_ = advance_pending_ = step_pending_ = elements_pending_ = false; }
+  void discard_pending() override { waiting_ = Waiting{}; }
 
  private:
   /// The Solver's bookkeeping of a force evaluation from its sums.
   void apply_force_sums(const LoopParts& s, const ForceSums& b) {
-    forces_pending_ = false;
+    waiting_.force_sums = false;
     if (b.tets_added > 0) s.contacts.rebuild_due = true;  // for the next evaluation's contact
     ConfiningPressure& cf = s.loads.confinement;
     s.energy.p_contact = b.contact_power;
@@ -513,9 +511,9 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     const LoopParts& s = p_;
     ++t_.steps;
     if (integrates_) {                   // the next force evaluation's pass moves the nodes
-      if (step_pending_) materialize();  // (a step already pending, no evaluation since: never in Solver::step)
-      step_dt_ = dt;
-      step_pending_ = advance_pending_ = true;
+      if (waiting_.step) materialize();  // (a step already pending, no evaluation since: never in Solver::step)
+      waiting_.step_dt = dt;
+      waiting_.step = waiting_.step_sums = true;
       return false;
     }
     clock_.restart();
@@ -528,7 +526,7 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     if (s.layout.halo) halo_.update_nodes(*s.layout.halo, x_, v_, s.layout.halo_seconds);  // ghosts: their owners'
     new_powers(s.contacts.enabled(), s.loads.confinement.enabled, s.loads.gravity.enabled);
     if (!s.layout.dd.distributed()) {  // read with the next evaluation's first copy
-      advance_pending_ = true;
+      waiting_.step_sums = true;
       clock_.lap(t_.energy);
       return false;
     }
@@ -538,8 +536,8 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     const std::array<real, kSums> r = read_sums<kSums>();
     clock_.lap(t_.energy);
     out = advance_sums_from(r.data());
-    if (forces_pending_) {
-      std::copy(r.begin(), r.begin() + kBad, waiting_.begin());
+    if (waiting_.force_sums) {
+      std::copy(r.begin(), r.begin() + kBad, rank_sums_.begin());
       s.energy.p_contact = r[kConPower];
       if (s.loads.confinement.enabled) s.loads.confinement.power = r[kPressurePower];
     }
@@ -553,8 +551,8 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
   /// rank), and 1 where it activated tets since the last merge or took flags from its host.
   void reduction_values(real* more) const {
     static_assert(kWhole.size() + 1 == std::tuple_size_v<decltype(AdvanceSums::more)>, "the step's reduction");
-    for (int k = 0; k < int(kWhole.size()); ++k) more[k] = forces_pending_ ? waiting_[kWhole[k]] : 0;
-    more[kWhole.size()] = (forces_pending_ && waiting_[kAdded] > 0) || !flags_merged_ ? 1 : 0;
+    for (int k = 0; k < int(kWhole.size()); ++k) more[k] = waiting_.force_sums ? rank_sums_[kWhole[k]] : 0;
+    more[kWhole.size()] = (waiting_.force_sums && rank_sums_[kAdded] > 0) || !flags_merged_ ? 1 : 0;
   }
 
   /// Central difference of every node with time step dt into sums [kBad, kSums) (cleared first:
@@ -627,18 +625,23 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
   /// rank).
   void materialize() {
     complete_forces();
-    if (!step_pending_) return;
-    step_pending_ = false;
-    integrate_nodes(step_dt_, nullptr, 0);
-    new_powers(step_contact_, step_pressure_, gravity_.enabled);
+    if (waiting_.step) take_left_step();
+  }
+
+  /// The step advance() left to the fused pass, done by the integration's own passes (its sums
+  /// wait for the next evaluation's copy).
+  void take_left_step() {
+    waiting_.step = false;
+    integrate_nodes(waiting_.step_dt, nullptr, 0);
+    new_powers(p_.contacts.enabled(), p_.loads.confinement.enabled, gravity_.enabled);
   }
 
   /// Where the fused pass integrates: the element part of the last evaluation, left to the next
   /// step's pass, done now by the same pass without the step (f: each node's whole force, the
   /// colour passes'), then the activation by its breaks. Its sums go to the evaluation's slots.
   void complete_forces() {
-    if (!elements_pending_) return;
-    elements_pending_ = false;
+    if (!waiting_.elements) return;
+    waiting_.elements = false;
     {  // the slots of the elements' sums and the activation's count (the last step's pass left
        // its own there): cleared; the sums add to them
       real* sums = sums_.data();
@@ -754,22 +757,23 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
   // read with the integration's and waiting for the step's reduction (take_reduced); on the
   // hydrostatic path, its platen reactions summed over the ranks (platens_and_pressure).
   DeviceArray<real> sums_;
-  std::array<real, kBad> waiting_{};
+  std::array<real, kBad> rank_sums_{};
   std::array<real, 2> reactions_{};
-  // Where the step stands. The last force evaluation's scalars are in sums_ [0, kBad) and not
-  // yet in the Solver (forces_pending_). One rank: a step's integration sums are on the device,
-  // its bookkeeping not yet done (advance_pending_).
-  bool forces_pending_ = false, advance_pending_ = false;
+  // What waits between the loop's calls: sums on the device that the Solver has not taken, and,
+  // where the fused pass integrates (integrates_), work left to the next step's pass (which
+  // writes the second copies of x and v, swapped after it).
+  struct Waiting {
+    bool force_sums = false;  // the last force evaluation's scalars, sums_ [0, kBad)
+    bool step_sums = false;   // one rank: a step's integration sums; its finish_step not yet run
+    bool elements = false;    // the last evaluation's element part, left to the next step's pass
+    bool step = false;        // the step advance() left to that pass, of step_dt (s)
+    real step_dt = 0;
+  } waiting_;
   bool flags_merged_ = false;  // false from an upload of the host's flags to the next merge
   bool merge_wanted_ = false;  // several ranks: a rank raised a flag (the step's reduction said)
-  // Where the fused pass integrates (integrates_): the step advance() left to it (step_pending_,
-  // step_dt_); the last evaluation's element part left to that pass (elements_pending_); the
-  // second copies of x and v it writes (swapped after it). The forces that contact, platens and
-  // pressure put on a node wait for the pass in arrays of their parts, read only for the tets
-  // flagged in ext_tet_ (bit 0: a node in the gather list, bit 1: on a platen or a lateral face;
-  // ext_static_).
-  bool step_pending_ = false, step_contact_ = false, step_pressure_ = false, elements_pending_ = false;
-  real step_dt_ = 0;
+  // The forces that contact, platens and pressure put on a node wait for the fused pass in
+  // arrays of their parts, read only for the tets flagged in ext_tet_ (bit 0: a node in the
+  // gather list, bit 1: on a platen or a lateral face; ext_static_).
   long ext_nodes_ = 0;  // nodes of the tets ext_static_ flags (the traffic model)
   DeviceArray<Vec3> x2_, v2_;
   DeviceArray<std::uint8_t> ext_tet_, ext_static_;
