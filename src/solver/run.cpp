@@ -13,7 +13,6 @@
 #include <csignal>
 #include <cstdio>
 #include <cstring>
-#include <deque>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -33,6 +32,7 @@ namespace fdem {
 
 namespace {
 
+/// A wall time for the progress line: "42s", "3m05s" or "2h07m"; "?" when not known.
 std::string duration(real s) {
   if (!std::isfinite(s) || s < 0) return "?";
   char b[32];
