@@ -11,6 +11,7 @@
 #include <chrono>
 #include <cstdint>
 #include <limits>
+#include <tuple>
 #include <utility>
 
 #include "core/forall.hpp"
@@ -35,15 +36,19 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
       : p_(parts), b_(b), direct_mpi_(direct_mpi), integrates_(!plan.list.empty() && plan.integrate) {
     elements_.set_backend(b, std::move(plan));
     contact_.set_backend(b, integrates_);
-    platens_.set_backend(b);
-    pressure_.set_backend(b);
-    prescribed_.set_backend(b);
+    each_load([&](auto& load) { load.set_backend(b); });
     auto set = [&](auto&... a) { (a.set_backend(b), ...); };
     set(X_, x_, v_, f_, x2_, v2_, mass_, sums_, own_node_, own_tet_, mid_third_, ext_tet_, ext_static_, unreached_,
         lateral_nodes_);
     halo_.set_backend(b, direct_mpi);
     sums_.resize(kAll);
     clear_sums(0, kAll);  // a slot a schedule never writes (kWatched) reads 0
+  }
+
+  /// f(load) for every load's pass, in a fixed order.
+  template <class F>
+  void each_load(F&& f) {
+    std::apply([&](auto&... load) { (f(load), ...); }, loads_);
   }
 
   Backend backend() const override { return b_; }
@@ -83,11 +88,9 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
       throw RunError("device loop: the fused pass cannot integrate this run (several ranks or nodes outside the tets)");
     if (s.layout.halo) halo_.plan(*s.layout.halo, s.layout.dd);
     mid_third_.upload(middle_third_tets(m));
-    gravity_.place(s.loads.gravity);
-    platens_.place(m, s.loads.platens, integrates_);
-    const std::vector<int> lateral = pressure_.place(m, s.loads.confinement, integrates_);
+    each_load([&](auto& load) { load.place(m, s.loads, integrates_); });
     if (s.contacts.enabled()) contact_.place(s);
-    place_held_flags(s, lateral);
+    place_held_flags(s, pressure_.loaded_nodes());
   }
 
   /// Where the fused pass integrates: the tets with a node on a platen or a lateral face
@@ -122,9 +125,7 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     place(b_, f_, s.f);
     if (integrates_) own_copy(x2_, s.x.size()), own_copy(v2_, s.v.size());
     elements_.upload_state(s.ce6, s.ce6_broke, s.layout.own_ce6);
-    platens_.upload_state(s.loads.platens);
-    prescribed_.upload(s.loads.prescribed, s.x.size(), integrates_);
-    pressure_.upload_state(s.loads.confinement);
+    each_load([&](auto& load) { load.upload_state(s.loads); });
     if (!s.contacts.enabled()) return;
     contact_.upload_state(s.contacts);
     flags_merged_ = false;
@@ -139,8 +140,7 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     v_.download(s.v);
     f_.download(s.f);
     elements_.download_state(s.ce6, s.ce6_broke);
-    platens_.download_state(s.loads.platens);
-    pressure_.download_state(s.loads.confinement);
+    each_load([&](const auto& load) { load.download_state(s.loads); });
     if (s.contacts.enabled()) contact_.download_state(s.contacts);
     t_.copies += seconds_since(t0);
   }
@@ -743,10 +743,12 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
   // The parts.
   Elements elements_;
   ContactPasses<Exec> contact_;
-  GravityPass<Exec> gravity_;
-  PlatenPass<Exec> platens_;
-  PressurePass<Exec> pressure_;
-  PrescribedPass<Exec> prescribed_;
+  // The loads, each one type (solver/load_passes.hpp), and by name for the passes of a step.
+  std::tuple<GravityPass<Exec>, PlatenPass<Exec>, PressurePass<Exec>, PrescribedPass<Exec>> loads_;
+  GravityPass<Exec>& gravity_ = std::get<GravityPass<Exec>>(loads_);
+  PlatenPass<Exec>& platens_ = std::get<PlatenPass<Exec>>(loads_);
+  PressurePass<Exec>& pressure_ = std::get<PressurePass<Exec>>(loads_);
+  PrescribedPass<Exec>& prescribed_ = std::get<PrescribedPass<Exec>>(loads_);
   HaloPasses<Exec> halo_;  // several ranks
   // The node state and this rank's layout.
   DeviceArray<Vec3> X_, x_, v_, f_;

@@ -1,8 +1,10 @@
 #pragma once
 // The loads' passes in the device loop, one type per load (solver/loads.hpp holds their set-up
 // and state on the host): gravity, the two platens, the confining pressure and the prescribed
-// velocities. Each places its constants, copies its state, and gives the loop its passes, or a
-// view that the loop runs inside a launch it shares with another pass.
+// velocities. Each has the same four calls, which the loop makes for every load in turn:
+//   set_backend(b); place(model, loads, held): its constants (`held`: where the fused pass
+//   integrates, its forces wait for that pass); upload_state(loads); download_state(loads).
+// Then it gives the loop its passes, or a view that the loop runs inside a launch it shares.
 #include <algorithm>
 #include <array>
 #include <cstdint>
@@ -69,7 +71,10 @@ class GravityPass : SumSlots {
   bool enabled = false;
   Vec3 g{0, 0, 0};  // m/s^2
 
-  void place(const GravityLoad& load) { enabled = load.enabled, g = load.g; }
+  void set_backend(Backend) {}
+  void place(const Model&, const Loads& loads, bool) { enabled = loads.gravity.enabled, g = loads.gravity.g; }
+  void upload_state(const Loads&) {}  // (its power is the evaluation's sum)
+  void download_state(Loads&) const {}
 
   /// f = m g on every node, and its power with v into kGravity.
   void start_forces(int nodes, const real* mass, const Vec3* v, const std::uint8_t* own_n, Vec3* f, real* sums) const {
@@ -107,7 +112,8 @@ class PlatenPass {
 
   /// The platen nodes and their springs. `held`: the forces wait in an array of their own for
   /// the fused pass that integrates, with each node's place in it.
-  void place(const Model& m, const PlatenLoad& load, bool held) {
+  void place(const Model& m, const Loads& loads, bool held) {
+    const PlatenLoad& load = loads.platens;
     fdem::place(b_, nodes_, m.platen_nodes);
     fdem::place(b_, k_, load.k);
     if (!held) return;
@@ -117,8 +123,8 @@ class PlatenPass {
     held_of_.upload(of);
     held_.resize(m.platen_nodes.size());
   }
-  void upload_state(const PlatenLoad& load) { fdem::place(b_, anchor_, load.anchor); }
-  void download_state(PlatenLoad& load) const { anchor_.download(load.anchor); }
+  void upload_state(const Loads& loads) { fdem::place(b_, anchor_, loads.platens.anchor); }
+  void download_state(Loads& loads) const { anchor_.download(loads.platens.anchor); }
   int nodes() const { return int(nodes_.size()); }
 
   /// One platen node's force at the platens' heights: added to f, or held for the fused pass.
@@ -185,8 +191,9 @@ class PressurePass : SumSlots {
 
   /// The lateral faces and, per node, the faces it sums in face order (the reference stepper's
   /// order, so the sums agree bit for bit). `held`: where the fused pass integrates, each node's
-  /// place in the node list (the pass adds the faces' forces itself). Returns the nodes.
-  std::vector<int> place(const Model& m, const ConfiningPressure& load, bool held) {
+  /// place in the node list (the pass adds the faces' forces itself).
+  void place(const Model& m, const Loads& loads, bool held) {
+    const ConfiningPressure& load = loads.confinement;
     const auto& faces = load.faces;
     fdem::place(b_, faces_, reinterpret_cast<const int*>(faces.data()), 3 * faces.size());
     std::vector<std::array<int, 2>> nf;
@@ -209,11 +216,13 @@ class PressurePass : SumSlots {
       if (load.enabled)
         for (std::size_t k = 0; k < node.size(); ++k) of[node[k]] = int(k);
       held_of_.upload(of);
+      loaded_nodes_ = load.enabled ? node : std::vector<int>{};
     }
-    return node;
   }
-  void upload_state(const ConfiningPressure& load) { fdem::place(b_, force_, load.face_force); }
-  void download_state(ConfiningPressure& load) const { force_.download(load.face_force); }
+  void upload_state(const Loads& loads) { fdem::place(b_, force_, loads.confinement.face_force); }
+  void download_state(Loads& loads) const { force_.download(loads.confinement.face_force); }
+  /// Where its forces are held: the nodes they act on (empty when the pressure is off).
+  const std::vector<int>& loaded_nodes() const { return loaded_nodes_; }
   int faces() const { return int(force_.size()); }
   /// Entries of the per-node face lists: the faces' forces the fused pass reads.
   int node_face_entries() const { return int(face_.size()); }
@@ -255,6 +264,7 @@ class PressurePass : SumSlots {
  private:
   Backend b_ = Backend::cpu;
   bool held_ = false;
+  std::vector<int> loaded_nodes_;  // (held only)
   DeviceArray<int> faces_, node_, ptr_, face_, held_of_;
   DeviceArray<Vec3> force_;  // per face, on each of its nodes
 };
@@ -270,8 +280,13 @@ class PrescribedPass {
     set(node_, mask_, velocity_, place_of_);
   }
 
-  /// The lists; `per_node`: each node's place in them too (the fused pass that integrates).
-  void upload(const PrescribedVelocities& p, std::size_t nodes, bool per_node) {
+  /// `held`: each node's place in the lists too, for the fused pass that integrates.
+  void place(const Model& m, const Loads&, bool held) { nodes_ = m.X.size(), per_node_ = held; }
+  /// The lists (set between steps: Solver::prescribe), and where per node, each node's place.
+  void upload_state(const Loads& loads) {
+    const PrescribedVelocities& p = loads.prescribed;
+    const std::size_t nodes = nodes_;
+    const bool per_node = per_node_;
     fdem::place(b_, node_, p.node);
     fdem::place(b_, mask_, p.mask);
     fdem::place(b_, velocity_, p.velocity);
@@ -283,6 +298,7 @@ class PrescribedPass {
       place_of_.resize(0);
     }
   }
+  void download_state(Loads&) const {}  // (the host's lists are the state)
   bool per_node() const { return place_of_.size() > 0; }
 
   /// The prescription on every listed node after a step of dt (s).
@@ -301,6 +317,8 @@ class PrescribedPass {
 
  private:
   Backend b_ = Backend::cpu;
+  std::size_t nodes_ = 0;
+  bool per_node_ = false;
   DeviceArray<int> node_, mask_, place_of_;
   DeviceArray<Vec3> velocity_;
 };
