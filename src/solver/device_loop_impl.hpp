@@ -33,9 +33,14 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
  public:
   /// `plan`: the fused pass's (plan_fused_pass), or empty for the colour passes.
   DeviceLoopImpl(Backend b, const LoopParts& parts, bool direct_mpi, FusedPlan plan)
-      : p_(parts), b_(b), direct_mpi_(direct_mpi), integrates_(!plan.list.empty() && plan.integrate) {
+      : p_(parts),
+        b_(b),
+        direct_mpi_(direct_mpi),
+        schedule_(plan.list.empty() ? ElementSchedule::colour
+                  : plan.integrate  ? ElementSchedule::fused_with_step
+                                    : ElementSchedule::fused) {
     elements_.set_backend(b, std::move(plan));
-    contact_.set_backend(b, integrates_);
+    contact_.set_backend(b, integrates());
     each_load([&](auto& load) { load.set_backend(b); });
     auto set = [&](auto&... a) { (a.set_backend(b), ...); };
     set(X_, x_, v_, f_, x2_, v2_, mass_, sums_, own_node_, own_tet_, mid_third_, ext_tet_, ext_static_, unreached_,
@@ -53,7 +58,7 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
 
   Backend backend() const override { return b_; }
   bool fused() const override { return elements_.fused(); }
-  bool integrates() const override { return integrates_; }
+  bool integrates() const override { return schedule_ == ElementSchedule::fused_with_step; }
   int blocks_per_sm() const override { return elements_.blocks_per_sm(); }
   bool halo_passes_device_buffers() const override { return direct_mpi_; }
   void set_timing(bool on) override { clock_.timing = on; }
@@ -84,11 +89,11 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     place(b_, own_tet_, s.layout.own_tet);
     place(b_, unreached_, s.layout.unreached_nodes);
     // The fused pass integrates (make_device_loop: one rank, every node a tet's).
-    if (integrates_ && (s.layout.halo || s.layout.dd.distributed() || !s.layout.unreached_nodes.empty()))
+    if (integrates() && (s.layout.halo || s.layout.dd.distributed() || !s.layout.unreached_nodes.empty()))
       throw RunError("device loop: the fused pass cannot integrate this run (several ranks or nodes outside the tets)");
     if (s.layout.halo) halo_.plan(*s.layout.halo, s.layout.dd);
     mid_third_.upload(middle_third_tets(m));
-    each_load([&](auto& load) { load.place(m, s.loads, integrates_); });
+    each_load([&](auto& load) { load.place(m, s.loads, integrates()); });
     if (s.contacts.enabled()) contact_.place(s);
     place_held_flags(s, pressure_.loaded_nodes());
   }
@@ -96,7 +101,7 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
   /// Where the fused pass integrates: the tets with a node on a platen or a lateral face
   /// (`lateral_nodes`: the pressure's nodes), whose forces the pass reads from the loads.
   void place_held_flags(const LoopParts& s, const std::vector<int>& lateral_nodes) {
-    if (!integrates_) return;
+    if (!integrates()) return;
     const std::vector<std::uint8_t> ext = tets_on_loads(s, lateral_nodes);
     ext_nodes_ = 4 * long(std::count(ext.begin(), ext.end(), 2));
     ext_static_.upload(ext);
@@ -123,13 +128,13 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     place(b_, x_, s.x);
     place(b_, v_, s.v);
     place(b_, f_, s.f);
-    if (integrates_) own_copy(x2_, s.x.size()), own_copy(v2_, s.v.size());
+    if (integrates()) own_copy(x2_, s.x.size()), own_copy(v2_, s.v.size());
     elements_.upload_state(s.ce6, s.ce6_broke, s.layout.own_ce6);
     each_load([&](auto& load) { load.upload_state(s.loads); });
     if (!s.contacts.enabled()) return;
     contact_.upload_state(s.contacts);
     flags_merged_ = false;
-    if (integrates_) refresh_held_flags();
+    if (integrates()) refresh_held_flags();
   }
 
   void download() override {
@@ -145,7 +150,7 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     t_.copies += seconds_since(t0);
   }
 
-  void poison_host() override { poison_host_state(p_, waiting_.force_sums, integrates_); }
+  void poison_host() override { poison_host_state(p_, waiting_.force_sums, integrates()); }
 
   real kinetic2() override {
     materialize();
@@ -157,17 +162,9 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     })[0];
   }
 
-  // Sums of a step stay in device memory (sums_, SumSlots). On one rank they come to the host
-  // once per step, after the CE6 pass of the next force evaluation (breaks, the broad-phase
-  // watch: the broad phase's decision; the count of tets an activation added comes with the
-  // evaluation's scalars, or where the fused pass steps in one value more on the steps it broke
-  // a CE6), with the integration's sums (slots kBad to kSums) and the last force evaluation's
-  // scalars (platen reactions, powers, slip: slots below kBad, moved to kPrev before the new
-  // evaluation clears them) in the same copy. Several ranks read them twice: after the CE6 pass
-  // (the broad phase's decision), and after the integration with the force evaluation's
-  // scalars, which the step's one reduction sums over the ranks (the contact reach decides
-  // there whether to gather ghosts before the next forces); on the hydrostatic path the platen
-  // reactions too, which the pressure follows.
+  // A step's sums stay on the device (sums_, SumSlots). They come to the host once per step on
+  // one rank, with the next evaluation's first copy, and twice on several ranks
+  // (docs/device-loop.md, "Sums and the step's one copy").
 
   void compute_forces() override {
     const LoopParts& s = p_;
@@ -210,12 +207,12 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     // queued (with their held sums left on the device): its diagnostic frame reads none of them.
     std::array<real, kAll> a;
     device::read_start(b_, sums_.data(), sizeof a);
-    const bool ahead = integrates_ && cs.enabled() && !cs.rebuild_due;
+    const bool ahead = integrates() && cs.enabled() && !cs.rebuild_due;
     // The per-node sum of the pairs' forces queued ahead goes into the platens' launch (both write
     // forces held for the pass: their order changes no sum); after a rebuild, its own launch.
     const bool gather_with_platens = ahead && s.loads.platens.enabled;
     if (ahead) contact_pairs(s, !gather_with_platens);
-    if (integrates_)
+    if (integrates())
       platens_and_pressure(s, finish ? s.loads.platens.top_offset_after(s.dt) : s.loads.platens.top_offset,
                            finish ? (s.time + s.dt) : s.time, gather_with_platens);
     device::read_finish(b_, a.data(), sizeof a);
@@ -239,11 +236,11 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
                         bool ahead) {
     // Inverted TET4s of the elements computed in this call, or of the evaluation completed
     // (Solver::step and sync_host settle first).
-    if ((stepping ? 0 : a[kInverted]) + (integrates_ && completed && !stepping ? a[kPrev + kInverted] : 0) > 0) {
+    if ((stepping ? 0 : a[kInverted]) + (integrates() && completed && !stepping ? a[kPrev + kInverted] : 0) > 0) {
       download();  // rare: the host finds and names the element
       s.book.report_inverted();
     }
-    if (!integrates_) s.loads.gravity.power = a[kGravity];  // (integrating: with the evaluation's sums)
+    if (!integrates()) s.loads.gravity.power = a[kGravity];  // (integrating: with the evaluation's sums)
     ContactSet& cs = s.contacts;
     if (s.layout.halo && cs.enabled()) merge_shared_flags(s);
     // Tet-tet contact: the candidate list rebuilt when flags changed or a node moved half the
@@ -251,53 +248,64 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     if (cs.enabled()) contact_forces(s, cs.rebuild_due || a[kMoved] > 0 || a[kWatched] > 0, ahead);
     // Adaptive activation, on the evaluations where a CE6 broke, for the next evaluation's
     // contact. (Where the fused pass integrates: with the pass's breaks, in take_stepped_sums.)
-    if (!integrates_ && a[kBreaks] > 0) activate(elements_.ce6_slots(), false);
+    if (!integrates() && a[kBreaks] > 0) activate(elements_.ce6_slots(), false);
     clock_.lap(t_.activation);
-    if (!integrates_) platens_and_pressure(s, s.loads.platens.top_offset, s.time, false);
+    if (!integrates()) platens_and_pressure(s, s.loads.platens.top_offset, s.time, false);
     // The scalars stay on the device: one rank reads them with the next evaluation's first copy,
     // several ranks with the integration's sums (advance()), and sum them over the ranks in the
     // step's one reduction (take_reduced); or settle() before either.
     waiting_.force_sums = true;
-    waiting_.elements = integrates_;
+    waiting_.elements = integrates();
   }
 
   // The parts of compute_forces(). (Public where they hold a pass: nvcc's extended lambdas need
   // their enclosing function public.)
 
-  /// The elements' forces (and where the fused pass steps, the step and the powers of the last
-  /// forces with the moved state), gravity's start of the sums, or the zeroed unreached nodes.
+  /// The elements' forces by the schedule: colour by colour or fused, after the start of each
+  /// node's force; where the fused pass integrates, the last evaluation's elements with the step
+  /// (`stepping`), else nothing (they wait for that pass).
   void element_forces(const LoopParts& s, bool stepping, const KeepAndClear& keep_and_clear) {
+    switch (schedule_) {
+      case ElementSchedule::colour:
+        start_forces();
+        elements_.colour_forces(s.model, element_inputs(s), clock_, t_);
+        break;
+      case ElementSchedule::fused:
+        start_forces();
+        elements_.template fused_pass<Elements::kForces>(element_inputs(s), HeldForces{}, FusedStep{});
+        clock_.lap(t_.ce6);  // (the TET4 column stays empty)
+        break;
+      case ElementSchedule::fused_with_step:
+        if (stepping) step_in_fused_pass(s, keep_and_clear);
+        break;
+    }
+  }
+
+  /// The start of each node's force: gravity's, with its power; without gravity, zero at the
+  /// nodes no TET4 reaches (the TET4 pass assigns each other node's first force, so f is not
+  /// written twice).
+  void start_forces() {
     Vec3* f = f_.data();
-    // Gravity starts the sum; without it the TET4 pass assigns each node's first force (the
-    // nodes it does not reach are zeroed here), so f is not written twice. (A fused pass that
-    // integrates starts each force itself.)
-    if (integrates_) {
-    } else if (!gravity_.enabled) {
-      const int* un = unreached_.data();
-      Exec::forall(int(unreached_.size()), [=] FDEM_LAMBDA(int k) { f[un[k]] = Vec3{0, 0, 0}; });
-    } else {
+    if (gravity_.enabled) {
       gravity_.start_forces(int(x_.size()), mass_.data(), v_.data(), own_node_.data(), f, sums_.data());
+      return;
     }
-    // TET4 and CE6: fused in one pass, or colour by colour (plan_fused_pass); where the fused
-    // pass integrates, the last evaluation's, with the step.
-    const ElementInputs in = element_inputs(s);
-    if (stepping) {
-      elements_.template fused_pass<Elements::kStep>(in, held_forces(), fused_step(), keep_and_clear);
-      std::swap(x_, x2_);  // the moved state
-      std::swap(v_, v2_);
-      waiting_.step = waiting_.elements = false;
-      clock_.lap(t_.ce6);  // (the TET4 and integration columns stay empty)
-      // The powers of the last forces with the moved state (gravity's: in the pass), and in the
-      // same launch the broad phase's watch (timed here, as energy, not as activation).
-      contact_pressure_powers(s.contacts.enabled(), s.loads.confinement.enabled, s.contacts.enabled());
-      clock_.lap(t_.energy);
-    } else if (integrates_) {
-    } else if (elements_.fused()) {
-      elements_.template fused_pass<Elements::kForces>(in, HeldForces{}, FusedStep{});
-      clock_.lap(t_.ce6);  // (the TET4 column stays empty)
-    } else {
-      elements_.colour_forces(s.model, in, clock_, t_);
-    }
+    const int* un = unreached_.data();
+    Exec::forall(int(unreached_.size()), [=] FDEM_LAMBDA(int k) { f[un[k]] = Vec3{0, 0, 0}; });
+  }
+
+  /// The fused pass that integrates: the last evaluation's elements at the state it left, the
+  /// forces held for each node, and the step advance() left, into the second copies of x and v
+  /// (then swapped: the moved state). Then, in one launch, the powers of the last forces with
+  /// the new velocities (gravity's: in the pass) and the broad phase's watch (timed as energy).
+  void step_in_fused_pass(const LoopParts& s, const KeepAndClear& keep_and_clear) {
+    elements_.template fused_pass<Elements::kStep>(element_inputs(s), held_forces(), fused_step(), keep_and_clear);
+    std::swap(x_, x2_);
+    std::swap(v_, v2_);
+    waiting_.step = waiting_.elements = false;
+    clock_.lap(t_.ce6);  // (the TET4 and integration columns stay empty)
+    contact_pressure_powers(s.contacts.enabled(), s.loads.confinement.enabled, s.contacts.enabled());
+    clock_.lap(t_.energy);
   }
 
   /// What the element passes read of the node state.
@@ -368,10 +376,10 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
   void contact_forces(const LoopParts& s, bool rebuild, bool ahead) {
     ContactSet& cs = s.contacts;
     if (rebuild) {
-      if (integrates_) contact_.follow_gather(false);
+      if (integrates()) contact_.follow_gather(false);
       contact_.rebuild(cs, elements_.tets(), int(x_.size()), x_.data(), elements_.tet_nodes(),
                        s.layout.distributed() ? own_node_.data() : nullptr, t_);
-      if (integrates_) contact_.follow_gather(true), refresh_held_flags();
+      if (integrates()) contact_.follow_gather(true), refresh_held_flags();
       ++t_.rebuilds;
     }
     clock_.lap(t_.broad);
@@ -392,7 +400,7 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     const PairInputs in{elements_.tet_nodes(),
                         elements_.ce6_slot(),
                         elements_.damage(),
-                        integrates_ ? nullptr : elements_.broke(),
+                        integrates() ? nullptr : elements_.broke(),
                         own_tet_.data(),
                         own_node_.data(),
                         x_.data(),
@@ -414,7 +422,7 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     real* sums = sums_.data();
     const PlatenLoad& platens = s.loads.platens;
     if (platens.enabled) {
-      const auto platen = platens_.forces(platens, top_offset, integrates_, f_.data());
+      const auto platen = platens_.forces(platens, top_offset, integrates(), f_.data());
       // After the platen nodes, where it comes here (gather), the pairs' per-node sum (after them,
       // so that the order of the platens' sums does not change with the pairs').
       const int npn = platens_.nodes();
@@ -463,7 +471,7 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     complete_forces();
     const std::array<real, kBad> b = read_sums<kBad>();
     apply_force_sums(s, ForceSums::from_slots(b.data()));
-    if (integrates_ && b[kInverted] > 0) {  // (completed here: named here)
+    if (integrates() && b[kInverted] > 0) {  // (completed here: named here)
       download();
       s.book.report_inverted();
     }
@@ -503,14 +511,14 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     s.energy.p_cohesive = b.cohesive_power;
     s.energy.p_friction = b.friction_power;
     s.energy.platen_friction += b.platen_friction;
-    if (integrates_) s.loads.gravity.power = b.gravity_power;  // (computed with the elements, by the pass)
+    if (integrates()) s.loads.gravity.power = b.gravity_power;  // (computed with the elements, by the pass)
   }
 
  public:
   bool advance(real dt, AdvanceSums& out) override {
     const LoopParts& s = p_;
     ++t_.steps;
-    if (integrates_) {                   // the next force evaluation's pass moves the nodes
+    if (integrates()) {                  // the next force evaluation's pass moves the nodes
       if (waiting_.step) materialize();  // (a step already pending, no evaluation since: never in Solver::step)
       waiting_.step_dt = dt;
       waiting_.step = waiting_.step_sums = true;
@@ -707,9 +715,10 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     const double held = nt + double(ext_nodes_) * 3 * sizeof(int) + ng * (sizeof(int) + 2 * vec) +
                         double(platens_.nodes() + pressure_.node_face_entries()) * vec;
     const double mass_read = elements_.mass_from_volume() ? 0 : sizeof(real);  // (else from V0, read for TET4)
-    const double node = integrates_ ? nt * 4 * (4 * vec + mass_read + (prescribed_.per_node() ? sizeof(int) : 0)) + held
-                                    : start + nn * (5 * vec + sizeof(real));
-    return elements_.bytes_per_step(gravity_.enabled, integrates_) + contact_.bytes_per_step() + node;
+    const double node = integrates()
+                            ? nt * 4 * (4 * vec + mass_read + (prescribed_.per_node() ? sizeof(int) : 0)) + held
+                            : start + nn * (5 * vec + sizeof(real));
+    return elements_.bytes_per_step(gravity_.enabled, integrates()) + contact_.bytes_per_step() + node;
   }
 
  private:
@@ -736,7 +745,11 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
   LoopParts p_;  // the run the loop steps
   Backend b_;
   bool direct_mpi_;  // device buffers straight to MPI (partition/halo.hpp), fixed at construction
-  bool integrates_;  // the fused pass integrates too (FusedPlan::integrate)
+  // The element passes' schedule (make_device_loop): colour by colour, fused in one pass over
+  // the tets, or fused with the step (one rank; DeviceLoop::integrates). The other passes
+  // follow it where the held forces and the step left to the pass need them.
+  enum class ElementSchedule { colour, fused, fused_with_step };
+  ElementSchedule schedule_;
   bool constants_ = false;
   PassClock<Exec> clock_;
   DeviceTimes t_;
@@ -762,7 +775,7 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
   std::array<real, kBad> rank_sums_{};
   std::array<real, 2> reactions_{};
   // What waits between the loop's calls: sums on the device that the Solver has not taken, and,
-  // where the fused pass integrates (integrates_), work left to the next step's pass (which
+  // where the fused pass integrates (integrates()), work left to the next step's pass (which
   // writes the second copies of x and v, swapped after it).
   struct Waiting {
     bool force_sums = false;  // the last force evaluation's scalars, sums_ [0, kBad)
