@@ -60,6 +60,18 @@ struct ElementInputs {
   real* sums;                   // the loop's sums (SumSlots)
 };
 
+/// The TET4 arrays both element schedules read: connectivity (4 per tet), the computed tets in
+/// colour order, X0^-1, V0 (m^3), eta (Pa s), and which corners assign their first force
+/// (null with gravity, which starts every force).
+struct Tet4Arrays {
+  const int* nodes;
+  const int* order;
+  const Mat3* Xinv;
+  const real* V0;
+  const real* eta;
+  const std::uint8_t* assigns;
+};
+
 /// Where the fused pass integrates: the forces that contact, the platens and the pressure left
 /// for it per node, read only for the tets flagged in `ext` (bit 0: a node in the gather list,
 /// bit 1: on a platen or a lateral face).
@@ -260,29 +272,29 @@ class ElementPasses : SumSlots {
   const int* ce6_slot() const { return ce6_slot_.data(); }
   const Ce6Damage* damage() const { return dmg_.data(); }
   std::uint8_t* broke() { return broke_.data(); }
+  Tet4Arrays tet4_arrays(bool gravity) const {
+    return Tet4Arrays{tet_nodes_.data(), tet_order_.data(), Xinv_.data(),
+                      V0_.data(),        eta_.data(),       gravity ? nullptr : tet_assigns_.data()};
+  }
   /// Each node's mass is rho V0 / 4 of its one tet (the fused pass computes it).
   bool mass_from_volume() const { return mass_from_volume_; }
 
   /// TET4 colour by colour, then CE6 colour by colour (stored in colour order: slot b + k; no
   /// two elements of a colour share a node), each colour one launch; laps into `tet4`, `ce6`.
   void colour_forces(const Model& m, const ElementInputs& in, PassClock<Exec>& clock, DeviceTimes& t) {
-    const int* tn = tet_nodes_.data();
-    const int* torder = tet_order_.data();
-    const Mat3* Xinv = Xinv_.data();
-    const real* V0 = V0_.data();
-    const real* eta = eta_.data();
-    const std::uint8_t* assigns = in.gravity ? nullptr : tet_assigns_.data();
+    const Tet4Arrays tets = tet4_arrays(in.gravity);
     for (int c = 0; c < m.tet_colours.colours(); ++c) {
       const int b = m.tet_colours.offsets[c], e = m.tet_colours.offsets[c + 1];
       Exec::template sum_to<2>(
           e - b,
           [=] FDEM_LAMBDA(int k, real* acc) {
-            const int t = torder[b + k];
-            const int* q = tn + 4 * t;
+            const int t = tets.order[b + k];
+            const int* q = tets.nodes + 4 * t;
             Vec3 xe[4], ve[4], fe[4];
             for (int i = 0; i < 4; ++i) xe[i] = in.x[q[i]], ve[i] = in.v[q[i]];
-            device_pass::tet4_element(xe, ve, Xinv[t], V0[t], in.lambda, in.mu, eta[t], in.own_tet[t], acc, fe);
-            device_pass::tet4_start(in.f, q, assigns ? assigns[t] : 0, fe);
+            device_pass::tet4_element(xe, ve, tets.Xinv[t], tets.V0[t], in.lambda, in.mu, tets.eta[t], in.own_tet[t],
+                                      acc, fe);
+            device_pass::tet4_start(in.f, q, tets.assigns ? tets.assigns[t] : 0, fe);
             for (int i = 0; i < 4; ++i) in.f[q[i]] = fe[i];
           },
           in.sums + kVisc);
@@ -334,12 +346,7 @@ class ElementPasses : SumSlots {
     const Vec3* v = in.v;
     Vec3* f = in.f;
     const real* mass = in.mass;
-    const int* tn = tet_nodes_.data();
-    const int* torder = tet_order_.data();
-    const Mat3* Xinv = Xinv_.data();
-    const real* V0 = V0_.data();
-    const real* eta = eta_.data();
-    const std::uint8_t* assigns = in.gravity ? nullptr : tet_assigns_.data();
+    const Tet4Arrays tets = tet4_arrays(in.gravity);
     const std::uint8_t* own_t = in.own_tet;
     const bool gravity = in.gravity;
     const Vec3 g = in.g;
@@ -356,9 +363,9 @@ class ElementPasses : SumSlots {
     constexpr int base = kOwn ? 1 : 0;
     constexpr int kN = kMode == kStep ? 9 : kOwn ? 6 : 5;
     const auto body = [=] FDEM_LAMBDA(int k, real* acc) {
-      const int t = torder[k];
-      const int* q = tn + 4 * t;
-      const real tet_mass = from_volume ? rho * V0[t] / 4 : 0;  // each node's (kOwn)
+      const int t = tets.order[k];
+      const int* q = tets.nodes + 4 * t;
+      const real tet_mass = from_volume ? rho * tets.V0[t] / 4 : 0;  // each node's (kOwn)
       Vec3 xe[4], ve[4], fe[4], start[4];
       for (int i = 0; i < 4; ++i) {
         const int n = q[i];
@@ -368,11 +375,11 @@ class ElementPasses : SumSlots {
           if (gravity) acc[0] += dot(start[i], ve[i]);  // (one rank: every node owned)
         }
       }
-      device_pass::tet4_element(xe, ve, Xinv[t], V0[t], lambda, mu, eta[t], own_t[t], acc + base, fe);
+      device_pass::tet4_element(xe, ve, tets.Xinv[t], tets.V0[t], lambda, mu, tets.eta[t], own_t[t], acc + base, fe);
       if (kOwn)
         for (int i = 0; i < 4; ++i) fe[i] = start[i] + fe[i];
       else
-        device_pass::tet4_start(f, q, assigns ? assigns[t] : 0, fe);
+        device_pass::tet4_start(f, q, tets.assigns ? tets.assigns[t] : 0, fe);
       ce6s.add(k, q, x, v, acc + base + 2, fe);
       if (kOwn) held.add(t, q, fe);  // contact's sum, the platen's force, the pressure's faces
       if (kMode == kStep)            // the integration's sums: acc[6] to acc[8]
@@ -410,15 +417,12 @@ class ElementPasses : SumSlots {
   /// model's CE6 order (the host's), so that the sums agree bit for bit.
   void measure(const Vec3* x, const Vec3* v, const std::uint8_t* own_t, const std::uint8_t* mid, real lambda, real mu,
                MonitorSums& out) const {
-    const int* tn = tet_nodes_.data();
-    const Mat3* Xinv = Xinv_.data();
-    const real* V0 = V0_.data();
-    const real* eta = eta_.data();
+    const Tet4Arrays tets = tet4_arrays(true);
     const auto te = Exec::template sum<3>(int(V0_.size()), [=] FDEM_LAMBDA(int t, real* acc) {
       if (!own_t[t]) return;
       Vec3 xe[4], ve[4], fe[4];
-      for (int i = 0; i < 4; ++i) xe[i] = x[tn[4 * t + i]], ve[i] = v[tn[4 * t + i]];
-      const Tet4Eval e = tet4_forces(xe, ve, Xinv[t], V0[t], lambda, mu, eta[t], fe);
+      for (int i = 0; i < 4; ++i) xe[i] = x[tets.nodes[4 * t + i]], ve[i] = v[tets.nodes[4 * t + i]];
+      const Tet4Eval e = tet4_forces(xe, ve, tets.Xinv[t], tets.V0[t], lambda, mu, tets.eta[t], fe);
       acc[0] += e.strain_energy;
       if (mid[t]) {
         const real vol = dot(cross(xe[1] - xe[0], xe[2] - xe[0]), xe[3] - xe[0]) / 6;
