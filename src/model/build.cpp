@@ -84,31 +84,13 @@ void number_ce6_in_colour_order(Model& m) {
   std::iota(m.ce6_colours.order.begin(), m.ce6_colours.order.end(), 0);
 }
 
-}  // namespace
+using TetVertices = std::vector<std::array<int, 4>>;
 
-VertexTets::VertexTets(const Model& m) {
-  int nv = 0;
-  for (int v : m.node_vertex) nv = std::max(nv, v + 1);
-  ptr.assign(nv + 1, 0);
-  for (const auto& q : m.tet_nodes)
-    for (int n : q) ++ptr[m.node_vertex[n] + 1];
-  for (int i = 0; i < nv; ++i) ptr[i + 1] += ptr[i];
-  tets.resize(ptr[nv]);
-  std::vector<int> fill(ptr.begin(), ptr.end() - 1);
-  for (int t = 0; t < int(m.tet_nodes.size()); ++t)
-    for (int n : m.tet_nodes[t]) tets[fill[m.node_vertex[n]]++] = t;
-}
-
-Model build_model(const Mesh& mesh, const Scene& scene) {
-  const Material& mat = scene.material;
-  const SolverSettings& sol = scene.solver;
-  Model m;
-  m.source = mesh.source;
+/// The mesh's tets with their vertices ordered for a positive volume. Also checks that every
+/// vertex exists, and gives the mean edge length (the model's length scale).
+TetVertices oriented_tets(const Mesh& mesh, real& mean_edge) {
   const int nt = int(mesh.tets.size());
-  if (nt == 0) throw InputError(mesh.source + ": the mesh has no tetrahedra");
-
-  // Orient every tet positively; reject degenerate ones.
-  std::vector<std::array<int, 4>> tv = mesh.tets;
+  TetVertices tv = mesh.tets;
   real edge_sum = 0;
   for (int t = 0; t < nt; ++t) {
     auto& q = tv[t];
@@ -121,41 +103,51 @@ Model build_model(const Mesh& mesh, const Scene& scene) {
       for (int j = i + 1; j < 4; ++j) edge_sum += norm(x[j] - x[i]);
     if (tet4_volume(x) < 0) std::swap(q[2], q[3]);
   }
-  m.mean_edge = edge_sum / (6.0 * nt);
+  mean_edge = edge_sum / (6.0 * nt);
+  return tv;
+}
 
-  // Renumber tets along a Morton (Z-order) curve of their centroids, so that the nodes and
-  // CE6s that follow them are close in memory when neighbours are close in space.
-  {
-    Vec3 lo = mesh.vertices[tv[0][0]], hi = lo;
-    for (const Vec3& x : mesh.vertices)
-      for (int d = 0; d < 3; ++d) lo[d] = std::min(lo[d], x[d]), hi[d] = std::max(hi[d], x[d]);
-    std::vector<std::pair<std::uint64_t, int>> key(nt);
-    for (int t = 0; t < nt; ++t) {
-      Vec3 c{0, 0, 0};
-      for (int i = 0; i < 4; ++i) c += 0.25 * mesh.vertices[tv[t][i]];
-      std::uint64_t code = 0;
-      for (int d = 0; d < 3; ++d) {
-        const real u = hi[d] > lo[d] ? (c[d] - lo[d]) / (hi[d] - lo[d]) : 0;
-        const auto q = std::uint64_t(std::min<real>(u * (1 << 21), (1 << 21) - 1));
-        for (int b = 0; b < 21; ++b) code |= ((q >> b) & 1u) << (3 * b + d);
-      }
-      key[t] = {code, t};
+Vec3 centroid_of(const Mesh& mesh, const std::array<int, 4>& q) {
+  Vec3 c{0, 0, 0};
+  for (int i = 0; i < 4; ++i) c += 0.25 * mesh.vertices[q[i]];
+  return c;
+}
+
+/// Renumbers the tets along a Morton (Z-order) curve of their centroids, so that the nodes and
+/// CE6s that follow them are close in memory when neighbours are close in space. Sets
+/// m.tet_input, each tet's number in the mesh.
+void order_along_morton_curve(const Mesh& mesh, TetVertices& tv, Model& m) {
+  const int nt = int(tv.size());
+  Vec3 lo = mesh.vertices[tv[0][0]], hi = lo;
+  for (const Vec3& x : mesh.vertices)
+    for (int d = 0; d < 3; ++d) lo[d] = std::min(lo[d], x[d]), hi[d] = std::max(hi[d], x[d]);
+  std::vector<std::pair<std::uint64_t, int>> key(nt);
+  for (int t = 0; t < nt; ++t) {
+    const Vec3 c = centroid_of(mesh, tv[t]);
+    std::uint64_t code = 0;
+    for (int d = 0; d < 3; ++d) {
+      const real u = hi[d] > lo[d] ? (c[d] - lo[d]) / (hi[d] - lo[d]) : 0;
+      const auto q = std::uint64_t(std::min<real>(u * (1 << 21), (1 << 21) - 1));
+      for (int b = 0; b < 21; ++b) code |= ((q >> b) & 1u) << (3 * b + d);
     }
-    std::sort(key.begin(), key.end());
-    std::vector<std::array<int, 4>> sorted(nt);
-    m.tet_input.resize(nt);
-    for (int t = 0; t < nt; ++t) {
-      sorted[t] = tv[key[t].second];
-      m.tet_input[t] = key[t].second;
-    }
-    tv.swap(sorted);
+    key[t] = {code, t};
   }
-  const real vol_floor = 1e-9 * m.mean_edge * m.mean_edge * m.mean_edge;
+  std::sort(key.begin(), key.end());
+  TetVertices sorted(nt);
+  m.tet_input.resize(nt);
+  for (int t = 0; t < nt; ++t) {
+    sorted[t] = tv[key[t].second];
+    m.tet_input[t] = key[t].second;
+  }
+  tv.swap(sorted);
+}
 
-  // Faces: sort (sorted triple, tet, local) and pair equal keys.
+/// Every tet face as (sorted vertex triple, tet, local), sorted so that the two sides of an
+/// internal face are neighbours.
+std::vector<FaceRef> sorted_faces(const TetVertices& tv) {
   std::vector<FaceRef> faces;
-  faces.reserve(4 * std::size_t(nt));
-  for (int t = 0; t < nt; ++t)
+  faces.reserve(4 * tv.size());
+  for (int t = 0; t < int(tv.size()); ++t)
     for (int i = 0; i < 4; ++i) {
       std::array<int, 3> k{tv[t][(i + 1) % 4], tv[t][(i + 2) % 4], tv[t][(i + 3) % 4]};
       std::sort(k.begin(), k.end());
@@ -163,30 +155,34 @@ Model build_model(const Mesh& mesh, const Scene& scene) {
     }
   std::sort(faces.begin(), faces.end(),
             [](const FaceRef& a, const FaceRef& b) { return a.key != b.key ? a.key < b.key : a.tet < b.tet; });
+  return faces;
+}
 
-  std::vector<Vec3> centroid(nt);
-  std::vector<char> region(nt);
-  for (int t = 0; t < nt; ++t) {
-    Vec3 c{0, 0, 0};
-    for (int i = 0; i < 4; ++i) c += 0.25 * mesh.vertices[tv[t][i]];
-    centroid[t] = c;
-    region[t] = in_region(scene.fracture, c);
-  }
+/// The corner (4 t + i) of tet t at a mesh vertex; -1 when the tet does not have it.
+int corner_of(const TetVertices& tv, int t, int vertex) {
+  for (int i = 0; i < 4; ++i)
+    if (tv[t][i] == vertex) return 4 * t + i;
+  return -1;
+}
 
-  // Corners 4t+i; corners across a non-cohesive internal face share a node.
-  std::vector<int> parent(4 * std::size_t(nt));
-  std::iota(parent.begin(), parent.end(), 0);
-  struct Pair {
+/// The internal faces split into those that get a CE6 and those whose corners join.
+struct FaceSplit {
+  struct CohesivePair {
     int a, b;  // tets, a < b
     std::array<int, 3> key;
   };
-  std::vector<Pair> cohesive;
-  std::vector<FaceRef> surface;
-  auto corner_of = [&](int t, int vertex) {
-    for (int i = 0; i < 4; ++i)
-      if (tv[t][i] == vertex) return 4 * t + i;
-    return -1;
-  };
+  std::vector<CohesivePair> cohesive;  // in the order of their first tet (Morton order too)
+  std::vector<FaceRef> surface;        // faces of one tet only
+  std::vector<int> corner_parent;      // union-find over corners 4t+i: joined corners are one node
+};
+
+/// A face shared by two tets both in a fracture region gets a CE6; any other internal face
+/// joins the corners on its two sides into one node. Rejects faces of more than two tets.
+FaceSplit split_faces(const Mesh& mesh, const TetVertices& tv, const std::vector<FaceRef>& faces,
+                      const std::vector<char>& region) {
+  FaceSplit s;
+  s.corner_parent.resize(4 * tv.size());
+  std::iota(s.corner_parent.begin(), s.corner_parent.end(), 0);
   for (std::size_t i = 0; i < faces.size();) {
     std::size_t j = i + 1;
     while (j < faces.size() && faces[j].key == faces[i].key) ++j;
@@ -197,28 +193,32 @@ Model build_model(const Mesh& mesh, const Scene& scene) {
                        " tets (non-manifold); remesh so that each face joins at most two tets");
     }
     if (j - i == 1) {
-      surface.push_back(faces[i]);
+      s.surface.push_back(faces[i]);
     } else {
       const int a = faces[i].tet, b = faces[i + 1].tet;
       if (region[a] && region[b]) {
-        cohesive.push_back({a, b, faces[i].key});
+        s.cohesive.push_back({a, b, faces[i].key});
       } else {
-        for (int v : faces[i].key) unite(parent, corner_of(a, v), corner_of(b, v));
+        for (int v : faces[i].key) unite(s.corner_parent, corner_of(tv, a, v), corner_of(tv, b, v));
       }
     }
     i = j;
   }
+  std::sort(s.cohesive.begin(), s.cohesive.end(),
+            [](const FaceSplit::CohesivePair& p, const FaceSplit::CohesivePair& q) {
+              return p.a != q.a ? p.a < q.a : p.b < q.b;
+            });
+  return s;
+}
 
-  // CE6s follow their first tet, so they too are in Morton order.
-  std::sort(cohesive.begin(), cohesive.end(),
-            [](const Pair& p, const Pair& q) { return p.a != q.a ? p.a < q.a : p.b < q.b; });
-
-  // Compact node numbering in order of first corner (deterministic).
-  std::vector<int> node_of_root(parent.size(), -1);
-  m.tet_nodes.resize(nt);
-  for (int t = 0; t < nt; ++t)
+/// Nodes numbered compactly in the order of their first corner (deterministic): m.X,
+/// m.node_vertex and m.tet_nodes.
+void number_nodes(const Mesh& mesh, const TetVertices& tv, std::vector<int>& corner_parent, Model& m) {
+  std::vector<int> node_of_root(corner_parent.size(), -1);
+  m.tet_nodes.resize(tv.size());
+  for (int t = 0; t < int(tv.size()); ++t)
     for (int i = 0; i < 4; ++i) {
-      const int r = find_root(parent, 4 * t + i);
+      const int r = find_root(corner_parent, 4 * t + i);
       if (node_of_root[r] < 0) {
         node_of_root[r] = int(m.X.size());
         m.X.push_back(mesh.vertices[tv[t][i]]);
@@ -226,12 +226,17 @@ Model build_model(const Mesh& mesh, const Scene& scene) {
       }
       m.tet_nodes[t][i] = node_of_root[r];
     }
-  const std::size_t nn = m.X.size();
-  auto node = [&](int t, int vertex) { return m.tet_nodes[t][corner_of(t, vertex) - 4 * t]; };
+}
 
-  // Per-tet constants, masses, damping.
+/// Per-tet constants (inverse reference shape, volume, damping) and the lumped node masses.
+/// Returns each tet's smallest altitude. Rejects tets of near-zero volume.
+std::vector<real> set_tet_constants(const Mesh& mesh, const Scene& scene, Model& m) {
+  const Material& mat = scene.material;
+  const SolverSettings& sol = scene.solver;
+  const int nt = int(m.tet_nodes.size());
+  const real vol_floor = 1e-9 * m.mean_edge * m.mean_edge * m.mean_edge;
   const real density = sol.mass_scaling * mat.density;
-  m.mass.assign(nn, 0);
+  m.mass.assign(m.X.size(), 0);
   m.tet_Xinv.resize(nt);
   m.tet_V0.resize(nt);
   m.tet_eta.resize(nt);
@@ -254,20 +259,40 @@ Model build_model(const Mesh& mesh, const Scene& scene) {
     m.tet_eta[t] = sol.damping_scale * critical_damping(tet_hmin[t], sol.mass_scaling, mat.density, mat.youngs_modulus);
     for (int i = 0; i < 4; ++i) m.mass[m.tet_nodes[t][i]] += density * ref.V0 / 4;
   }
+  return tet_hmin;
+}
 
-  // CE6: A-side face ordered so that its right-hand normal points out of A (into B).
-  m.ce6_nodes.reserve(cohesive.size());
-  for (const Pair& p : cohesive) {
-    std::array<int, 3> v = p.key;
-    const Vec3 a = mesh.vertices[v[0]], b = mesh.vertices[v[1]], c = mesh.vertices[v[2]];
-    if (dot(cross(b - a, c - a), centroid[p.a] - a) > 0) std::swap(v[1], v[2]);
-    m.ce6_nodes.push_back(
-        {node(p.a, v[0]), node(p.a, v[1]), node(p.a, v[2]), node(p.b, v[0]), node(p.b, v[1]), node(p.b, v[2])});
+/// The node of tet t at a mesh vertex.
+int node_at(const TetVertices& tv, const Model& m, int t, int vertex) {
+  return m.tet_nodes[t][corner_of(tv, t, vertex) - 4 * t];
+}
+
+/// A face's vertices (key) reordered so that the right-hand normal points away from a centroid.
+std::array<int, 3> outward_vertices(const Mesh& mesh, const std::array<int, 3>& key, Vec3 centroid) {
+  std::array<int, 3> v = key;
+  const Vec3 a = mesh.vertices[v[0]], b = mesh.vertices[v[1]], c = mesh.vertices[v[2]];
+  if (dot(cross(b - a, c - a), centroid - a) > 0) std::swap(v[1], v[2]);
+  return v;
+}
+
+/// The CE6s: the A side (the lower tet) ordered so that its normal points into B, the B side at
+/// the same vertices, and the characteristic length h, the face's mean edge.
+void insert_ce6(const Mesh& mesh, const TetVertices& tv, const FaceSplit& split, const std::vector<Vec3>& centroid,
+                Model& m) {
+  m.ce6_nodes.reserve(split.cohesive.size());
+  for (const FaceSplit::CohesivePair& p : split.cohesive) {
+    const std::array<int, 3> v = outward_vertices(mesh, p.key, centroid[p.a]);
+    auto a_node = [&](int k) { return node_at(tv, m, p.a, v[k]); };
+    auto b_node = [&](int k) { return node_at(tv, m, p.b, v[k]); };
+    m.ce6_nodes.push_back({a_node(0), a_node(1), a_node(2), b_node(0), b_node(1), b_node(2)});
     m.ce6_tets.push_back({p.a, p.b});
+    const Vec3 a = mesh.vertices[p.key[0]], b = mesh.vertices[p.key[1]], c = mesh.vertices[p.key[2]];
     m.ce6_h.push_back((norm(b - a) + norm(c - b) + norm(a - c)) / 3);
   }
+}
 
-  // Surface faces (outward), bounding box, node groups.
+/// The bounding box, the axis point (bottom centre) and the initial height along z.
+void set_bounds(Model& m) {
   m.box_min = m.box_max = m.X[0];
   for (const Vec3& x : m.X)
     for (int d = 0; d < 3; ++d) {
@@ -276,15 +301,29 @@ Model build_model(const Mesh& mesh, const Scene& scene) {
     }
   m.axis_point = {0.5 * (m.box_min.x + m.box_max.x), 0.5 * (m.box_min.y + m.box_max.y), m.box_min.z};
   m.height0 = m.box_max.z - m.box_min.z;
+}
+
+/// What the surface faces give each node: its share of their area, the largest altitude of
+/// their tets, and on which part of the surface it lies.
+struct SurfaceNodes {
+  std::vector<real> area, h;
+  std::vector<char> top, bottom, lateral, surface;
+  real top_area = 0, bottom_area = 0;  // m^2, of the faces wholly on the top and bottom planes
+};
+
+/// The surface faces, outward, with their tets (m.surface_faces, m.surface_tet), and what they
+/// give their nodes. A face is top or bottom when all its nodes are within 1e-3 of the mean
+/// edge of the box's end planes, else lateral.
+SurfaceNodes add_surface_faces(const Mesh& mesh, const TetVertices& tv, const FaceSplit& split,
+                               const std::vector<Vec3>& centroid, const std::vector<real>& tet_hmin, Model& m) {
+  const std::size_t nn = m.X.size();
   const real tol = 1e-3 * m.mean_edge;
-  std::vector<real> node_area(nn, 0), node_h(nn, 0);
-  std::vector<char> is_top(nn, 0), is_bottom(nn, 0), is_lateral(nn, 0), is_surface(nn, 0);
-  real top_area = 0, bottom_area = 0;
-  for (const FaceRef& f : surface) {
-    std::array<int, 3> v = f.key;
-    const Vec3 a = mesh.vertices[v[0]], b = mesh.vertices[v[1]], c = mesh.vertices[v[2]];
-    if (dot(cross(b - a, c - a), centroid[f.tet] - a) > 0) std::swap(v[1], v[2]);
-    const std::array<int, 3> nodes{node(f.tet, v[0]), node(f.tet, v[1]), node(f.tet, v[2])};
+  SurfaceNodes s{std::vector<real>(nn, 0), std::vector<real>(nn, 0), std::vector<char>(nn, 0),
+                 std::vector<char>(nn, 0), std::vector<char>(nn, 0), std::vector<char>(nn, 0)};
+  for (const FaceRef& f : split.surface) {
+    const std::array<int, 3> v = outward_vertices(mesh, f.key, centroid[f.tet]);
+    const std::array<int, 3> nodes{node_at(tv, m, f.tet, v[0]), node_at(tv, m, f.tet, v[1]),
+                                   node_at(tv, m, f.tet, v[2])};
     m.surface_faces.push_back(nodes);
     m.surface_tet.push_back(f.tet);
     const Vec3 an = 0.5 * cross(m.X[nodes[1]] - m.X[nodes[0]], m.X[nodes[2]] - m.X[nodes[0]]);
@@ -294,41 +333,86 @@ Model build_model(const Mesh& mesh, const Scene& scene) {
       top = top && m.X[n].z > m.box_max.z - tol;
       bottom = bottom && m.X[n].z < m.box_min.z + tol;
     }
-    if (top) top_area += area;
-    if (bottom) bottom_area += area;
+    if (top) s.top_area += area;
+    if (bottom) s.bottom_area += area;
     for (int n : nodes) {
-      node_area[n] += area / 3;
-      node_h[n] = std::max(node_h[n], tet_hmin[f.tet]);
-      is_surface[n] = 1;
-      (top ? is_top : bottom ? is_bottom : is_lateral)[n] = 1;
+      s.area[n] += area / 3;
+      s.h[n] = std::max(s.h[n], tet_hmin[f.tet]);
+      s.surface[n] = 1;
+      (top ? s.top : bottom ? s.bottom : s.lateral)[n] = 1;
     }
   }
-  m.area0 = 0.5 * (top_area + bottom_area);
+  return s;
+}
+
+/// The nominal loaded area: the mean of the flat ends, or, with none (a Brazilian disc between
+/// flat platens, loaded along a line), the loaded diametral plane, height x thickness along y.
+/// The axial stress is then P / (D t) and the indirect tensile stress 2 P / (pi D t).
+void set_nominal_area(const SurfaceNodes& s, Model& m) {
+  m.area0 = 0.5 * (s.top_area + s.bottom_area);
   if (!(m.area0 > 0)) {
-    // No flat ends (a Brazilian disc between flat platens, loaded along a line): the nominal
-    // area is the loaded diametral plane, height x thickness along y, so that the axial
-    // stress is P / (D t) and the indirect tensile stress 2 P / (pi D t).
     m.line_loaded = true;
     m.area0 = m.height0 * (m.box_max.y - m.box_min.y);
   }
-  for (std::size_t n = 0; n < nn; ++n) {
-    if (is_surface[n]) {
+}
+
+/// The node groups of the loads and monitors: platen contact nodes, top, bottom and lateral.
+void set_node_groups(const SurfaceNodes& s, Model& m) {
+  for (std::size_t n = 0; n < m.X.size(); ++n) {
+    if (s.surface[n]) {
       m.platen_nodes.push_back(int(n));
-      m.platen_node_area.push_back(node_area[n]);
-      m.platen_node_h.push_back(node_h[n]);
+      m.platen_node_area.push_back(s.area[n]);
+      m.platen_node_h.push_back(s.h[n]);
     }
-    if (is_top[n]) m.top_nodes.push_back(int(n));
-    if (is_bottom[n]) m.bottom_nodes.push_back(int(n));
-    if (is_lateral[n] && !is_top[n] && !is_bottom[n] && !m.line_loaded) m.lateral_nodes.push_back(int(n));
+    if (s.top[n]) m.top_nodes.push_back(int(n));
+    if (s.bottom[n]) m.bottom_nodes.push_back(int(n));
+    if (s.lateral[n] && !s.top[n] && !s.bottom[n] && !m.line_loaded) m.lateral_nodes.push_back(int(n));
     // A disc: the lateral strain is that of its horizontal diameter, from the rim nodes at its
     // two ends (within 0.1 D of mid-height, at the x extremes).
-    if (m.line_loaded && is_surface[n] && std::fabs(m.X[n].z - (m.box_min.z + 0.5 * m.height0)) < 0.1 * m.height0 &&
+    if (m.line_loaded && s.surface[n] && std::fabs(m.X[n].z - (m.box_min.z + 0.5 * m.height0)) < 0.1 * m.height0 &&
         std::fabs(m.X[n].x - m.axis_point.x) > 0.5 * (m.box_max.x - m.box_min.x) - 0.25 * m.mean_edge)
       m.lateral_nodes.push_back(int(n));
   }
+}
 
-  m.tet_colours = colour_elements(m.tet_nodes, nn, "TET4");
-  m.ce6_colours = colour_elements(m.ce6_nodes, nn, "CE6");
+}  // namespace
+
+VertexTets::VertexTets(const Model& m) {
+  int nv = 0;
+  for (int v : m.node_vertex) nv = std::max(nv, v + 1);
+  ptr.assign(nv + 1, 0);
+  for (const auto& q : m.tet_nodes)
+    for (int n : q) ++ptr[m.node_vertex[n] + 1];
+  for (int i = 0; i < nv; ++i) ptr[i + 1] += ptr[i];
+  tets.resize(ptr[nv]);
+  std::vector<int> fill(ptr.begin(), ptr.end() - 1);
+  for (int t = 0; t < int(m.tet_nodes.size()); ++t)
+    for (int n : m.tet_nodes[t]) tets[fill[m.node_vertex[n]]++] = t;
+}
+
+Model build_model(const Mesh& mesh, const Scene& scene) {
+  Model m;
+  m.source = mesh.source;
+  const int nt = int(mesh.tets.size());
+  if (nt == 0) throw InputError(mesh.source + ": the mesh has no tetrahedra");
+  TetVertices tv = oriented_tets(mesh, m.mean_edge);
+  order_along_morton_curve(mesh, tv, m);
+  std::vector<Vec3> centroid(nt);
+  std::vector<char> region(nt);
+  for (int t = 0; t < nt; ++t) {
+    centroid[t] = centroid_of(mesh, tv[t]);
+    region[t] = in_region(scene.fracture, centroid[t]);
+  }
+  FaceSplit split = split_faces(mesh, tv, sorted_faces(tv), region);
+  number_nodes(mesh, tv, split.corner_parent, m);
+  const std::vector<real> tet_hmin = set_tet_constants(mesh, scene, m);
+  insert_ce6(mesh, tv, split, centroid, m);
+  set_bounds(m);
+  const SurfaceNodes surface = add_surface_faces(mesh, tv, split, centroid, tet_hmin, m);
+  set_nominal_area(surface, m);
+  set_node_groups(surface, m);
+  m.tet_colours = colour_elements(m.tet_nodes, m.X.size(), "TET4");
+  m.ce6_colours = colour_elements(m.ce6_nodes, m.X.size(), "CE6");
   number_ce6_in_colour_order(m);
   return m;
 }
