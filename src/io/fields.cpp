@@ -218,39 +218,8 @@ std::string frame_name(int index) {
   return b;
 }
 
-}  // namespace
-
-// ---------------------------------------------------------------- FieldWriter
-
-FieldWriter::FieldWriter(const std::string& folder, const std::string& basename) {
-  namespace fs = std::filesystem;
-  if (basename.empty() || basename.find('/') != std::string::npos)
-    throw RunError("field output: base name '" + basename + "' must be a non-empty file name without '/'");
-  const fs::path dir = folder.empty() ? fs::path(".") : fs::path(folder);
-  h5_name_ = basename + ".h5";
-  h5_path_ = (dir / h5_name_).string();
-  xdmf_path_ = (dir / (basename + ".xdmf")).string();
-
-  std::error_code ec;
-  fs::create_directories(dir, ec);
-  if (ec || !fs::is_directory(dir))
-    throw OutputError("field output: cannot create folder " + dir.string() + ": " +
-                      (ec ? ec.message() : std::string("a file of that name is in the way")));
-
-  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);  // errors are reported through OutputError instead
-  Handle file(H5Fcreate(h5_path_.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose);
-  if (!file.ok()) h5_fail(h5_path_, "creating the file");
-  write_attr_string(file.get(), "writer", "fdem FieldWriter", h5_path_);
-  if (!file.reset()) h5_fail(h5_path_, "closing the file");
-
-  // An index from an earlier run would point at frames the fresh .h5 no longer has.
-  fs::remove(xdmf_path_, ec);
-  if (ec) throw OutputError("field output: cannot remove stale index " + xdmf_path_ + ": " + ec.message());
-}
-
-void FieldWriter::write(const FieldFrame& f) {
-  const std::string& file = h5_path_;
-  // ---- validate everything before touching the files, so a bad frame leaves no trace
+/// Every check of a frame, made before the files are touched, so that a bad frame leaves no trace.
+void validate_frame(const FieldFrame& f, const std::string& file) {
   if (!f.x) throw RunError("field output " + file + ": frame has no node positions (x)");
   if (!f.tets) throw RunError("field output " + file + ": frame has no tets");
   const std::size_t N = f.x->size(), M = f.tets->size();
@@ -294,76 +263,80 @@ void FieldWriter::write(const FieldFrame& f) {
     }
     if (f.crack_mode) check_size(f.crack_mode->size(), K, "crack_mode", "crack faces", file);
   }
+}
 
-  // ---- heavy data
-  const int index = frames();
+/// Frame `index` as an HDF5 group: its time, step and label, and its datasets. The first frame
+/// also writes /mesh/tets; a later frame whose tets differ carries its own. Returns the path
+/// of the frame's connectivity.
+std::string write_frame_group(const FieldFrame& f, const std::string& file, int index, bool first_mesh,
+                              bool new_topology) {
   const std::string gname = frame_name(index);
   const std::string gpath = "/" + gname;
-  const bool new_topology = !have_mesh_ || mesh_tets_ != *f.tets;
-  const bool first_mesh = !have_mesh_;
+  const std::size_t N = f.x->size(), M = f.tets->size();
+  const std::size_t K = f.crack_faces ? f.crack_faces->size() : 0;
   std::string tets_path = "/mesh/tets";
-  {
-    Handle h5(H5Fopen(file.c_str(), H5F_ACC_RDWR, H5P_DEFAULT), H5Fclose);
-    if (!h5.ok()) h5_fail(file, "opening the file for frame " + std::to_string(index));
-    // A frame group left behind by an earlier failed write() is replaced.
-    if (H5Lexists(h5.get(), gname.c_str(), H5P_DEFAULT) > 0 && H5Ldelete(h5.get(), gname.c_str(), H5P_DEFAULT) < 0)
-      h5_fail(file, "removing the incomplete group " + gpath);
-    if (first_mesh) {
-      if (H5Lexists(h5.get(), "mesh", H5P_DEFAULT) > 0 && H5Ldelete(h5.get(), "mesh", H5P_DEFAULT) < 0)
-        h5_fail(file, "removing an incomplete /mesh");
-      Handle mesh(H5Gcreate2(h5.get(), "mesh", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
-      if (!mesh.ok()) h5_fail(file, "creating group /mesh");
-      write_dataset(mesh.get(), "tets", H5T_STD_I32LE, H5T_NATIVE_INT, f.tets->data(), M, 4, file, "/mesh/tets");
-    }
-    Handle g(H5Gcreate2(h5.get(), gname.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
-    if (!g.ok()) h5_fail(file, "creating group " + gpath);
-    write_attr_real(g.get(), "time", f.time, file);
-    write_attr_long(g.get(), "step", f.step, file);
-    write_attr_string(g.get(), "label", f.label, file);
-    if (new_topology && !first_mesh) {  // topology changed: this frame carries its own connectivity
-      tets_path = gpath + "/tets";
-      write_dataset(g.get(), "tets", H5T_STD_I32LE, H5T_NATIVE_INT, f.tets->data(), M, 4, file, tets_path);
-    }
-    auto wr = [&](const char* name, const void* data, std::size_t rows, std::size_t cols) {
-      write_dataset(g.get(), name, file_real(), mem_real(), data, rows, cols, file, gpath + "/" + name);
-    };
-    wr("x", f.x->data(), N, 3);
-    if (f.u) wr("u", f.u->data(), N, 3);
-    if (f.v) wr("v", f.v->data(), N, 3);
-    if (f.stress) {
-      // VTK's order for symmetric tensors (xx, yy, zz, xy, yz, xz), so ParaView names the
-      // components correctly.
-      std::vector<real> vtk(6 * M);
-      for (std::size_t t = 0; t < M; ++t) {
-        const Sym3& q = (*f.stress)[t];
-        const real row[6] = {q.xx, q.yy, q.zz, q.xy, q.yz, q.xz};
-        std::copy(row, row + 6, vtk.begin() + 6 * t);
-      }
-      wr("stress", vtk.data(), M, 6);
-    }
-    if (f.von_mises) wr("von_mises", f.von_mises->data(), M, 0);
-    for (const TetField& e : f.extra) wr(e.name.c_str(), e.values->data(), M, 0);
-    if (K > 0) {
-      write_dataset(g.get(), "crack_faces", H5T_STD_I32LE, H5T_NATIVE_INT, f.crack_faces->data(), K, 3, file,
-                    gpath + "/crack_faces");
-      if (f.crack_damage) wr("crack_damage", f.crack_damage->data(), K, 0);
-      if (f.crack_mode)
-        write_dataset(g.get(), "crack_mode", H5T_STD_I32LE, H5T_NATIVE_INT, f.crack_mode->data(), K, 0, file,
-                      gpath + "/crack_mode");
-    }
-    if (!g.reset()) h5_fail(file, "closing group " + gpath);
-    if (H5Fflush(h5.get(), H5F_SCOPE_GLOBAL) < 0) h5_fail(file, "flushing frame " + std::to_string(index));
-    if (!h5.reset()) h5_fail(file, "closing the file after frame " + std::to_string(index));
-  }
+  Handle h5(H5Fopen(file.c_str(), H5F_ACC_RDWR, H5P_DEFAULT), H5Fclose);
+  if (!h5.ok()) h5_fail(file, "opening the file for frame " + std::to_string(index));
+  // A frame group left behind by an earlier failed write() is replaced.
+  if (H5Lexists(h5.get(), gname.c_str(), H5P_DEFAULT) > 0 && H5Ldelete(h5.get(), gname.c_str(), H5P_DEFAULT) < 0)
+    h5_fail(file, "removing the incomplete group " + gpath);
   if (first_mesh) {
-    mesh_tets_ = *f.tets;
-    have_mesh_ = true;
+    if (H5Lexists(h5.get(), "mesh", H5P_DEFAULT) > 0 && H5Ldelete(h5.get(), "mesh", H5P_DEFAULT) < 0)
+      h5_fail(file, "removing an incomplete /mesh");
+    Handle mesh(H5Gcreate2(h5.get(), "mesh", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
+    if (!mesh.ok()) h5_fail(file, "creating group /mesh");
+    write_dataset(mesh.get(), "tets", H5T_STD_I32LE, H5T_NATIVE_INT, f.tets->data(), M, 4, file, "/mesh/tets");
   }
+  Handle g(H5Gcreate2(h5.get(), gname.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
+  if (!g.ok()) h5_fail(file, "creating group " + gpath);
+  write_attr_real(g.get(), "time", f.time, file);
+  write_attr_long(g.get(), "step", f.step, file);
+  write_attr_string(g.get(), "label", f.label, file);
+  if (new_topology && !first_mesh) {  // topology changed: this frame carries its own connectivity
+    tets_path = gpath + "/tets";
+    write_dataset(g.get(), "tets", H5T_STD_I32LE, H5T_NATIVE_INT, f.tets->data(), M, 4, file, tets_path);
+  }
+  auto wr = [&](const char* name, const void* data, std::size_t rows, std::size_t cols) {
+    write_dataset(g.get(), name, file_real(), mem_real(), data, rows, cols, file, gpath + "/" + name);
+  };
+  wr("x", f.x->data(), N, 3);
+  if (f.u) wr("u", f.u->data(), N, 3);
+  if (f.v) wr("v", f.v->data(), N, 3);
+  if (f.stress) {
+    // VTK's order for symmetric tensors (xx, yy, zz, xy, yz, xz), so ParaView names the
+    // components correctly.
+    std::vector<real> vtk(6 * M);
+    for (std::size_t t = 0; t < M; ++t) {
+      const Sym3& q = (*f.stress)[t];
+      const real row[6] = {q.xx, q.yy, q.zz, q.xy, q.yz, q.xz};
+      std::copy(row, row + 6, vtk.begin() + 6 * t);
+    }
+    wr("stress", vtk.data(), M, 6);
+  }
+  if (f.von_mises) wr("von_mises", f.von_mises->data(), M, 0);
+  for (const TetField& e : f.extra) wr(e.name.c_str(), e.values->data(), M, 0);
+  if (K > 0) {
+    write_dataset(g.get(), "crack_faces", H5T_STD_I32LE, H5T_NATIVE_INT, f.crack_faces->data(), K, 3, file,
+                  gpath + "/crack_faces");
+    if (f.crack_damage) wr("crack_damage", f.crack_damage->data(), K, 0);
+    if (f.crack_mode)
+      write_dataset(g.get(), "crack_mode", H5T_STD_I32LE, H5T_NATIVE_INT, f.crack_mode->data(), K, 0, file,
+                    gpath + "/crack_mode");
+  }
+  if (!g.reset()) h5_fail(file, "closing group " + gpath);
+  if (H5Fflush(h5.get(), H5F_SCOPE_GLOBAL) < 0) h5_fail(file, "flushing frame " + std::to_string(index));
+  if (!h5.reset()) h5_fail(file, "closing the file after frame " + std::to_string(index));
+  return tets_path;
+}
 
-  // ---- light data: this frame's XDMF grid
+/// The frame's XDMF grid: the rock tets with their fields, and the crack faces if any.
+std::string xdmf_grid(const FieldFrame& f, const std::string& h5, int index, const std::string& tets_path) {
+  const std::string gname = frame_name(index);
+  const std::string gpath = "/" + gname;
+  const std::size_t N = f.x->size(), M = f.tets->size();
+  const std::size_t K = f.crack_faces ? f.crack_faces->size() : 0;
   std::string gridname = gname;
   if (!f.label.empty()) gridname += "_" + f.label;
-  const std::string& h5 = h5_name_;
   const std::string i3 = "      ", i4 = "        ", i5 = "          ";
   std::ostringstream o;
   o << "    <Grid Name=\"" << xml_escape(gridname) << "\" GridType=\"Collection\" CollectionType=\"Spatial\">\n"
@@ -399,8 +372,49 @@ void FieldWriter::write(const FieldFrame& f) {
     o << i3 << "</Grid>\n";
   }
   o << "    </Grid>\n";
+  return o.str();
+}
 
-  grids_.push_back(o.str());
+}  // namespace
+
+// ---------------------------------------------------------------- FieldWriter
+
+FieldWriter::FieldWriter(const std::string& folder, const std::string& basename) {
+  namespace fs = std::filesystem;
+  if (basename.empty() || basename.find('/') != std::string::npos)
+    throw RunError("field output: base name '" + basename + "' must be a non-empty file name without '/'");
+  const fs::path dir = folder.empty() ? fs::path(".") : fs::path(folder);
+  h5_name_ = basename + ".h5";
+  h5_path_ = (dir / h5_name_).string();
+  xdmf_path_ = (dir / (basename + ".xdmf")).string();
+
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec || !fs::is_directory(dir))
+    throw OutputError("field output: cannot create folder " + dir.string() + ": " +
+                      (ec ? ec.message() : std::string("a file of that name is in the way")));
+
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);  // errors are reported through OutputError instead
+  Handle file(H5Fcreate(h5_path_.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose);
+  if (!file.ok()) h5_fail(h5_path_, "creating the file");
+  write_attr_string(file.get(), "writer", "fdem FieldWriter", h5_path_);
+  if (!file.reset()) h5_fail(h5_path_, "closing the file");
+
+  // An index from an earlier run would point at frames the fresh .h5 no longer has.
+  fs::remove(xdmf_path_, ec);
+  if (ec) throw OutputError("field output: cannot remove stale index " + xdmf_path_ + ": " + ec.message());
+}
+
+void FieldWriter::write(const FieldFrame& f) {
+  validate_frame(f, h5_path_);
+  const int index = frames();
+  const bool first_mesh = !have_mesh_;
+  const std::string tets_path = write_frame_group(f, h5_path_, index, first_mesh, first_mesh || mesh_tets_ != *f.tets);
+  if (first_mesh) {
+    mesh_tets_ = *f.tets;
+    have_mesh_ = true;
+  }
+  grids_.push_back(xdmf_grid(f, h5_name_, index, tets_path));
   labels_.push_back(f.label);
   try {
     rewrite_index();

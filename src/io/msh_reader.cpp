@@ -487,18 +487,10 @@ std::string read_file(const std::string& path) {
   return s.str();
 }
 
-}  // namespace
-
-Mesh read_msh(const std::string& path, real scale) {
-  if (!(scale > 0) || !std::isfinite(scale))
-    throw InputError(path + ": mesh scale must be a positive finite number, got " + fmt(scale) +
-                     "; set mesh.scale to e.g. 1 (metres) or 1e-3 (millimetres)");
-  const std::string text = read_file(path);
-  Reader r(path, text);
-  MshData d;
-
+/// The $MeshFormat section: ASCII, version 2.x or 4.1. Returns the major version.
+int read_format(Reader& r) {
   std::string_view l;
-  if (!r.next(l)) throw InputError(path + ": the mesh file is empty; " + kResave);
+  if (!r.next(l)) throw InputError(r.path() + ": the mesh file is empty; " + kResave);
   if (l != "$MeshFormat")
     r.fail("expected $MeshFormat on the first line, found " + quote(l) + ": this is not a gmsh .msh file",
            std::string("give a gmsh mesh; if it is one, ") + kResave);
@@ -520,11 +512,14 @@ Mesh read_msh(const std::string& path, real scale) {
   else
     r.fail(".msh format version " + quote(version) + " is not supported (fdem reads versions 2.2 and 4.1)", kResave);
   r.u64(tok[2], "the data size");
-  {
-    const std::string_view e = r.need("inside $MeshFormat");
-    if (e != "$EndMeshFormat") r.fail("expected $EndMeshFormat, found " + quote(e), kResave);
-  }
+  const std::string_view e = r.need("inside $MeshFormat");
+  if (e != "$EndMeshFormat") r.fail("expected $EndMeshFormat, found " + quote(e), kResave);
+  return major;
+}
 
+/// The sections after $MeshFormat: one $Nodes and one $Elements, others skipped.
+void read_sections(Reader& r, int major, MshData& d) {
+  std::string_view l;
   bool have_nodes = false, have_elements = false;
   while (r.next(l)) {
     if (l[0] != '$')
@@ -546,7 +541,11 @@ Mesh read_msh(const std::string& path, real scale) {
   }
   if (!have_nodes) r.fail("the file has no $Nodes section", "export the mesh (not only the geometry) from gmsh");
   if (!have_elements) r.fail("the file has no $Elements section", "export the mesh (not only the geometry) from gmsh");
-  // A volume element of another kind would be left out, and the model with it part of the body.
+}
+
+/// The volume is meshed with 4-node tets only: a volume element of another kind would be left
+/// out, and the model with it part of the body.
+void check_only_tets(Reader& r, const MshData& d) {
   if (d.other_volumes)
     r.fail_at(d.first_volume_line,
               "element tag " + std::to_string(d.first_volume_tag) + " is " + other_volume_name(d.first_volume_type) +
@@ -556,14 +555,22 @@ Mesh read_msh(const std::string& path, real scale) {
               "mesh the volume with first-order tetrahedra only (Mesh.ElementOrder 1, no recombination into "
               "hexahedra or prisms) and export again");
   if (d.tets.empty()) {
-    throw InputError(path + ": the file contains no 4-node tetrahedra (element type 4)" +
+    throw InputError(r.path() + ": the file contains no 4-node tetrahedra (element type 4)" +
                      (d.other_elements ? ", only " + std::to_string(d.other_elements) +
                                              " elements of other types (points, lines, triangles...)"
                                        : std::string()) +
                      "; mesh the volume in 3D (gmsh -3), not only its surface, and export again");
   }
+}
 
-  // Resolve node tags, drop unused nodes, renumber in file order.
+/// The tets' node tags resolved; the nodes no tet uses dropped, the others numbered in file
+/// order and scaled. Each vertex's and tet's tag and line are kept for messages.
+struct ResolvedMesh {
+  Mesh mesh;
+  std::vector<std::uint64_t> vertex_tags, tet_tags;
+  std::vector<long> tet_lines;
+};
+ResolvedMesh resolve_nodes(Reader& r, const MshData& d, real scale) {
   std::vector<int> vidx(d.coords.size(), -1);
   for (const RawTet& t : d.tets)
     for (int i = 0; i < 4; ++i) {
@@ -575,9 +582,9 @@ Mesh read_msh(const std::string& path, real scale) {
                   "add the node or fix the element's node list");
       vidx[it->second] = 0;
     }
-  Mesh mesh;
-  mesh.source = path;
-  std::vector<std::uint64_t> vtags;
+  ResolvedMesh out;
+  Mesh& mesh = out.mesh;
+  mesh.source = r.path();
   for (std::size_t i = 0; i < d.coords.size(); ++i)
     if (vidx[i] == 0) {
       vidx[i] = static_cast<int>(mesh.vertices.size());
@@ -585,28 +592,44 @@ Mesh read_msh(const std::string& path, real scale) {
       // Beyond 1000 km (after mesh.scale) no rock model lies: a slip of units, and volumes,
       // edges and the time step would overflow.
       if (!(std::fabs(x.x) <= 1e6 && std::fabs(x.y) <= 1e6 && std::fabs(x.z) <= 1e6))
-        throw InputError(path + ":" + std::to_string(d.node_lines[i]) + ": node " + std::to_string(d.node_tags[i]) +
+        throw InputError(r.path() + ":" + std::to_string(d.node_lines[i]) + ": node " + std::to_string(d.node_tags[i]) +
                          " lies at (" + fmt(x.x, 3) + ", " + fmt(x.y, 3) + ", " + fmt(x.z, 3) +
                          ") m after mesh.scale " + fmt(scale) +
                          ", more than 1000 km out. Fix: check the coordinates and mesh.scale (1e-3 for a mesh in mm)");
       mesh.vertices.push_back(x);
-      vtags.push_back(d.node_tags[i]);
+      out.vertex_tags.push_back(d.node_tags[i]);
     }
   mesh.tets.resize(d.tets.size());
-  std::vector<std::uint64_t> ttags(d.tets.size());
-  std::vector<long> tlines(d.tets.size());
+  out.tet_tags.resize(d.tets.size());
+  out.tet_lines.resize(d.tets.size());
   for (std::size_t t = 0; t < d.tets.size(); ++t) {
     for (int i = 0; i < 4; ++i) mesh.tets[t][i] = vidx[d.node_index.at(d.tets[t].node[i])];
-    ttags[t] = d.tets[t].tag;
-    tlines[t] = d.tets[t].line;
+    out.tet_tags[t] = d.tets[t].tag;
+    out.tet_lines[t] = d.tets[t].line;
   }
+  return out;
+}
+
+}  // namespace
+
+Mesh read_msh(const std::string& path, real scale) {
+  if (!(scale > 0) || !std::isfinite(scale))
+    throw InputError(path + ": mesh scale must be a positive finite number, got " + fmt(scale) +
+                     "; set mesh.scale to e.g. 1 (metres) or 1e-3 (millimetres)");
+  const std::string text = read_file(path);
+  Reader r(path, text);
+  MshData d;
+  const int major = read_format(r);
+  read_sections(r, major, d);
+  check_only_tets(r, d);
+  ResolvedMesh resolved = resolve_nodes(r, d, scale);
   mesh_detail::Labels L;
   L.prefix = path;
-  L.node_tags = &vtags;
-  L.tet_tags = &ttags;
-  L.tet_lines = &tlines;
-  mesh_detail::validate(mesh, L);
-  return mesh;
+  L.node_tags = &resolved.vertex_tags;
+  L.tet_tags = &resolved.tet_tags;
+  L.tet_lines = &resolved.tet_lines;
+  mesh_detail::validate(resolved.mesh, L);
+  return std::move(resolved.mesh);
 }
 
 }  // namespace fdem
