@@ -18,21 +18,16 @@
 
 namespace fdem {
 
-// Preconditions: every value in `ids` indexes `boxes`, ids holds no duplicates (a duplicate
-// would be paired with itself and its pairs reported twice), and every box is finite with
-// lo <= hi per axis (an inverted box is binned nowhere and never reported). A non-finite
-// coordinate throws RunError.
-void find_box_pairs(const std::vector<Aabb>& boxes, const std::vector<int>& ids, real cell,
-                    std::vector<std::array<int, 2>>& pairs, BroadPhaseStats* stats, long max_cells_per_box) {
-  pairs.clear();
-  const std::size_t n = ids.size();
-  const long cap = std::clamp(max_cells_per_box, 1L, 1L << 20);
-  if (n == 0) {
-    if (stats) *stats = BroadPhaseStats{0, 0, 0, 0, cell > 0 ? cell : 0};
-    return;
-  }
+namespace {
 
-  // Pass 1 (reduction): overall bounding box and the sum of the largest box extents.
+/// Pass 1 (reduction): the boxes' overall bounds and the sum of their largest extents.
+struct BoxSpread {
+  Vec3 lo, hi;
+  real extent_sum = 0;
+  real span() const { return std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z, real(0)}); }
+};
+BoxSpread spread_of(const std::vector<Aabb>& boxes, const std::vector<int>& ids) {
+  const std::size_t n = ids.size();
   const real inf = std::numeric_limits<real>::infinity();
   real x0 = inf, y0 = inf, z0 = inf, x1 = -inf, y1 = -inf, z1 = -inf, extent_sum = 0;
   long bad = 0;
@@ -46,21 +41,18 @@ void find_box_pairs(const std::vector<Aabb>& boxes, const std::vector<int>& ids,
     extent_sum += std::max({b.hi.x - b.lo.x, b.hi.y - b.lo.y, b.hi.z - b.lo.z, real(0)});
   }
   if (bad > 0) throw RunError("contact broad phase: a box has a non-finite coordinate (the run is unstable)");
-  const real span = std::max({x1 - x0, y1 - y0, z1 - z0, real(0)});
+  return {{x0, y0, z0}, {x1, y1, z1}, extent_sum};
+}
 
-  // Cell edge: twice the mean extent by default; never zero (all boxes points).
-  if (!(cell > 0)) cell = 2 * extent_sum / static_cast<real>(n);
-  if (!(cell > 0)) cell = span > 0 ? 1e-6 * span : 1;
-  Grid grid{{x0, y0, z0}, cell};
-
-  // Pass 2 (count, repeated while needed): cells per box. Enlarge the cell until all boxes
-  // together cover at most `cap` cells per box on average (memory stays bounded, while one
-  // long box among small ones does not coarsen the grid for all the others, which would make
-  // the pair test quadratic), and until the farthest coordinate is at most 2^50 cells away,
-  // which keeps the int64 indices and the double quotient exact.
-  std::vector<long> offset(n + 1);
+/// Pass 2 (count, repeated while needed): cells per box, into offset[0..n). The cell grows
+/// until all boxes together cover at most `budget` cells (memory stays bounded, while one
+/// long box among small ones does not coarsen the grid for all the others, which would make
+/// the pair test quadratic), and until the farthest coordinate is at most 2^50 cells away,
+/// which keeps the int64 indices and the double quotient exact.
+void count_cells(const std::vector<Aabb>& boxes, const std::vector<int>& ids, real span, long budget, Grid& grid,
+                 std::vector<long>& offset) {
+  const std::size_t n = ids.size();
   const real max_index = std::ldexp(1.0, 50);
-  const long budget = cap * static_cast<long>(n);
   for (;;) {
     while (span / grid.cell > max_index) grid.cell *= 2;
     long sum = 0;
@@ -70,44 +62,43 @@ void find_box_pairs(const std::vector<Aabb>& boxes, const std::vector<int>& ids,
     if (sum <= budget) break;
     grid.cell *= 2;
   }
+}
 
-  // Exclusive prefix sum of the counts: where each box writes its entries (a device scan on a GPU).
+/// Exclusive prefix sum in place; a.back() becomes the total (a device scan on a GPU).
+long exclusive_scan(std::vector<long>& a) {
   long total = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    const long c = offset[i];
-    offset[i] = total;
+  for (std::size_t i = 0; i + 1 < a.size(); ++i) {
+    const long c = a[i];
+    a[i] = total;
     total += c;
   }
-  offset[n] = total;
+  a.back() = total;
+  return total;
+}
 
-  // Pass 3 (fill): each box writes one entry per covered cell into its own slice.
-  std::vector<BinEntry> entries(static_cast<std::size_t>(total));
-  for_each(n, [&](std::size_t i) { grid.bin(boxes[ids[i]], ids[i], entries.data() + offset[i]); });
-
-  // Pass 4 (sort) by (ix, iy, iz, box). A GPU would radix-sort on a 64-bit hash of the
-  // triple and break ties (hash collisions) on the triple itself, so runs stay exact.
-  std::sort(entries.begin(), entries.end(), bin_entry_less);
-
-  // Pass 5 (run detection, a stream compaction): flag the first entry of each cell, scan
-  // the flags, scatter the starts. cell_start[c] .. cell_start[c + 1] is cell c's run.
+/// Pass 5 (run detection, a stream compaction): flag the first entry of each cell, scan the
+/// flags, scatter the starts. Cell c's run is cell_start[c] .. cell_start[c + 1].
+std::vector<long> cell_starts(const std::vector<BinEntry>& entries) {
+  const long total = static_cast<long>(entries.size());
   std::vector<long> head(static_cast<std::size_t>(total) + 1);
   for_each(static_cast<std::size_t>(total),
            [&](std::size_t k) { head[k] = (k == 0 || !same_cell(entries[k - 1], entries[k])) ? 1 : 0; });
-  long cells = 0;
-  for (long k = 0; k < total; ++k) {
-    const long f = head[k];
-    head[k] = cells;
-    cells += f;
-  }
+  const long cells = exclusive_scan(head);
   std::vector<long> cell_start(static_cast<std::size_t>(cells) + 1);
   for_each(static_cast<std::size_t>(total), [&](std::size_t k) {
     if (k == 0 || !same_cell(entries[k - 1], entries[k])) cell_start[head[k]] = static_cast<long>(k);
   });
   cell_start[cells] = total;
+  return cell_start;
+}
 
-  // Pass 6 (pair test per cell): all pairs within a run; a pair is kept only by the cell
-  // holding the low corner of the two boxes' intersection, so it is found exactly once.
-  // Per-thread lists here; a GPU would count per cell, scan, then write (or append atomically).
+/// Pass 6 (pair test per cell): all pairs within a run; a pair is kept only by the cell
+/// holding the low corner of the two boxes' intersection, so it is found exactly once.
+/// Per-thread lists, concatenated and sorted, so the result does not depend on the thread
+/// count (a GPU would count per cell, scan, then write). Returns the pairs tested.
+long test_pairs_in_cells(const std::vector<Aabb>& boxes, const Grid& grid, const std::vector<BinEntry>& entries,
+                         const std::vector<long>& cell_start, std::vector<std::array<int, 2>>& pairs) {
+  const long cells = static_cast<long>(cell_start.size()) - 1;
   std::vector<std::vector<std::array<int, 2>>> found(static_cast<std::size_t>(omp_get_max_threads()));
   long tested = 0;
 #pragma omp parallel reduction(+ : tested)
@@ -130,14 +121,48 @@ void find_box_pairs(const std::vector<Aabb>& boxes, const std::vector<int>& ids,
       }
     }
   }
-
-  // Concatenate and sort: the result does not depend on the thread count.
   std::size_t count = 0;
   for (const auto& f : found) count += f.size();
   pairs.reserve(count);
   for (const auto& f : found) pairs.insert(pairs.end(), f.begin(), f.end());
   std::sort(pairs.begin(), pairs.end());
+  return tested;
+}
 
+}  // namespace
+
+// Preconditions: every value in `ids` indexes `boxes`, ids holds no duplicates (a duplicate
+// would be paired with itself and its pairs reported twice), and every box is finite with
+// lo <= hi per axis (an inverted box is binned nowhere and never reported). A non-finite
+// coordinate throws RunError.
+void find_box_pairs(const std::vector<Aabb>& boxes, const std::vector<int>& ids, real cell,
+                    std::vector<std::array<int, 2>>& pairs, BroadPhaseStats* stats, long max_cells_per_box) {
+  pairs.clear();
+  const std::size_t n = ids.size();
+  const long cap = std::clamp(max_cells_per_box, 1L, 1L << 20);
+  if (n == 0) {
+    if (stats) *stats = BroadPhaseStats{0, 0, 0, 0, cell > 0 ? cell : 0};
+    return;
+  }
+  const BoxSpread spread = spread_of(boxes, ids);
+  const real span = spread.span();
+  // Cell edge: twice the mean extent by default; never zero (all boxes points).
+  if (!(cell > 0)) cell = 2 * spread.extent_sum / static_cast<real>(n);
+  if (!(cell > 0)) cell = span > 0 ? 1e-6 * span : 1;
+  Grid grid{spread.lo, cell};
+  std::vector<long> offset(n + 1);
+  count_cells(boxes, ids, span, cap * static_cast<long>(n), grid, offset);
+  const long total = exclusive_scan(offset);  // where each box writes its entries
+
+  // Pass 3 (fill): each box writes one entry per covered cell into its own slice.
+  std::vector<BinEntry> entries(static_cast<std::size_t>(total));
+  for_each(n, [&](std::size_t i) { grid.bin(boxes[ids[i]], ids[i], entries.data() + offset[i]); });
+  // Pass 4 (sort) by (ix, iy, iz, box). A GPU would radix-sort on a 64-bit hash of the
+  // triple and break ties (hash collisions) on the triple itself, so runs stay exact.
+  std::sort(entries.begin(), entries.end(), bin_entry_less);
+
+  const std::vector<long> cell_start = cell_starts(entries);
+  const long tested = test_pairs_in_cells(boxes, grid, entries, cell_start, pairs);
   if (stats) {
     stats->boxes = static_cast<long>(n);
     stats->entries = total;
