@@ -256,14 +256,7 @@ int partition_command(CliOptions o) {
 int study_command(CliOptions o) {
   std::vector<fdem::SeriesAxis> axes;
   for (const std::string& a : o.vary) axes.push_back(fdem::parse_series_axis(a));
-  std::vector<std::pair<std::string, std::string>> ref;
-  std::stringstream in(o.reference);
-  for (std::string kv; std::getline(in, kv, ',');) {
-    const std::size_t eq = kv.find('=');
-    if (eq == std::string::npos)
-      throw fdem::InputError("--reference " + o.reference + ": expected key=value[,key=value]");
-    ref.push_back({kv.substr(0, eq), kv.substr(eq + 1)});
-  }
+  const fdem::SeriesValues ref = fdem::parse_reference(o.reference);
   const auto limits = fdem::parse_budget(o.budget);
   if (o.output.empty()) o.output = fdem::load_scene(o.scene_path).output.folder + "/study";
   std::unique_ptr<fdem::RunLock> lock;  // the folder's, held to the end of the command
@@ -330,7 +323,8 @@ int run_command(const CliOptions& o, bool check_only) {
   std::ostream null_stream(&null_buffer);
   std::ostream& log = rank == 0 ? std::cout : null_stream;
   const std::unique_ptr<fdem::Solver> solver =
-      fdem::make_solver(scene, {o.partitioned, fdem::distribution_named(o.distribute), o.contact_reach, o.write_mesh}, MPI_COMM_WORLD, log);
+      fdem::make_solver(scene, {o.partitioned, fdem::distribution_named(o.distribute), o.contact_reach, o.write_mesh},
+                        MPI_COMM_WORLD, log);
   fdem::report_model(*solver, log);
   if (check_only) return 0;
   fdem::RunSummary s;

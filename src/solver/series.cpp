@@ -30,20 +30,21 @@ std::string read_text(const std::string& path) {
   return t.str();
 }
 
-real number(const std::string& key, const std::string& value) {
+real number(SeriesKey key, const std::string& value) {
   const double v = decimal(value);
   if (std::isnan(v))
-    throw InputError(key + "=" + value + ": not a number; give SI values such as 5e6 (Pa) or 0.1 (m/s)");
+    throw InputError(std::string(name_of(key)) + "=" + value +
+                     ": not a number; give SI values such as 5e6 (Pa) or 0.1 (m/s)");
   return v;
 }
 
-void require(bool ok, const std::string& key, const std::string& value, const std::string& what) {
-  if (!ok) throw InputError(key + "=" + value + ": " + what);
+void require(bool ok, SeriesKey key, const std::string& value, const std::string& what) {
+  if (!ok) throw InputError(std::string(name_of(key)) + "=" + value + ": " + what);
 }
 
 std::string folder_name(const SeriesValues& values) {
   std::string n;
-  for (const auto& [k, v] : values) n += (n.empty() ? "" : "_") + k + "_" + v;
+  for (const auto& [k, v] : values) n += (n.empty() ? "" : "_") + std::string(name_of(k)) + "_" + v;
   return n;
 }
 
@@ -60,28 +61,19 @@ void write_unstable_summary(const std::string& path, const std::string& name, st
 
 }  // namespace
 
-const std::vector<std::string>& series_keys() {
-  static const std::vector<std::string> k = {"sigma3",       "platen_velocity", "diameter",        "element_size",
-                                             "mass_scaling", "activation",      "time_step_safety"};
-  return k;
-}
-
 SeriesAxis parse_series_axis(const std::string& arg) {
   const std::size_t eq = arg.find('=');
-  std::string keys;
-  for (const std::string& k : series_keys()) keys += (keys.empty() ? "" : ", ") + k;
+  const std::string keys = choice_list<SeriesKey>(", ");
   if (eq == std::string::npos || eq == 0)
     throw InputError("--vary " + arg + ": expected key=value1,value2,... with key one of " + keys);
   SeriesAxis a;
-  a.key = arg.substr(0, eq);
-  if (a.key == "platen_speed") a.key = "platen_velocity";  // the name users also say
-  if (a.key == "precision")
+  std::string key = arg.substr(0, eq);
+  if (key == "platen_speed") key = "platen_velocity";  // the name users also say
+  if (key == "precision")
     throw InputError("--vary " + arg +
                      ": fdem computes in double precision only (core/config.hpp); a single-precision solver is not "
                      "built, and casting the outputs would not measure its error, so there is no precision axis");
-  bool known = false;
-  for (const std::string& k : series_keys()) known |= k == a.key;
-  if (!known) throw InputError("--vary " + arg + ": unknown key '" + a.key + "'; allowed: " + keys);
+  if (!choice_named(key, a.key)) throw InputError("--vary " + arg + ": unknown key '" + key + "'; allowed: " + keys);
   // The same value twice (also spelled differently: 1 and 1.0, 1e6 and 1000000) would run twice
   // and, in fdem triaxial, count twice in the Mohr-Coulomb fit.
   auto same = [](const std::string& x, const std::string& y) { return x == y || decimal(x) == decimal(y); };
@@ -97,51 +89,75 @@ SeriesAxis parse_series_axis(const std::string& arg) {
   return a;
 }
 
-void apply_series_value(Scene& s, const std::string& key, const std::string& value) {
-  if (key == "activation") {
-    require(choice_named(value, s.contact.activation), key, value, "allowed: " + choice_list<Activation>(", "));
-    return;
-  }
+namespace {
+
+/// sigma3: the confining pressure, with confinement on where it is above 0.
+void set_confining_pressure(Scene& s, const std::string& value) {
+  const SeriesKey key = SeriesKey::sigma3;
   const real v = number(key, value);
-  if (key == "sigma3") {
-    require(v >= 0 && v <= Confinement::kMaxPressure, key, value,
-            "the confining pressure must be in [0, " + fmt(Confinement::kMaxPressure) + "] Pa");
-    require(v == 0 || v >= 1e3, key, value,
-            "values are in Pa: a confining pressure below 1 kPa is surely a slip (did you mean " + value + "e6?)");
-    s.confinement.enabled = v > 0;
-    s.confinement.pressure = v;
-    require(v == 0 || s.platens.enabled || s.confinement.path == ConfinementPath::constant, key, value,
-            "the hydrostatic path follows the axial stress, which needs platens; enable platens or set "
-            "confinement.path: constant in " +
-                s.file);
-  } else if (key == "platen_velocity") {
-    require(v > 0 && v <= Platens::kMaxVelocity, key, value,
-            "the platen speed must be > 0 m/s and at most " + fmt(Platens::kMaxVelocity) + " m/s");
-    require(s.platens.enabled, key, value, "the scene " + s.file + " has no platens");
-    s.platens.velocity = v;
-  } else if (key == "diameter" || key == "element_size") {
-    require(v > 0, key, value, "must be > 0 m");
-    require(!s.mesh.shape.empty() && (key == "element_size" || s.mesh.shape != "box"), key, value,
-            "needs a generated cylinder or disc mesh (mesh.generate in " + s.file + ")");
-    if (key == "element_size") {
-      s.mesh.element_size = v;
-    } else {
-      s.mesh.height *= v / s.mesh.diameter;
-      s.mesh.diameter = v;
-    }
-    require(s.mesh.element_size < std::min(s.mesh.diameter, s.mesh.height), key, value,
-            "the element size must be smaller than the specimen (diameter " + fmt(s.mesh.diameter) + " m, height " +
-                fmt(s.mesh.height) + " m)");
-  } else if (key == "mass_scaling") {
-    require(v >= 1 && v <= SolverSettings::kMaxMassScaling, key, value,
-            "mass scaling must be >= 1 and at most " + fmt(SolverSettings::kMaxMassScaling));
-    s.solver.mass_scaling = v;
-  } else if (key == "time_step_safety") {
-    require(v > 0 && v <= SolverSettings::kMaxSafety, key, value,
-            "the time-step safety factor must be in (0, " + fmt(SolverSettings::kMaxSafety) + "] (<= 1 is stable)");
-    s.solver.time_step_safety = v;
+  require(v >= 0 && v <= Confinement::kMaxPressure, key, value,
+          "the confining pressure must be in [0, " + fmt(Confinement::kMaxPressure) + "] Pa");
+  require(v == 0 || v >= 1e3, key, value,
+          "values are in Pa: a confining pressure below 1 kPa is surely a slip (did you mean " + value + "e6?)");
+  s.confinement.enabled = v > 0;
+  s.confinement.pressure = v;
+  require(v == 0 || s.platens.enabled || s.confinement.path == ConfinementPath::constant, key, value,
+          "the hydrostatic path follows the axial stress, which needs platens; enable platens or set "
+          "confinement.path: constant in " +
+              s.file);
+}
+
+/// diameter or element_size of a generated mesh; a new diameter scales the height with it.
+void set_mesh_size(Scene& s, SeriesKey key, const std::string& value) {
+  const real v = number(key, value);
+  require(v > 0, key, value, "must be > 0 m");
+  require(!s.mesh.shape.empty() && (key == SeriesKey::element_size || s.mesh.shape != "box"), key, value,
+          "needs a generated cylinder or disc mesh (mesh.generate in " + s.file + ")");
+  if (key == SeriesKey::element_size) {
+    s.mesh.element_size = v;
   } else {
-    throw InputError("unknown series key '" + key + "'");
+    s.mesh.height *= v / s.mesh.diameter;
+    s.mesh.diameter = v;
+  }
+  require(s.mesh.element_size < std::min(s.mesh.diameter, s.mesh.height), key, value,
+          "the element size must be smaller than the specimen (diameter " + fmt(s.mesh.diameter) + " m, height " +
+              fmt(s.mesh.height) + " m)");
+}
+
+}  // namespace
+
+void apply_series_value(Scene& s, SeriesKey key, const std::string& value) {
+  switch (key) {
+    case SeriesKey::activation:
+      require(choice_named(value, s.contact.activation), key, value, "allowed: " + choice_list<Activation>(", "));
+      return;
+    case SeriesKey::sigma3:
+      return set_confining_pressure(s, value);
+    case SeriesKey::diameter:
+    case SeriesKey::element_size:
+      return set_mesh_size(s, key, value);
+    case SeriesKey::platen_velocity: {
+      const real v = number(key, value);
+      require(v > 0 && v <= Platens::kMaxVelocity, key, value,
+              "the platen speed must be > 0 m/s and at most " + fmt(Platens::kMaxVelocity) + " m/s");
+      require(s.platens.enabled, key, value, "the scene " + s.file + " has no platens");
+      s.platens.velocity = v;
+      return;
+    }
+    case SeriesKey::mass_scaling: {
+      const real v = number(key, value);
+      require(v >= 1 && v <= SolverSettings::kMaxMassScaling, key, value,
+              "mass scaling must be >= 1 and at most " + fmt(SolverSettings::kMaxMassScaling));
+      s.solver.mass_scaling = v;
+      return;
+    }
+    case SeriesKey::time_step_safety: {
+      const real v = number(key, value);
+      require(v > 0 && v <= SolverSettings::kMaxSafety, key, value,
+              "the time-step safety factor must be in (0, " + fmt(SolverSettings::kMaxSafety) + "] (<= 1 is stable)");
+      s.solver.time_step_safety = v;
+      return;
+    }
   }
 }
 
@@ -149,10 +165,10 @@ std::vector<SeriesValues> series_combinations(const std::vector<SeriesAxis>& axe
   for (std::size_t i = 0; i < axes.size(); ++i)
     for (std::size_t j = 0; j < i; ++j)
       if (axes[i].key == axes[j].key)
-        throw InputError("--vary " + axes[i].key +
+        throw InputError(std::string("--vary ") + name_of(axes[i].key) +
                          " is given twice (each run takes one value of a key); give all "
                          "its values in one --vary " +
-                         axes[i].key + "=a,b,...");
+                         name_of(axes[i].key) + "=a,b,...");
   double count = 1;
   for (const SeriesAxis& a : axes) count *= double(a.values.size());
   if (count > kMaxSeriesRuns)
@@ -236,7 +252,7 @@ std::vector<SeriesRow> run_series(const std::string& scene_path, const std::vect
     row.folder = (fs::path(folder) / folder_name(combos[i])).string();
     std::ostringstream fp;
     fp << "fdem " FDEM_VERSION "\n" << mesh_line;
-    for (const auto& [k, v] : combos[i]) fp << k << " = " << v << "\n";
+    for (const auto& [k, v] : combos[i]) fp << name_of(k) << " = " << v << "\n";
     fp << "---\n" << text;
     const std::string fp_path = (fs::path(row.folder) / "run.txt").string();
     const std::string summary_path = (fs::path(row.folder) / "summary.csv").string();
@@ -308,12 +324,12 @@ void write_series_csv(const std::string& path, const std::vector<SeriesRow>& row
   std::ostringstream o;
   const std::vector<std::string> cols = split_csv(kSummaryHeader);
   if (!rows.empty())
-    for (const auto& kv : rows[0].values) o << kv.first << ',';
+    for (const SeriesValue& kv : rows[0].values) o << name_of(kv.key) << ',';
   o << "folder";
   for (const std::string& c : cols) o << ',' << c;
   o << '\n';
   for (const SeriesRow& r : rows) {
-    for (const auto& kv : r.values) o << csv_field(kv.second) << ',';
+    for (const SeriesValue& kv : r.values) o << csv_field(kv.value) << ',';
     o << csv_field(r.folder);
     for (const std::string& c : cols) {
       const auto it = r.summary.find(c);

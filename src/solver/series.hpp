@@ -33,21 +33,31 @@ class RunLock;
 /// A run stopped as unstable (RunError), or not run since the scene's fixed solver.time_step is
 /// beyond ten times its stable-step bound, gets a summary.csv with empty numbers and end_reason
 /// "unstable: <why>", and the series goes on.
-struct SeriesAxis {
-  std::string key;
-  std::vector<std::string> values;
+enum class SeriesKey { sigma3, platen_velocity, diameter, element_size, mass_scaling, activation, time_step_safety };
+template <>
+struct ChoiceNames<SeriesKey> {
+  static constexpr std::array<const char*, 7> words{
+      "sigma3", "platen_velocity", "diameter", "element_size", "mass_scaling", "activation", "time_step_safety"};
 };
 
-/// The keys above, for messages and --help.
-const std::vector<std::string>& series_keys();
+struct SeriesAxis {
+  SeriesKey key;
+  std::vector<std::string> values;  // as typed: they name the run folders
+};
 
 /// Parses "key=v1,v2,..." (throws InputError naming the argument and the fix).
 SeriesAxis parse_series_axis(const std::string& arg);
 
 /// Sets one parameter of a scene; throws InputError naming the key, the value and what is allowed.
-void apply_series_value(Scene& scene, const std::string& key, const std::string& value);
+void apply_series_value(Scene& scene, SeriesKey key, const std::string& value);
 
-using SeriesValues = std::vector<std::pair<std::string, std::string>>;  // key, value as typed
+/// One varied parameter's value in one run, as typed.
+struct SeriesValue {
+  SeriesKey key;
+  std::string value;
+  bool operator==(const SeriesValue& o) const { return key == o.key && value == o.value; }
+};
+using SeriesValues = std::vector<SeriesValue>;
 
 /// At most this many runs in one series (each a whole run: more is a slip).
 constexpr int kMaxSeriesRuns = 10000;

@@ -11,6 +11,7 @@
 //   broken          |n - n_ref| / max(n_ref, 1), n the broken-CE6 count
 //   jaccard         |A n B| / |A u B| of the broken-CE6 sets (same mesh only; a minimum in budgets)
 // (run_comparison.hpp). Outputs in the study folder: study.csv, study.md, study.png.
+#include <array>
 #include <iosfwd>
 #include <map>
 #include <string>
@@ -20,35 +21,53 @@
 
 namespace fdem {
 
-/// The error names above, in table order.
-const std::vector<std::string>& study_metrics();
+/// The errors above, in table order.
+enum class StudyMetric { peak, strain_at_peak, curve_pre, curve_post, broken, jaccard };
+template <>
+struct ChoiceNames<StudyMetric> {
+  static constexpr std::array<const char*, 6> words{"peak",       "strain_at_peak", "curve_pre",
+                                                    "curve_post", "broken",         "jaccard"};
+};
+constexpr std::size_t kStudyMetrics = ChoiceNames<StudyMetric>::words.size();
 
-/// "peak=2%,curve_pre=0.05" (repeatable): metric -> limit as a fraction. Throws InputError.
-std::map<std::string, real> parse_budget(const std::vector<std::string>& args);
+/// One value per metric (an error, NaN when not comparable).
+struct MetricValues {
+  std::array<real, kStudyMetrics> by_metric;
+  real& operator[](StudyMetric m) { return by_metric[std::size_t(m)]; }
+  real operator[](StudyMetric m) const { return by_metric[std::size_t(m)]; }
+};
+
+/// Limits of a budget: metric -> limit as a fraction (jaccard: the least overlap accepted).
+using StudyBudget = std::map<StudyMetric, real>;
+
+/// "peak=2%,curve_pre=0.05" (repeatable). Throws InputError.
+StudyBudget parse_budget(const std::vector<std::string>& args);
 
 struct StudyRow {
   SeriesRow run;
   bool reference = false, stable = true, pareto = false, within_budget = false;
   real wall = 0, steps = 0, seconds_per_step = 0, speedup = 0;
-  std::map<std::string, real> error;  // by metric name; NaN when not comparable
+  MetricValues error;  // NaN when not comparable
 };
 
 struct StudyResult {
   std::vector<StudyRow> rows;
   int reference = -1;
-  int recommended = -1;  // fastest stable variant within the budget
-  std::string plotted;   // the error on the plot's axis
-  std::map<std::string, real> budget;
+  int recommended = -1;                     // fastest stable variant within the budget
+  StudyMetric plotted = StudyMetric::peak;  // the error on the plot's axis: the budget's first in table order
+  StudyBudget budget;
 };
 
-/// reference: key=value pairs naming one variant; empty = for each axis its most exact value
+/// "key=value[,key=value]" of --reference, typed (InputError for a key that is no series key).
+SeriesValues parse_reference(const std::string& arg);
+
+/// reference: the values naming one variant; empty = for each axis its most exact value
 /// (activation full; the smallest mass_scaling, platen_velocity, element_size,
 /// time_step_safety); sigma3 and diameter have no most exact value and need it named.
 /// hold: as run_series's (the folder's lock, for writing study.csv after the runs).
-StudyResult run_study(const std::string& scene_path, const std::vector<SeriesAxis>& axes,
-                      const std::vector<std::pair<std::string, std::string>>& reference,
-                      const std::map<std::string, real>& budget, const std::string& folder, int threads, bool quiet,
-                      std::ostream& log, std::unique_ptr<RunLock>* hold = nullptr);
+StudyResult run_study(const std::string& scene_path, const std::vector<SeriesAxis>& axes, const SeriesValues& reference,
+                      const StudyBudget& budget, const std::string& folder, int threads, bool quiet, std::ostream& log,
+                      std::unique_ptr<RunLock>* hold = nullptr);
 
 /// study.csv and study.md in folder (atomically), and study.png through scripts/plot_study.py
 /// (false when the plot could not be made).

@@ -74,11 +74,22 @@ TEST(RunComparison, ParetoFrontKeepsTheUndominated) {
 
 TEST(RunComparison, BudgetsParsePercentAndFractions) {
   const auto b = parse_budget({"peak=2%,curve_pre=0.05", "jaccard=0.8"});
-  EXPECT_DOUBLE_EQ(b.at("peak"), 0.02);
-  EXPECT_DOUBLE_EQ(b.at("curve_pre"), 0.05);
-  EXPECT_DOUBLE_EQ(b.at("jaccard"), 0.8);
+  EXPECT_DOUBLE_EQ(b.at(StudyMetric::peak), 0.02);
+  EXPECT_DOUBLE_EQ(b.at(StudyMetric::curve_pre), 0.05);
+  EXPECT_DOUBLE_EQ(b.at(StudyMetric::jaccard), 0.8);
   EXPECT_THROW(parse_budget({"speed=2"}), InputError);
   EXPECT_THROW(parse_budget({"peak=-1%"}), InputError);
   EXPECT_THROW(parse_budget({"jaccard=2"}), InputError);
   EXPECT_THROW(parse_budget({"peak"}), InputError);
+}
+
+TEST(RunComparison, ReferenceValuesAreTypedSeriesKeys) {
+  const SeriesValues r = parse_reference("activation=full,platen_speed=0.05");
+  ASSERT_EQ(r.size(), 2u);
+  EXPECT_EQ(r[0].key, SeriesKey::activation);
+  EXPECT_EQ(r[0].value, "full");
+  EXPECT_EQ(r[1].key, SeriesKey::platen_velocity);  // the alias --vary accepts too
+  EXPECT_EQ(r[1].value, "0.05");
+  EXPECT_THROW(parse_reference("speed=2"), InputError);
+  EXPECT_THROW(parse_reference("activation"), InputError);
 }
