@@ -72,21 +72,16 @@ struct TetRec {
   std::vector<std::array<long, 3>> faces;  // its surface faces
 };
 
-}  // namespace
+/// This rank's tets boxed at the current positions (grown by half the reach), and their bounds.
+struct OwnBoxes {
+  std::vector<Aabb> box;  // per local tet; only the owned ones are set
+  Aabb bounds;
+};
 
-GrownRank grow_contact_ghosts(MPI_Comm comm, const Model& m, const Decomposition& dd, const GhostState& now) {
-  const int rank = dd.rank, size = dd.size;
-  const int nt = int(m.tet_nodes.size()), nn = int(m.X.size()), nc = int(m.ce6_nodes.size());
-  if (size_of(comm) != size || int(now.x.size()) != nn || int(now.v.size()) != nn || int(now.ce6.size()) != nc)
-    throw RunError("contact ghosts: the state does not match the rank model");
-  const bool flags = !now.active.empty();
-  const real half = 0.5 * dd.reach;
-
-  // 1. This rank's tets, boxed at the current positions and grown by half the reach (two boxes
-  // overlap when the tets come within the reach), and the bounds of all of them.
+OwnBoxes box_own_tets(const Model& m, const Decomposition& dd, const GhostState& now, real half) {
+  const int nt = int(m.tet_nodes.size());
   constexpr real kBig = std::numeric_limits<real>::max();
-  std::vector<Aabb> box(nt);
-  Aabb bounds{{kBig, kBig, kBig}, {-kBig, -kBig, -kBig}};
+  OwnBoxes own{std::vector<Aabb>(nt), Aabb{{kBig, kBig, kBig}, {-kBig, -kBig, -kBig}}};
   for (int t = 0; t < nt; ++t) {
     if (!dd.tet_owned[t]) continue;
     const auto& q = m.tet_nodes[t];
@@ -95,54 +90,71 @@ GrownRank grow_contact_ghosts(MPI_Comm comm, const Model& m, const Decomposition
       for (int d = 0; d < 3; ++d) b.lo[d] = std::min(b.lo[d], now.x[n][d]), b.hi[d] = std::max(b.hi[d], now.x[n][d]);
     for (int d = 0; d < 3; ++d) {
       b.lo[d] -= half, b.hi[d] += half;
-      bounds.lo[d] = std::min(bounds.lo[d], b.lo[d]), bounds.hi[d] = std::max(bounds.hi[d], b.hi[d]);
+      own.bounds.lo[d] = std::min(own.bounds.lo[d], b.lo[d]), own.bounds.hi[d] = std::max(own.bounds.hi[d], b.hi[d]);
     }
-    box[t] = b;
+    own.box[t] = b;
   }
-  std::vector<Aabb> all_bounds(size);
-  MPI_Allgather(&bounds, int(sizeof(Aabb)), MPI_BYTE, all_bounds.data(), int(sizeof(Aabb)), MPI_BYTE, comm);
+  return own;
+}
 
-  // 2. Each rank gets the boxes of this rank's tets that reach into its bounds.
-  std::vector<int> shell;  // own tets whose boxes went somewhere
-  std::vector<std::string> in;
-  {
-    std::vector<CheckpointOut> o(size);
-    for (int t = 0; t < nt; ++t) {
-      if (!dd.tet_owned[t]) continue;
-      bool sent = false;
-      for (int r = 0; r < size; ++r)
-        if (r != rank && overlap(box[t], all_bounds[r])) o[r].put(dd.tet_global[t]), o[r].put(box[t]), sent = true;
-      if (sent) shell.push_back(t);
-    }
-    std::vector<std::string> out(size);
-    for (int r = 0; r < size; ++r) out[r] = o[r].payload();
-    in = exchange_all(comm, out);
+/// The boxes of own tets for each rank whose bounds they reach into, and those tets (the shell).
+struct BoxOffer {
+  std::vector<int> shell;        // own tets whose boxes went somewhere
+  std::vector<std::string> out;  // per rank: (global id, box) of each tet sent there
+};
+
+BoxOffer offer_boxes(const Decomposition& dd, const std::vector<Aabb>& box, const std::vector<Aabb>& all_bounds) {
+  const int rank = dd.rank, size = dd.size, nt = int(box.size());
+  BoxOffer offer;
+  std::vector<CheckpointOut> o(size);
+  for (int t = 0; t < nt; ++t) {
+    if (!dd.tet_owned[t]) continue;
+    bool sent = false;
+    for (int r = 0; r < size; ++r)
+      if (r != rank && overlap(box[t], all_bounds[r])) o[r].put(dd.tet_global[t]), o[r].put(box[t]), sent = true;
+    if (sent) offer.shell.push_back(t);
   }
+  offer.out.resize(size);
+  for (int r = 0; r < size; ++r) offer.out[r] = o[r].payload();
+  return offer;
+}
 
-  // 3. The received tets whose boxes overlap one of this rank's: the contact ghosts it needs.
+/// The shell's boxes, then every received box with its tet's global id and the rank it came from.
+struct Candidates {
   std::vector<Aabb> boxes;
-  std::vector<long> id;
-  std::vector<int> from;
-  for (int t : shell) boxes.push_back(box[t]);
-  for (int r = 0; r < size; ++r) {
+  std::vector<long> id;   // per received box (after the shell's)
+  std::vector<int> from;  // per received box
+};
+
+Candidates gather_candidate_boxes(const std::vector<std::string>& in, const std::vector<Aabb>& box,
+                                  const std::vector<int>& shell) {
+  Candidates cand;
+  for (int t : shell) cand.boxes.push_back(box[t]);
+  for (int r = 0; r < int(in.size()); ++r) {
     CheckpointIn rd(in[r], "the tet boxes from rank " + std::to_string(r));
     while (rd.remaining() > 0) {
       long g = 0;
       Aabb b;
       rd.get(g), rd.get(b);
-      boxes.push_back(b), id.push_back(g), from.push_back(r);
+      cand.boxes.push_back(b), cand.id.push_back(g), cand.from.push_back(r);
     }
   }
-  std::vector<int> ids(boxes.size());
+  return cand;
+}
+
+/// Per owner rank: the sorted, unique ids of the received tets whose boxes overlap a shell box
+/// and that this rank does not hold yet.
+std::vector<std::string> request_ghosts(const Candidates& cand, int shell_size,
+                                        const std::unordered_map<long, int>& tet_local, int size) {
+  std::vector<int> ids(cand.boxes.size());
   for (std::size_t i = 0; i < ids.size(); ++i) ids[i] = int(i);
   std::vector<std::array<int, 2>> pairs;
-  find_box_pairs(boxes, ids, 0, pairs);
-  std::unordered_map<long, int> tet_local;
-  for (int t = 0; t < nt; ++t) tet_local[dd.tet_global[t]] = t;
+  find_box_pairs(cand.boxes, ids, 0, pairs);
   std::vector<std::vector<long>> want(size);
-  const int ns = int(shell.size());
+  const int ns = shell_size;
   for (const auto& p : pairs)  // (min, max): an own box and a received one
-    if (p[0] < ns && p[1] >= ns && !tet_local.count(id[p[1] - ns])) want[from[p[1] - ns]].push_back(id[p[1] - ns]);
+    if (p[0] < ns && p[1] >= ns && !tet_local.count(cand.id[p[1] - ns]))
+      want[cand.from[p[1] - ns]].push_back(cand.id[p[1] - ns]);
   std::vector<std::string> ask(size);
   for (int r = 0; r < size; ++r) {
     std::sort(want[r].begin(), want[r].end());
@@ -151,133 +163,177 @@ GrownRank grow_contact_ghosts(MPI_Comm comm, const Model& m, const Decomposition
     w.put(want[r]);
     ask[r] = w.payload();
   }
-  // Requests, every rank's to every rank (requests for tets a rank does not own are errors).
-  const std::vector<std::string> asked = exchange_all(comm, ask);
+  return ask;
+}
 
-  // 4. The owner's answer: each requested tet's record for the rank that asked, and to every
-  // other rank holding it already, who holds it now.
-  std::vector<std::vector<long>> asked_ids(size);
-  std::map<long, std::vector<int>> new_holders;  // own tet -> the ranks asking for it
-  for (int r = 0; r < size; ++r) {
+/// Own tet -> the ranks asking for it; a request for a tet this rank does not own is an error.
+std::map<long, std::vector<int>> read_requests(const std::vector<std::string>& asked, const Decomposition& dd,
+                                               const std::unordered_map<long, int>& tet_local) {
+  std::map<long, std::vector<int>> new_holders;
+  for (int r = 0; r < int(asked.size()); ++r) {
     CheckpointIn rd(asked[r], "the contact-ghost requests of rank " + std::to_string(r));
-    rd.get(asked_ids[r]);
-    for (long g : asked_ids[r]) {
+    std::vector<long> asked_ids;
+    rd.get(asked_ids);
+    for (long g : asked_ids) {
       auto it = tet_local.find(g);
       if (it == tet_local.end() || !dd.tet_owned[it->second])
-        throw RunError("contact ghosts: rank " + std::to_string(r) + " asked rank " + std::to_string(rank) +
+        throw RunError("contact ghosts: rank " + std::to_string(r) + " asked rank " + std::to_string(dd.rank) +
                        " for tet " + std::to_string(g) + ", which it does not own");
       new_holders[g].push_back(r);
     }
   }
-  std::vector<std::string> answer(size);
-  // Holders now of the own tets asked for: this rank, the neighbours sharing it, those asking.
+  return new_holders;
+}
+
+/// What the owner writes into the records of the requested tets: each node's groups, and the
+/// CE6s and surface faces of each requested tet.
+struct RecordIndex {
+  std::vector<std::uint8_t> groups;                            // per node: 1 top, 2 bottom, 4 lateral
+  std::unordered_map<int, std::vector<int>> ce6_of, faces_of;  // only the requested tets'
+};
+
+RecordIndex index_requested(const Model& m, const std::map<long, std::vector<int>>& new_holders,
+                            const std::unordered_map<long, int>& tet_local) {
+  RecordIndex ix;
+  ix.groups.assign(m.X.size(), 0);
+  for (int n : m.top_nodes) ix.groups[n] |= 1;
+  for (int n : m.bottom_nodes) ix.groups[n] |= 2;
+  for (int n : m.lateral_nodes) ix.groups[n] |= 4;
+  for (const auto& [g, rs] : new_holders) ix.ce6_of[tet_local.at(g)], ix.faces_of[tet_local.at(g)];
+  for (std::size_t c = 0; c < m.ce6_nodes.size(); ++c)
+    for (int t : m.ce6_tets[c])
+      if (auto it = ix.ce6_of.find(t); it != ix.ce6_of.end()) it->second.push_back(int(c));
+  for (std::size_t i = 0; i < m.surface_tet.size(); ++i)
+    if (auto it = ix.faces_of.find(m.surface_tet[i]); it != ix.faces_of.end()) it->second.push_back(int(i));
+  return ix;
+}
+
+/// One requested tet's record: the tet with its holders, its nodes, its CE6s and its surface faces.
+void put_ghost_record(CheckpointOut& o, const Model& m, const Decomposition& dd, const GhostState& now,
+                      const RecordIndex& ix, long g, int t, const std::vector<int>& h) {
+  const bool flags = !now.active.empty();
+  o.put(g), o.put(m.tet_input[t]), o.put(m.tet_Xinv[t]), o.put(m.tet_V0[t]), o.put(m.tet_eta[t]);
+  o.put(std::uint8_t(flags ? now.active[t] : 0)), o.put(h);
+  for (int n : m.tet_nodes[t]) {
+    o.put(dd.node_global[n]), o.put(m.X[n]), o.put(m.mass[n]), o.put(now.x[n]);
+    o.put(now.v[n]), o.put(ix.groups[n]);
+  }
+  const std::vector<int>& ce6s = ix.ce6_of.at(t);
+  o.put(std::uint64_t(ce6s.size()));
+  for (int c : ce6s) {
+    o.put(dd.ce6_global[c]), o.put(dd.tet_global[m.ce6_tets[c][0]]), o.put(dd.tet_global[m.ce6_tets[c][1]]);
+    for (int n : m.ce6_nodes[c]) o.put(dd.node_global[n]);
+    o.put(m.ce6_h[c]), o.put(now.ce6[c]);
+  }
+  const std::vector<int>& faces = ix.faces_of.at(t);
+  o.put(std::uint64_t(faces.size()));
+  for (int i : faces)
+    for (int n : m.surface_faces[i]) o.put(dd.node_global[n]);
+}
+
+/// Holders now of the own tets asked for: this rank, the neighbours sharing it, those asking.
+std::unordered_map<long, std::vector<int>> holders_before(const std::map<long, std::vector<int>>& new_holders,
+                                                          const Decomposition& dd) {
   std::unordered_map<long, std::vector<int>> own_holders;
-  {
-    for (const auto& [g, rs] : new_holders) own_holders[g] = {rank};
-    for (const Neighbour& nb : dd.neighbours)
-      for (int t : nb.shared_tets)
-        if (auto it = own_holders.find(dd.tet_global[t]); it != own_holders.end()) it->second.push_back(nb.rank);
-    std::vector<std::uint8_t> groups(nn, 0);
-    for (int n : m.top_nodes) groups[n] |= 1;
-    for (int n : m.bottom_nodes) groups[n] |= 2;
-    for (int n : m.lateral_nodes) groups[n] |= 4;
-    std::unordered_map<int, std::vector<int>> ce6_of, faces_of;  // only the requested tets'
-    for (const auto& [g, rs] : new_holders) ce6_of[tet_local[g]], faces_of[tet_local[g]];
-    for (int c = 0; c < nc; ++c)
-      for (int t : m.ce6_tets[c])
-        if (auto it = ce6_of.find(t); it != ce6_of.end()) it->second.push_back(c);
-    for (std::size_t i = 0; i < m.surface_tet.size(); ++i)
-      if (auto it = faces_of.find(m.surface_tet[i]); it != faces_of.end()) it->second.push_back(int(i));
-    std::vector<CheckpointOut> rec(size), upd(size);
-    std::vector<long> n_rec(size, 0), n_upd(size, 0);
-    for (auto& [g, asking] : new_holders) {
-      std::vector<int>& h = own_holders[g];
-      const std::vector<int> before = h;
-      h.insert(h.end(), asking.begin(), asking.end());
-      std::sort(h.begin(), h.end());
-      for (int r : before)
-        if (r != rank) upd[r].put(g), upd[r].put(h), ++n_upd[r];
-      const int t = tet_local[g];
-      for (int r : asking) {
-        CheckpointOut& o = rec[r];
-        ++n_rec[r];
-        o.put(g), o.put(m.tet_input[t]), o.put(m.tet_Xinv[t]), o.put(m.tet_V0[t]), o.put(m.tet_eta[t]);
-        o.put(std::uint8_t(flags ? now.active[t] : 0)), o.put(h);
-        for (int n : m.tet_nodes[t]) {
-          o.put(dd.node_global[n]), o.put(m.X[n]), o.put(m.mass[n]), o.put(now.x[n]);
-          o.put(now.v[n]), o.put(groups[n]);
-        }
-        o.put(std::uint64_t(ce6_of[t].size()));
-        for (int c : ce6_of[t]) {
-          o.put(dd.ce6_global[c]), o.put(dd.tet_global[m.ce6_tets[c][0]]), o.put(dd.tet_global[m.ce6_tets[c][1]]);
-          for (int n : m.ce6_nodes[c]) o.put(dd.node_global[n]);
-          o.put(m.ce6_h[c]), o.put(now.ce6[c]);
-        }
-        o.put(std::uint64_t(faces_of[t].size()));
-        for (int i : faces_of[t])
-          for (int n : m.surface_faces[i]) o.put(dd.node_global[n]);
-      }
-    }
-    for (int r = 0; r < size; ++r) {
-      CheckpointOut o;
-      o.put(n_rec[r]);
-      o.put(n_upd[r]);
-      answer[r] = o.payload() + rec[r].payload() + upd[r].payload();
+  for (const auto& [g, rs] : new_holders) own_holders[g] = {dd.rank};
+  for (const Neighbour& nb : dd.neighbours)
+    for (int t : nb.shared_tets)
+      if (auto it = own_holders.find(dd.tet_global[t]); it != own_holders.end()) it->second.push_back(nb.rank);
+  return own_holders;
+}
+
+/// Per rank: the records of the tets it asked for, then who holds each own tet it held already.
+/// Adds the asking ranks to own_holders (sorted), which then lists the holders after growth.
+std::vector<std::string> answer_requests(const Model& m, const Decomposition& dd, const GhostState& now,
+                                         const std::map<long, std::vector<int>>& new_holders,
+                                         const std::unordered_map<long, int>& tet_local,
+                                         std::unordered_map<long, std::vector<int>>& own_holders) {
+  const int rank = dd.rank, size = dd.size;
+  const RecordIndex ix = index_requested(m, new_holders, tet_local);
+  std::vector<CheckpointOut> rec(size), upd(size);
+  std::vector<long> n_rec(size, 0), n_upd(size, 0);
+  for (const auto& [g, asking] : new_holders) {
+    std::vector<int>& h = own_holders[g];
+    const std::vector<int> before = h;
+    h.insert(h.end(), asking.begin(), asking.end());
+    std::sort(h.begin(), h.end());
+    for (int r : before)
+      if (r != rank) upd[r].put(g), upd[r].put(h), ++n_upd[r];
+    const int t = tet_local.at(g);
+    for (int r : asking) {
+      ++n_rec[r];
+      put_ghost_record(rec[r], m, dd, now, ix, g, t, h);
     }
   }
-  const std::vector<std::string> got = exchange_all(comm, answer);
+  std::vector<std::string> answer(size);
+  for (int r = 0; r < size; ++r) {
+    CheckpointOut o;
+    o.put(n_rec[r]);
+    o.put(n_upd[r]);
+    answer[r] = o.payload() + rec[r].payload() + upd[r].payload();
+  }
+  return answer;
+}
 
-  // 5. The records and the holder updates that arrived.
+/// The records and holder updates that arrived: tets sorted by global id, nodes and CE6s by id.
+struct Arrivals {
   std::vector<TetRec> tets;
   std::map<long, NodeRec> nodes;
   std::map<long, Ce6Rec> ce6s;
-  std::unordered_map<long, std::vector<int>> updates;
-  for (int r = 0; r < size; ++r) {
+  std::unordered_map<long, std::vector<int>> updates;  // held tet -> its holders now
+};
+
+void read_ghost_record(CheckpointIn& rd, Arrivals& a) {
+  TetRec t;
+  rd.get(t.id), rd.get(t.input), rd.get(t.Xinv), rd.get(t.V0), rd.get(t.eta), rd.get(t.active), rd.get(t.holders);
+  for (long& nid : t.nodes) {
+    NodeRec nr;
+    rd.get(nr.id), rd.get(nr.X), rd.get(nr.mass), rd.get(nr.x), rd.get(nr.v), rd.get(nr.groups);
+    nid = nr.id;
+    a.nodes.emplace(nr.id, nr);
+  }
+  std::uint64_t kc = 0;
+  rd.get(kc);
+  for (std::uint64_t j = 0; j < kc; ++j) {
+    Ce6Rec c;
+    rd.get(c.id), rd.get(c.a), rd.get(c.b);
+    for (long& nid : c.nodes) rd.get(nid);
+    rd.get(c.h), rd.get(c.state);
+    a.ce6s.emplace(c.id, c);
+  }
+  std::uint64_t kf = 0;
+  rd.get(kf);
+  t.faces.resize(kf);
+  for (auto& f : t.faces)
+    for (long& nid : f) rd.get(nid);
+  a.tets.push_back(std::move(t));
+}
+
+Arrivals read_answers(const std::vector<std::string>& got) {
+  Arrivals a;
+  for (int r = 0; r < int(got.size()); ++r) {
     CheckpointIn rd(got[r], "the contact ghosts from rank " + std::to_string(r));
     long k_rec = 0, k_upd = 0;
     rd.get(k_rec), rd.get(k_upd);
-    for (long k = 0; k < k_rec; ++k) {
-      TetRec t;
-      rd.get(t.id), rd.get(t.input), rd.get(t.Xinv), rd.get(t.V0), rd.get(t.eta), rd.get(t.active), rd.get(t.holders);
-      for (long& nid : t.nodes) {
-        NodeRec nr;
-        rd.get(nr.id), rd.get(nr.X), rd.get(nr.mass), rd.get(nr.x), rd.get(nr.v), rd.get(nr.groups);
-        nid = nr.id;
-        nodes.emplace(nr.id, nr);
-      }
-      std::uint64_t kc = 0;
-      rd.get(kc);
-      for (std::uint64_t j = 0; j < kc; ++j) {
-        Ce6Rec c;
-        rd.get(c.id), rd.get(c.a), rd.get(c.b);
-        for (long& nid : c.nodes) rd.get(nid);
-        rd.get(c.h), rd.get(c.state);
-        ce6s.emplace(c.id, c);
-      }
-      std::uint64_t kf = 0;
-      rd.get(kf);
-      t.faces.resize(kf);
-      for (auto& f : t.faces)
-        for (long& nid : f) rd.get(nid);
-      tets.push_back(std::move(t));
-    }
+    for (long k = 0; k < k_rec; ++k) read_ghost_record(rd, a);
     for (long k = 0; k < k_upd; ++k) {
       long g = 0;
       std::vector<int> h;
       rd.get(g), rd.get(h);
-      updates[g] = std::move(h);
+      a.updates[g] = std::move(h);
     }
     rd.finish();
   }
-  std::sort(tets.begin(), tets.end(), [](const TetRec& a, const TetRec& b) { return a.id < b.id; });
+  std::sort(a.tets.begin(), a.tets.end(), [](const TetRec& x, const TetRec& y) { return x.id < y.id; });
+  return a;
+}
 
-  // 6. The grown rank model: the old one, then the new nodes, tets, CE6s and faces, each in
-  // global order.
-  GrownRank out;
-  out.rm.model = m;
-  out.rm.dd = dd;
+/// Appends the arrived nodes not held yet, in global order; returns global -> local node id.
+std::unordered_map<long, int> append_ghost_nodes(const Model& m, const Decomposition& dd,
+                                                 const std::map<long, NodeRec>& nodes, GrownRank& out) {
   Model& gm = out.rm.model;
   Decomposition& gd = out.rm.dd;
+  const int nn = int(m.X.size());
   std::unordered_map<long, int> node_local;
   for (int n = 0; n < nn; ++n) node_local[dd.node_global[n]] = n;
   // Mesh vertices: a new node at the position of a held one shares its vertex (split nodes
@@ -310,20 +366,36 @@ GrownRank grow_contact_ghosts(MPI_Comm comm, const Model& m, const Decomposition
     out.added.x.push_back(nr.x);
     out.added.v.push_back(nr.v);
   }
-  // Holders of every tet held: the old ones from the shared lists, then the updates, then the
-  // new tets' records.
+  return node_local;
+}
+
+/// Holders of every tet held: the old ones from the shared lists, then the updates, then the
+/// new tets' records. Here the first two (with this rank's own answers); append_ghost_tets adds the rest.
+std::vector<std::vector<int>> holders_of_held(const Decomposition& dd, int nt,
+                                              const std::unordered_map<long, std::vector<int>>& updates,
+                                              const std::unordered_map<long, std::vector<int>>& own_holders,
+                                              const std::unordered_map<long, int>& tet_local) {
   std::vector<std::vector<int>> holders(nt);
-  for (int t = 0; t < nt; ++t) holders[t] = {rank};
+  for (int t = 0; t < nt; ++t) holders[t] = {dd.rank};
   for (const Neighbour& nb : dd.neighbours)
     for (int t : nb.shared_tets) holders[t].push_back(nb.rank);
-  for (auto* given : {&updates, &own_holders})
-    for (auto& [g, h] : *given) {
+  for (const auto* given : {&updates, &own_holders})
+    for (const auto& [g, h] : *given) {
       auto it = tet_local.find(g);
       if (it == tet_local.end())
-        throw RunError("contact ghosts: rank " + std::to_string(rank) + " was told who holds tet " + std::to_string(g) +
-                       ", which it does not hold");
+        throw RunError("contact ghosts: rank " + std::to_string(dd.rank) + " was told who holds tet " +
+                       std::to_string(g) + ", which it does not hold");
       holders[it->second] = h;
     }
+  return holders;
+}
+
+/// Appends the arrived tets (in global order) with their faces, and their holders to `holders`.
+void append_ghost_tets(std::vector<TetRec>& tets, const std::unordered_map<long, int>& node_local,
+                       std::unordered_map<long, int>& tet_local, std::vector<std::vector<int>>& holders,
+                       GrownRank& out) {
+  Model& gm = out.rm.model;
+  Decomposition& gd = out.rm.dd;
   for (TetRec& t : tets) {
     const int i = int(gm.tet_nodes.size());
     tet_local[t.id] = i;
@@ -339,39 +411,102 @@ GrownRank grow_contact_ghosts(MPI_Comm comm, const Model& m, const Decomposition
       gm.surface_tet.push_back(i);
     }
   }
+}
+
+/// Appends the arrived CE6s not held yet whose two tets are both held now, in global order.
+void append_ghost_ce6s(const std::map<long, Ce6Rec>& ce6s, const Model& m, const Decomposition& dd,
+                       const std::unordered_map<long, int>& node_local, const std::unordered_map<long, int>& tet_local,
+                       GrownRank& out) {
+  Model& gm = out.rm.model;
+  Decomposition& gd = out.rm.dd;
   std::unordered_map<long, int> ce6_local;
-  for (int c = 0; c < nc; ++c) ce6_local[dd.ce6_global[c]] = c;
+  for (std::size_t c = 0; c < m.ce6_nodes.size(); ++c) ce6_local[dd.ce6_global[c]] = int(c);
   for (const auto& [g, c] : ce6s) {  // a CE6 whose two tets are both held now
     if (ce6_local.count(g) || !tet_local.count(c.a) || !tet_local.count(c.b)) continue;
     std::array<int, 6> q;
     for (int k = 0; k < 6; ++k) q[k] = node_local.at(c.nodes[k]);
     gm.ce6_nodes.push_back(q);
-    gm.ce6_tets.push_back({tet_local[c.a], tet_local[c.b]});
+    gm.ce6_tets.push_back({tet_local.at(c.a), tet_local.at(c.b)});
     gm.ce6_h.push_back(c.h);
     gd.ce6_global.push_back(g);
     gd.ce6_owned.push_back(0);
     out.added.ce6.push_back(c.state);
   }
-  // The neighbours: node lists as before (the new ghosts are never computed here), shared
-  // tets from the holders, in global order.
+}
+
+/// The neighbours: node lists as before (the new ghosts are never computed here), shared
+/// tets from the holders, in global order.
+std::vector<Neighbour> grown_neighbours(const Decomposition& dd, const RankModel& grown,
+                                        const std::vector<std::vector<int>>& holders) {
+  const int rank = dd.rank, size = dd.size;
   std::vector<Neighbour> nb(size);
   for (int r = 0; r < size; ++r) nb[r].rank = r;
   for (const Neighbour& old : dd.neighbours) {
     nb[old.rank].send_nodes = old.send_nodes;
     nb[old.rank].recv_nodes = old.recv_nodes;
   }
-  const int gt = int(gm.tet_nodes.size());
+  const int gt = int(grown.model.tet_nodes.size());
+  const Decomposition& gd = grown.dd;
   std::vector<int> by_global(gt);
   for (int t = 0; t < gt; ++t) by_global[t] = t;
   std::sort(by_global.begin(), by_global.end(), [&](int a, int b) { return gd.tet_global[a] < gd.tet_global[b]; });
   for (int t : by_global)
     for (int r : holders[t])
       if (r != rank) nb[r].shared_tets.push_back(t);
-  gd.neighbours.clear();
+  std::vector<Neighbour> out;
   for (int r = 0; r < size; ++r)
     if (r != rank && (!nb[r].send_nodes.empty() || !nb[r].recv_nodes.empty() || !nb[r].shared_tets.empty()))
-      gd.neighbours.push_back(std::move(nb[r]));
-  out.added_tets = long(tets.size());
+      out.push_back(std::move(nb[r]));
+  return out;
+}
+
+}  // namespace
+
+GrownRank grow_contact_ghosts(MPI_Comm comm, const Model& m, const Decomposition& dd, const GhostState& now) {
+  const int size = dd.size;
+  const int nt = int(m.tet_nodes.size()), nn = int(m.X.size()), nc = int(m.ce6_nodes.size());
+  if (size_of(comm) != size || int(now.x.size()) != nn || int(now.v.size()) != nn || int(now.ce6.size()) != nc)
+    throw RunError("contact ghosts: the state does not match the rank model");
+
+  // 1. This rank's tets, boxed at the current positions and grown by half the reach (two boxes
+  // overlap when the tets come within the reach), and the bounds of all of them.
+  const OwnBoxes own = box_own_tets(m, dd, now, 0.5 * dd.reach);
+  std::vector<Aabb> all_bounds(size);
+  MPI_Allgather(&own.bounds, int(sizeof(Aabb)), MPI_BYTE, all_bounds.data(), int(sizeof(Aabb)), MPI_BYTE, comm);
+
+  // 2. Each rank gets the boxes of this rank's tets that reach into its bounds.
+  const BoxOffer offer = offer_boxes(dd, own.box, all_bounds);
+  const std::vector<std::string> in = exchange_all(comm, offer.out);
+
+  // 3. The received tets whose boxes overlap one of this rank's: the contact ghosts it needs.
+  std::unordered_map<long, int> tet_local;
+  for (int t = 0; t < nt; ++t) tet_local[dd.tet_global[t]] = t;
+  const Candidates cand = gather_candidate_boxes(in, own.box, offer.shell);
+  // Requests, every rank's to every rank (requests for tets a rank does not own are errors).
+  const std::vector<std::string> asked =
+      exchange_all(comm, request_ghosts(cand, int(offer.shell.size()), tet_local, size));
+
+  // 4. The owner's answer: each requested tet's record for the rank that asked, and to every
+  // other rank holding it already, who holds it now.
+  const std::map<long, std::vector<int>> new_holders = read_requests(asked, dd, tet_local);
+  std::unordered_map<long, std::vector<int>> own_holders = holders_before(new_holders, dd);
+  const std::vector<std::string> got =
+      exchange_all(comm, answer_requests(m, dd, now, new_holders, tet_local, own_holders));
+
+  // 5. The records and the holder updates that arrived.
+  Arrivals arrived = read_answers(got);
+
+  // 6. The grown rank model: the old one, then the new nodes, tets, CE6s and faces, each in
+  // global order.
+  GrownRank out;
+  out.rm.model = m;
+  out.rm.dd = dd;
+  const std::unordered_map<long, int> node_local = append_ghost_nodes(m, dd, arrived.nodes, out);
+  std::vector<std::vector<int>> holders = holders_of_held(dd, nt, arrived.updates, own_holders, tet_local);
+  append_ghost_tets(arrived.tets, node_local, tet_local, holders, out);
+  append_ghost_ce6s(arrived.ce6s, m, dd, node_local, tet_local, out);
+  out.rm.dd.neighbours = grown_neighbours(dd, out.rm, holders);
+  out.added_tets = long(arrived.tets.size());
   out.added_total = long(sum_over_ranks(comm, double(out.added_tets)));
   return out;
 }
