@@ -293,6 +293,251 @@ RankModel cut_piece(Piece& p, const Header& h, int rank) {
   return extract_rank(m, plan, rank, ids);
 }
 
+// The plex of the global tets over their mesh vertices, on rank 0 (cell t = global tet t).
+DM global_plex(MPI_Comm comm, const Model* g, int nt, bool root) {
+  int nv = 0;
+  std::vector<PetscInt> cells;
+  std::vector<PetscReal> coords;
+  if (root) {
+    for (int v : g->node_vertex) nv = std::max(nv, v + 1);
+    cells.reserve(4 * std::size_t(nt));
+    for (const auto& q : g->tet_nodes)
+      for (int n : q) cells.push_back(g->node_vertex[n]);
+    coords.assign(3 * std::size_t(nv), 0);
+    for (std::size_t n = 0; n < g->X.size(); ++n)
+      for (int d = 0; d < 3; ++d) coords[3 * std::size_t(g->node_vertex[n]) + d] = g->X[n][d];
+  }
+  DM dm = nullptr;
+  check(DMPlexCreateFromCellListPetsc(comm, 3, nt, nv, 4, PETSC_FALSE, cells.data(), 3, coords.data(), &dm),
+        "DMPlexCreateFromCellListPetsc");
+  return dm;
+}
+
+// The plan's partition as the plex's shell partitioner (on rank 0: the tets rank by rank).
+void set_shell_partition(DM dm, const PartitionPlan* plan, int size, bool root) {
+  PetscPartitioner partitioner = nullptr;
+  check(DMPlexGetPartitioner(dm, &partitioner), "DMPlexGetPartitioner");
+  check(PetscPartitionerSetType(partitioner, PETSCPARTITIONERSHELL), "PetscPartitionerSetType");
+  std::vector<PetscInt> sizes(size, 0), points;
+  if (root) {  // the tets rank by rank
+    std::vector<int> ptr, list;
+    bucket(plan->part, std::size_t(size), ptr, list);
+    for (int r = 0; r < size; ++r) sizes[r] = ptr[r + 1] - ptr[r];
+    points.assign(list.begin(), list.end());
+  }
+  check(PetscPartitionerShellSetPartition(partitioner, size, sizes.data(), points.data()),
+        "PetscPartitionerShellSetPartition");
+}
+
+// Every tet's record as the cell's data on rank 0, in blocks of kBlock bytes (the section
+// counts blocks, and the star forest that moves them has one leaf per block: per byte it
+// would take 12 bytes of graph for each byte moved). A record starts with its length. The
+// records go in passes of at most pass_bytes (1 GiB unless a test asks for less): PETSc
+// 3.18's DMPlexDistributeData sizes a rank's receive buffer as an int number of bytes, so
+// no rank may receive 2 GiB or more in one call.
+constexpr std::size_t kBlock = 64;
+
+struct CellData {
+  std::string data;                      // rank 0: the records, each padded to whole blocks
+  std::vector<std::uint64_t> record_at;  // rank 0: where each tet's record starts, then the end
+  std::vector<int> pass_start{0};        // the passes' first tets, then nt (every rank)
+};
+
+CellData pack_records(const Model& g, const PartitionPlan& plan, const Lookup& lk, std::uint64_t pass_bytes) {
+  const int nt = int(g.tet_nodes.size());
+  CellData cd;
+  std::string& data = cd.data;
+  std::vector<int>& pass_start = cd.pass_start;
+  cd.record_at.resize(std::size_t(nt) + 1);
+  for (int t = 0; t < nt; ++t) {
+    cd.record_at[t] = data.size();
+    const std::string r = tet_record(g, plan, lk, t);
+    const std::uint64_t n = r.size();
+    data.append(reinterpret_cast<const char*>(&n), sizeof n);
+    data += r;
+    data.resize((data.size() + kBlock - 1) / kBlock * kBlock, '\0');
+    if (data.size() - cd.record_at[pass_start.back()] > pass_bytes && t > pass_start.back()) pass_start.push_back(t);
+  }
+  cd.record_at[nt] = data.size();
+  pass_start.push_back(nt);
+  return cd;
+}
+
+// Rank 0's pass boundaries to every rank.
+void share_passes(MPI_Comm comm, std::vector<int>& pass_start) {
+  int passes = int(pass_start.size()) - 1;
+  MPI_Bcast(&passes, 1, MPI_INT, 0, comm);
+  pass_start.resize(std::size_t(passes) + 1);
+  MPI_Bcast(pass_start.data(), passes + 1, MPI_INT, 0, comm);
+}
+
+// The global plex distributed (dist and migration null on one rank), its chart and its cells
+// on this rank, and the MPI type of one block.
+struct Distribution {
+  DM dm = nullptr, dist = nullptr;
+  PetscSF migration = nullptr;
+  PetscInt p_start = 0, p_end = 0, c_start = 0, c_end = 0;
+  MPI_Datatype block = MPI_DATATYPE_NULL;
+};
+
+// Reads the records that arrived on this rank's cells in one pass; returns how many.
+long read_arrived(const Distribution& d, PetscSection arrived_section, const void* arrived, Piece& piece) {
+  long records = 0;
+  for (PetscInt c = d.c_start; c < d.c_end; ++c) {
+    PetscInt dof = 0, off = 0;
+    check(PetscSectionGetDof(arrived_section, c, &dof), "PetscSectionGetDof");
+    if (dof <= 0) continue;  // in another pass
+    check(PetscSectionGetOffset(arrived_section, c, &off), "PetscSectionGetOffset");
+    const char* at = static_cast<const char*>(arrived) + std::size_t(off) * kBlock;
+    std::uint64_t n = 0;
+    std::memcpy(&n, at, sizeof n);
+    if (n + sizeof n > std::size_t(dof) * kBlock)
+      throw RunError("distribution through DMPlex: a damaged tet record arrived (" + std::to_string(n) + " bytes in " +
+                     std::to_string(dof * kBlock) + ")");
+    read_record(at + sizeof n, n, piece);
+    ++records;
+  }
+  return records;
+}
+
+// One pass: rank 0's records of tets pass_start[k] .. pass_start[k+1] along the migration;
+// returns how many records arrived here.
+long move_pass(MPI_Comm comm, const Distribution& d, CellData& cd, int k, bool root, Piece& piece) {
+  PetscSection section = nullptr;
+  check(PetscSectionCreate(comm, &section), "PetscSectionCreate");
+  check(PetscSectionSetChart(section, d.p_start, d.p_end), "PetscSectionSetChart");
+  char* first = cd.data.data();
+  if (root) {
+    first += cd.record_at[cd.pass_start[k]];
+    for (int t = cd.pass_start[k]; t < cd.pass_start[k + 1]; ++t)
+      check(PetscSectionSetDof(section, t, PetscInt((cd.record_at[t + 1] - cd.record_at[t]) / kBlock)), "dof");
+  }
+  check(PetscSectionSetUp(section), "PetscSectionSetUp");
+  PetscSection arrived_section = section;
+  void* arrived = first;
+  if (d.dist) {
+    check(PetscSectionCreate(comm, &arrived_section), "PetscSectionCreate");
+    arrived = nullptr;
+    check(DMPlexDistributeData(d.dm, d.migration, section, d.block, first, arrived_section, &arrived),
+          "DMPlexDistributeData");
+  }
+  const long records = read_arrived(d, arrived_section, arrived, piece);
+  if (d.dist) {
+    PetscFree(arrived);
+    PetscSectionDestroy(&arrived_section);
+  }
+  PetscSectionDestroy(&section);
+  return records;
+}
+
+// What arrived through the plex: the records read and the cells this rank's plex has.
+struct Delivery {
+  long records = 0, cells = 0;
+};
+
+// Distribute: the shell partition, overlap 1, and the cell data along the migration.
+// (One rank: DMPlexDistribute leaves the plex where it is, and the data stays too.)
+Delivery distribute_cells(MPI_Comm comm, DM dm, CellData& cd, bool root, Piece& piece) {
+  const int size = size_of(comm);
+  Distribution d;
+  d.dm = dm;
+  check(DMPlexDistribute(dm, 1, &d.migration, &d.dist), "DMPlexDistribute");
+  if (size > 1 && (!d.dist || !d.migration))
+    throw RunError("distribution through DMPlex: DMPlexDistribute returned no distributed plex");
+  check(DMPlexGetChart(dm, &d.p_start, &d.p_end), "DMPlexGetChart");
+  check(DMPlexGetHeightStratum(d.dist ? d.dist : dm, 0, &d.c_start, &d.c_end), "DMPlexGetHeightStratum");
+  MPI_Type_contiguous(int(kBlock), MPI_BYTE, &d.block);
+  MPI_Type_commit(&d.block);
+  Delivery got;
+  const int passes = int(cd.pass_start.size()) - 1;
+  for (int k = 0; k < passes; ++k) got.records += move_pass(comm, d, cd, k, root, piece);
+  MPI_Type_free(&d.block);
+  got.cells = long(d.c_end - d.c_start);
+  if (d.dist) {
+    PetscSFDestroy(&d.migration);
+    DMDestroy(&d.dist);
+  }
+  return got;
+}
+
+// On rank 0: the tets that arrived on each rank, sorted (empty elsewhere).
+std::vector<std::vector<int> > gather_arrived(MPI_Comm comm, const Piece& piece, bool root) {
+  const int size = size_of(comm);
+  std::vector<long> got;
+  for (const TetRec& t : piece.tets) got.push_back(t.id);
+  const int n_got = int(got.size());
+  std::vector<int> counts(size), displs(size);
+  MPI_Gather(&n_got, 1, MPI_INT, counts.data(), 1, MPI_INT, 0, comm);
+  std::vector<long> all_got;
+  if (root) {
+    for (int r = 1; r < size; ++r) displs[r] = displs[r - 1] + counts[r - 1];
+    all_got.resize(std::size_t(displs[size - 1]) + counts[size - 1]);
+  }
+  MPI_Gatherv(got.data(), n_got, MPI_LONG, all_got.data(), counts.data(), displs.data(), MPI_LONG, 0, comm);
+  std::vector<std::vector<int> > arrived_at;  // per rank, sorted
+  if (root) {
+    arrived_at.resize(size);
+    for (int r = 0; r < size; ++r) {
+      arrived_at[r].assign(all_got.begin() + displs[r], all_got.begin() + displs[r] + counts[r]);
+      std::sort(arrived_at[r].begin(), arrived_at[r].end());
+    }
+  }
+  return arrived_at;
+}
+
+// Rank 0's own message, and the cells the overlap brought beyond the tets the ranks hold.
+struct RootSend {
+  std::string mine;
+  long extra_cells = 0;
+};
+
+// Rank 0 sends each rank the global values and the records of the tets it holds that did
+// not arrive through the plex.
+RootSend send_missing(MPI_Comm comm, const Model& g, const PartitionPlan& plan, const Lookup& lk,
+                      const std::vector<std::vector<int> >& arrived_at) {
+  const int size = size_of(comm), nt = int(g.tet_nodes.size());
+  RootSend out;
+  std::vector<long> held(size, 0);
+  std::vector<std::vector<int> > extra(size);
+  for (int t = 0; t < nt; ++t)
+    for (int r : plan.held[t]) {
+      ++held[r];
+      if (!std::binary_search(arrived_at[r].begin(), arrived_at[r].end(), t)) extra[r].push_back(t);
+    }
+  for (int r = 0; r < size; ++r) {
+    out.extra_cells += long(arrived_at[r].size()) + long(extra[r].size()) - held[r];
+    CheckpointOut o;
+    put_header(o, g, plan, held[r]);
+    std::vector<std::string> records;
+    for (int t : extra[r]) records.push_back(tet_record(g, plan, lk, t));
+    o.put(records);
+    if (r == 0)
+      out.mine = o.payload();
+    else
+      send_bytes(comm, o.payload(), r);
+  }
+  return out;
+}
+
+// Every rank checks what it received, and all stop together if one lacks something.
+void check_received(MPI_Comm comm, const Piece& piece, const Header& h, const Delivery& got) {
+  const int rank = rank_in(comm), size = size_of(comm);
+  long held = 0;
+  for (const TetRec& t : piece.tets) held += std::binary_search(t.held.begin(), t.held.end(), rank);
+  std::string problem;
+  if (got.records != got.cells)
+    problem = std::to_string(got.cells - got.records) + " of the plex's " + std::to_string(got.cells) +
+              " cells came without data";
+  else if (held != h.held)
+    problem = "received " + std::to_string(held) + " of the " + std::to_string(h.held) + " tets its model holds";
+  int bad = problem.empty() ? size : rank;  // the lowest rank with a problem names it
+  MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MIN, comm);
+  if (bad < size)
+    throw RunError("distribution through DMPlex: rank " + std::to_string(bad) + " " +
+                   (problem.empty() ? std::string("failed its check") : problem) +
+                   ". Fix: run with --distribute root, or partition first (fdem partition)");
+}
+
 }  // namespace
 
 bool plex_available() {
@@ -314,198 +559,37 @@ RankModel distribute_with_plex(MPI_Comm comm, const Model* g, const PartitionPla
   start_petsc();
   PetscPushErrorHandler(PetscReturnErrorHandler, nullptr);  // errors come back as codes: RunError
 
-  // The plex of the global tets over their mesh vertices, on rank 0 (cell t = global tet t).
   const int nt = root ? int(g->tet_nodes.size()) : 0;
-  int nv = 0;
-  std::vector<PetscInt> cells;
-  std::vector<PetscReal> coords;
-  if (root) {
-    for (int v : g->node_vertex) nv = std::max(nv, v + 1);
-    cells.reserve(4 * std::size_t(nt));
-    for (const auto& q : g->tet_nodes)
-      for (int n : q) cells.push_back(g->node_vertex[n]);
-    coords.assign(3 * std::size_t(nv), 0);
-    for (std::size_t n = 0; n < g->X.size(); ++n)
-      for (int d = 0; d < 3; ++d) coords[3 * std::size_t(g->node_vertex[n]) + d] = g->X[n][d];
-  }
-  DM dm = nullptr;
-  check(DMPlexCreateFromCellListPetsc(comm, 3, nt, nv, 4, PETSC_FALSE, cells.data(), 3, coords.data(), &dm),
-        "DMPlexCreateFromCellListPetsc");
-  cells = {}, coords = {};
-  PetscPartitioner partitioner = nullptr;
-  check(DMPlexGetPartitioner(dm, &partitioner), "DMPlexGetPartitioner");
-  check(PetscPartitionerSetType(partitioner, PETSCPARTITIONERSHELL), "PetscPartitionerSetType");
-  std::vector<PetscInt> sizes(size, 0), points;
-  if (root) {  // the tets rank by rank
-    std::vector<int> ptr, list;
-    bucket(plan->part, std::size_t(size), ptr, list);
-    for (int r = 0; r < size; ++r) sizes[r] = ptr[r + 1] - ptr[r];
-    points.assign(list.begin(), list.end());
-  }
-  check(PetscPartitionerShellSetPartition(partitioner, size, sizes.data(), points.data()),
-        "PetscPartitionerShellSetPartition");
-
-  // Every tet's record as the cell's data on rank 0, in blocks of kBlock bytes (the section
-  // counts blocks, and the star forest that moves them has one leaf per block: per byte it
-  // would take 12 bytes of graph for each byte moved). A record starts with its length. The
-  // records go in passes of at most pass_bytes (1 GiB unless a test asks for less): PETSc
-  // 3.18's DMPlexDistributeData sizes a rank's receive buffer as an int number of bytes, so
-  // no rank may receive 2 GiB or more in one call.
-  constexpr std::size_t kBlock = 64;
+  DM dm = global_plex(comm, g, nt, root);
+  set_shell_partition(dm, plan, size, root);
   Lookup lk;
   if (root) lk = make_lookup(*g);
-  std::string data;
-  std::vector<std::uint64_t> record_at;
-  std::vector<int> pass_start{0};  // the passes' first tets, then nt
-  if (root) {
-    record_at.resize(std::size_t(nt) + 1);
-    for (int t = 0; t < nt; ++t) {
-      record_at[t] = data.size();
-      const std::string r = tet_record(*g, *plan, lk, t);
-      const std::uint64_t n = r.size();
-      data.append(reinterpret_cast<const char*>(&n), sizeof n);
-      data += r;
-      data.resize((data.size() + kBlock - 1) / kBlock * kBlock, '\0');
-      if (data.size() - record_at[pass_start.back()] > pass_bytes && t > pass_start.back()) pass_start.push_back(t);
-    }
-    record_at[nt] = data.size();
-    pass_start.push_back(nt);
-  }
-  int passes = int(pass_start.size()) - 1;
-  MPI_Bcast(&passes, 1, MPI_INT, 0, comm);
-  pass_start.resize(std::size_t(passes) + 1);
-  MPI_Bcast(pass_start.data(), passes + 1, MPI_INT, 0, comm);
-
-  // Distribute: the shell partition, overlap 1, and the cell data along the migration.
-  // (One rank: DMPlexDistribute leaves the plex where it is, and the data stays too.)
-  DM dist = nullptr;
-  PetscSF migration = nullptr;
-  check(DMPlexDistribute(dm, 1, &migration, &dist), "DMPlexDistribute");
-  if (size > 1 && (!dist || !migration))
-    throw RunError("distribution through DMPlex: DMPlexDistribute returned no distributed plex");
-  PetscInt p_start = 0, p_end = 0, c_start = 0, c_end = 0;
-  check(DMPlexGetChart(dm, &p_start, &p_end), "DMPlexGetChart");
-  check(DMPlexGetHeightStratum(dist ? dist : dm, 0, &c_start, &c_end), "DMPlexGetHeightStratum");
-  MPI_Datatype block;
-  MPI_Type_contiguous(int(kBlock), MPI_BYTE, &block);
-  MPI_Type_commit(&block);
+  CellData cd;
+  if (root) cd = pack_records(*g, *plan, lk, pass_bytes);
+  share_passes(comm, cd.pass_start);
   Piece piece;
-  long records = 0;
-  for (int k = 0; k < passes; ++k) {
-    PetscSection section = nullptr;
-    check(PetscSectionCreate(comm, &section), "PetscSectionCreate");
-    check(PetscSectionSetChart(section, p_start, p_end), "PetscSectionSetChart");
-    char* first = data.data();
-    if (root) {
-      first += record_at[pass_start[k]];
-      for (int t = pass_start[k]; t < pass_start[k + 1]; ++t)
-        check(PetscSectionSetDof(section, t, PetscInt((record_at[t + 1] - record_at[t]) / kBlock)), "dof");
-    }
-    check(PetscSectionSetUp(section), "PetscSectionSetUp");
-    PetscSection arrived_section = section;
-    void* arrived = first;
-    if (dist) {
-      check(PetscSectionCreate(comm, &arrived_section), "PetscSectionCreate");
-      arrived = nullptr;
-      check(DMPlexDistributeData(dm, migration, section, block, first, arrived_section, &arrived),
-            "DMPlexDistributeData");
-    }
-    for (PetscInt c = c_start; c < c_end; ++c) {
-      PetscInt dof = 0, off = 0;
-      check(PetscSectionGetDof(arrived_section, c, &dof), "PetscSectionGetDof");
-      if (dof <= 0) continue;  // in another pass
-      check(PetscSectionGetOffset(arrived_section, c, &off), "PetscSectionGetOffset");
-      const char* at = static_cast<const char*>(arrived) + std::size_t(off) * kBlock;
-      std::uint64_t n = 0;
-      std::memcpy(&n, at, sizeof n);
-      if (n + sizeof n > std::size_t(dof) * kBlock)
-        throw RunError("distribution through DMPlex: a damaged tet record arrived (" + std::to_string(n) +
-                       " bytes in " + std::to_string(dof * kBlock) + ")");
-      read_record(at + sizeof n, n, piece);
-      ++records;
-    }
-    if (dist) {
-      PetscFree(arrived);
-      PetscSectionDestroy(&arrived_section);
-    }
-    PetscSectionDestroy(&section);
-  }
-  MPI_Type_free(&block);
-  const long n_cells = long(c_end - c_start);
-  if (dist) {
-    PetscSFDestroy(&migration);
-    DMDestroy(&dist);
-  }
-  data = {};
+  const Delivery got = distribute_cells(comm, dm, cd, root, piece);
+  cd.data = {};
   DMDestroy(&dm);
   PetscPopErrorHandler();
 
   // Rank 0 learns which tets arrived where, and sends each rank the global values and the
   // records of the tets it holds that the overlap did not bring (contact ghosts).
-  std::vector<long> got;
-  for (const TetRec& t : piece.tets) got.push_back(t.id);
-  const int n_got = int(got.size());
-  std::vector<int> counts(size), displs(size);
-  MPI_Gather(&n_got, 1, MPI_INT, counts.data(), 1, MPI_INT, 0, comm);
-  std::vector<long> all_got;
-  if (root) {
-    for (int r = 1; r < size; ++r) displs[r] = displs[r - 1] + counts[r - 1];
-    all_got.resize(std::size_t(displs[size - 1]) + counts[size - 1]);
-  }
-  MPI_Gatherv(got.data(), n_got, MPI_LONG, all_got.data(), counts.data(), displs.data(), MPI_LONG, 0, comm);
-  std::string mine;
-  long extra_cells = 0;
-  if (root) {
-    std::vector<std::vector<int> > arrived_at(size);  // per rank, sorted
-    for (int r = 0; r < size; ++r) {
-      arrived_at[r].assign(all_got.begin() + displs[r], all_got.begin() + displs[r] + counts[r]);
-      std::sort(arrived_at[r].begin(), arrived_at[r].end());
-    }
-    std::vector<long> held(size, 0);
-    std::vector<std::vector<int> > extra(size);
-    for (int t = 0; t < nt; ++t)
-      for (int r : plan->held[t]) {
-        ++held[r];
-        if (!std::binary_search(arrived_at[r].begin(), arrived_at[r].end(), t)) extra[r].push_back(t);
-      }
-    for (int r = 0; r < size; ++r) {
-      extra_cells += long(arrived_at[r].size()) + long(extra[r].size()) - held[r];
-      CheckpointOut o;
-      put_header(o, *g, *plan, held[r]);
-      std::vector<std::string> records;
-      for (int t : extra[r]) records.push_back(tet_record(*g, *plan, lk, t));
-      o.put(records);
-      if (r == 0)
-        mine = o.payload();
-      else
-        send_bytes(comm, o.payload(), r);
-    }
-  } else {
-    mine = receive_bytes(comm, 0);
-  }
-  CheckpointIn in(std::move(mine), "the DMPlex distribution's message from rank 0");
+  const std::vector<std::vector<int> > arrived_at = gather_arrived(comm, piece, root);
+  RootSend sent;
+  if (root)
+    sent = send_missing(comm, *g, *plan, lk, arrived_at);
+  else
+    sent.mine = receive_bytes(comm, 0);
+  CheckpointIn in(std::move(sent.mine), "the DMPlex distribution's message from rank 0");
   const Header h = get_header(in);
   std::vector<std::string> extras;
   in.get(extras);
   in.finish();
   for (const std::string& r : extras) read_record(r.data(), r.size(), piece);
-  // Every rank checks what it received, and all stop together if one lacks something.
-  long held = 0;
-  for (const TetRec& t : piece.tets) held += std::binary_search(t.held.begin(), t.held.end(), rank);
-  std::string problem;
-  if (records != n_cells)
-    problem =
-        std::to_string(n_cells - records) + " of the plex's " + std::to_string(n_cells) + " cells came without data";
-  else if (held != h.held)
-    problem = "received " + std::to_string(held) + " of the " + std::to_string(h.held) + " tets its model holds";
-  int bad = problem.empty() ? size : rank;  // the lowest rank with a problem names it
-  MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MIN, comm);
-  if (bad < size)
-    throw RunError("distribution through DMPlex: rank " + std::to_string(bad) + " " +
-                   (problem.empty() ? std::string("failed its check") : problem) +
-                   ". Fix: run with --distribute root, or partition first (fdem partition)");
+  check_received(comm, piece, h, got);
   RankModel rm = cut_piece(piece, h, rank);
-  long v[3] = {h.held - long(extras.size()), long(extras.size()), extra_cells};
+  long v[3] = {h.held - long(extras.size()), long(extras.size()), sent.extra_cells};
   MPI_Allreduce(MPI_IN_PLACE, v, 3, MPI_LONG, MPI_SUM, comm);
   if (report) *report = PlexReport{v[0], v[1], v[2]};
   return rm;
