@@ -247,46 +247,45 @@ RankModel extract_rank(const Model& g, const PartitionPlan& plan, int rank) {
   return extract_rank(g, plan, rank, PieceIds{});
 }
 
-RankModel extract_rank(const Model& g, const PartitionPlan& plan, int rank, const PieceIds& ids) {
-  const int nt = int(g.tet_nodes.size()), nn = int(g.X.size()), nc = int(g.ce6_nodes.size());
-  const bool piece = ids.tets > 0;
-  if (piece &&
-      (ids.tet.size() != std::size_t(nt) || ids.node.size() != std::size_t(nn) || ids.ce6.size() != std::size_t(nc)))
-    throw RunError("partition: a model piece whose global ids do not match its arrays");
-  const int size = plan.size;
-  const real reach = plan.reach;
-  const std::vector<int>& part = plan.part;
-  const std::vector<int>& node_owner = plan.node_owner;
-  const auto& held = plan.held;
-  if (rank < 0 || rank >= size || int(part.size()) != nt)
-    throw InputError("partition: rank " + std::to_string(rank) + " of a partition into " + std::to_string(size) +
-                     " parts, or a plan of another model");
-  RankModel out;
-  Decomposition& dd = out.dd;
-  dd.rank = rank;
-  dd.size = size;
-  dd.reach = reach;
-  dd.global_nodes = piece ? ids.nodes : nn;
-  dd.global_tets = piece ? ids.tets : nt;
-  dd.global_ce6 = piece ? ids.ce6s : nc;
+namespace {
 
-  std::vector<int> tets, tet_local(nt, -1);
+/// What a rank holds, by global index in ascending order, and the local id of each global one
+/// (-1 where not held).
+struct HeldParts {
+  std::vector<int> tets, tet_local;
+  std::vector<int> nodes, node_local;
+  std::vector<int> ce6s, ce6_local;
+};
+
+/// The tets the plan gives the rank, their nodes, and the CE6s whose two tets it holds.
+HeldParts select_held(const Model& g, const PartitionPlan& plan, int rank) {
+  const int nt = int(g.tet_nodes.size()), nn = int(g.X.size()), nc = int(g.ce6_nodes.size());
+  const auto& held = plan.held;
+  HeldParts h;
+  h.tet_local.assign(nt, -1);
   for (int t = 0; t < nt; ++t)
     if (std::binary_search(held[t].begin(), held[t].end(), rank)) {
-      tet_local[t] = int(tets.size());
-      tets.push_back(t);
+      h.tet_local[t] = int(h.tets.size());
+      h.tets.push_back(t);
     }
   std::vector<char> node_in(nn, 0);
-  for (int t : tets)
+  for (int t : h.tets)
     for (int n : g.tet_nodes[t]) node_in[n] = 1;
-  std::vector<int> nodes, node_local(nn, -1);
+  h.node_local.assign(nn, -1);
   for (int n = 0; n < nn; ++n)
-    if (node_in[n]) node_local[n] = int(nodes.size()), nodes.push_back(n);
-  std::vector<int> ce6s;
+    if (node_in[n]) h.node_local[n] = int(h.nodes.size()), h.nodes.push_back(n);
   for (int c = 0; c < nc; ++c)
-    if (tet_local[g.ce6_tets[c][0]] >= 0 && tet_local[g.ce6_tets[c][1]] >= 0) ce6s.push_back(c);
+    if (h.tet_local[g.ce6_tets[c][0]] >= 0 && h.tet_local[g.ce6_tets[c][1]] >= 0) h.ce6s.push_back(c);
+  h.ce6_local.assign(nc, -1);
+  for (std::size_t i = 0; i < h.ce6s.size(); ++i) h.ce6_local[h.ce6s[i]] = int(i);
+  return h;
+}
 
-  Model& m = out.model;
+/// The held nodes, tets, CE6s and surface faces, renumbered locally.
+void cut_elements(const Model& g, const HeldParts& h, Model& m) {
+  const std::vector<int>& nodes = h.nodes;
+  const std::vector<int>& tets = h.tets;
+  const std::vector<int>& ce6s = h.ce6s;
   m.X = pick(g.X, nodes);
   m.mass = pick(g.mass, nodes);
   // Mesh vertices renumbered densely (the contact vicinity indexes by vertex).
@@ -301,7 +300,7 @@ RankModel extract_rank(const Model& g, const PartitionPlan& plan, int rank, cons
   }
   m.tet_nodes.resize(tets.size());
   for (std::size_t i = 0; i < tets.size(); ++i)
-    for (int k = 0; k < 4; ++k) m.tet_nodes[i][k] = node_local[g.tet_nodes[tets[i]][k]];
+    for (int k = 0; k < 4; ++k) m.tet_nodes[i][k] = h.node_local[g.tet_nodes[tets[i]][k]];
   m.tet_input = pick(g.tet_input, tets);
   m.tet_Xinv = pick(g.tet_Xinv, tets);
   m.tet_V0 = pick(g.tet_V0, tets);
@@ -309,30 +308,38 @@ RankModel extract_rank(const Model& g, const PartitionPlan& plan, int rank, cons
   m.ce6_nodes.resize(ce6s.size());
   m.ce6_tets.resize(ce6s.size());
   for (std::size_t i = 0; i < ce6s.size(); ++i) {
-    for (int k = 0; k < 6; ++k) m.ce6_nodes[i][k] = node_local[g.ce6_nodes[ce6s[i]][k]];
-    for (int k = 0; k < 2; ++k) m.ce6_tets[i][k] = tet_local[g.ce6_tets[ce6s[i]][k]];
+    for (int k = 0; k < 6; ++k) m.ce6_nodes[i][k] = h.node_local[g.ce6_nodes[ce6s[i]][k]];
+    for (int k = 0; k < 2; ++k) m.ce6_tets[i][k] = h.tet_local[g.ce6_tets[ce6s[i]][k]];
   }
   m.ce6_h = pick(g.ce6_h, ce6s);
   for (std::size_t i = 0; i < g.surface_faces.size(); ++i)
-    if (tet_local[g.surface_tet[i]] >= 0) {
+    if (h.tet_local[g.surface_tet[i]] >= 0) {
       const auto& q = g.surface_faces[i];
-      m.surface_faces.push_back({node_local[q[0]], node_local[q[1]], node_local[q[2]]});
-      m.surface_tet.push_back(tet_local[g.surface_tet[i]]);
+      m.surface_faces.push_back({h.node_local[q[0]], h.node_local[q[1]], h.node_local[q[2]]});
+      m.surface_tet.push_back(h.tet_local[g.surface_tet[i]]);
     }
+}
+
+/// The platen nodes the rank owns, and the held nodes of the top, bottom and lateral groups.
+void cut_node_groups(const Model& g, const std::vector<int>& node_owner, int rank, const HeldParts& h, Model& m) {
   for (std::size_t i = 0; i < g.platen_nodes.size(); ++i) {
     const int n = g.platen_nodes[i];
     if (node_owner[n] != rank) continue;  // a platen acts on one node: its owner computes it
-    m.platen_nodes.push_back(node_local[n]);
+    m.platen_nodes.push_back(h.node_local[n]);
     m.platen_node_area.push_back(g.platen_node_area[i]);
     m.platen_node_h.push_back(g.platen_node_h[i]);
   }
   auto group = [&](const std::vector<int>& all, std::vector<int>& mine) {
     for (int n : all)
-      if (node_local[n] >= 0) mine.push_back(node_local[n]);
+      if (h.node_local[n] >= 0) mine.push_back(h.node_local[n]);
   };
   group(g.top_nodes, m.top_nodes);
   group(g.bottom_nodes, m.bottom_nodes);
   group(g.lateral_nodes, m.lateral_nodes);
+}
+
+/// The model-wide values, with the source naming the rank.
+void copy_model_scalars(const Model& g, int rank, int size, Model& m) {
   m.box_min = g.box_min;
   m.box_max = g.box_max;
   m.axis_point = g.axis_point;
@@ -342,48 +349,55 @@ RankModel extract_rank(const Model& g, const PartitionPlan& plan, int rank, cons
   m.min_altitude = g.min_altitude;
   m.mean_edge = g.mean_edge;
   m.source = g.source + " (rank " + std::to_string(rank) + " of " + std::to_string(size) + ")";
-  // The global colourings, restricted: each node then receives its element forces in the same
-  // order as on one rank, so the sums agree bit for bit.
-  auto restrict_colouring = [](const Colouring& c, const std::vector<int>& local) {
-    Colouring out;
-    out.offsets.push_back(0);
-    for (int k = 0; k < c.colours(); ++k) {
-      for (int j = c.offsets[k]; j < c.offsets[k + 1]; ++j)
-        if (local[c.order[j]] >= 0) out.order.push_back(local[c.order[j]]);
-      out.offsets.push_back(int(out.order.size()));
-    }
-    return out;
-  };
-  std::vector<int> ce6_local(nc, -1);
-  for (std::size_t i = 0; i < ce6s.size(); ++i) ce6_local[ce6s[i]] = int(i);
-  m.tet_colours = restrict_colouring(g.tet_colours, tet_local);
-  m.ce6_colours = restrict_colouring(g.ce6_colours, ce6_local);
+}
 
-  auto global_ids = [&](const std::vector<int>& local, const std::vector<long>& of) {
-    std::vector<long> out(local.begin(), local.end());
-    if (piece)
-      for (long& i : out) i = of[i];
-    return out;
-  };
-  dd.node_global = global_ids(nodes, ids.node);
-  dd.tet_global = global_ids(tets, ids.tet);
-  dd.ce6_global = global_ids(ce6s, ids.ce6);
-  dd.node_owned.resize(nodes.size());
-  for (std::size_t i = 0; i < nodes.size(); ++i) dd.node_owned[i] = node_owner[nodes[i]] == rank;
-  dd.tet_owned.resize(tets.size());
-  for (std::size_t i = 0; i < tets.size(); ++i) dd.tet_owned[i] = part[tets[i]] == rank;
-  dd.ce6_owned.resize(ce6s.size());
-  for (std::size_t i = 0; i < ce6s.size(); ++i) {
-    const auto& ab = g.ce6_tets[ce6s[i]];
-    dd.ce6_owned[i] = part[std::min(ab[0], ab[1])] == rank;
+/// A global colouring restricted to the held elements, in local ids.
+Colouring restrict_colouring(const Colouring& c, const std::vector<int>& local) {
+  Colouring out;
+  out.offsets.push_back(0);
+  for (int k = 0; k < c.colours(); ++k) {
+    for (int j = c.offsets[k]; j < c.offsets[k + 1]; ++j)
+      if (local[c.order[j]] >= 0) out.order.push_back(local[c.order[j]]);
+    out.offsets.push_back(int(out.order.size()));
   }
+  return out;
+}
 
-  // The halo plan.
+/// The global ids of held elements: their index in g, or through `of` where g is a piece.
+std::vector<long> global_ids(const std::vector<int>& local, const std::vector<long>& of, bool piece) {
+  std::vector<long> out(local.begin(), local.end());
+  if (piece)
+    for (long& i : out) i = of[i];
+  return out;
+}
+
+/// The global ids of the held elements, and which of them the rank owns.
+void set_ownership(const Model& g, const PartitionPlan& plan, const HeldParts& h, const PieceIds& ids, bool piece,
+                   Decomposition& dd) {
+  const int rank = dd.rank;
+  dd.node_global = global_ids(h.nodes, ids.node, piece);
+  dd.tet_global = global_ids(h.tets, ids.tet, piece);
+  dd.ce6_global = global_ids(h.ce6s, ids.ce6, piece);
+  dd.node_owned.resize(h.nodes.size());
+  for (std::size_t i = 0; i < h.nodes.size(); ++i) dd.node_owned[i] = plan.node_owner[h.nodes[i]] == rank;
+  dd.tet_owned.resize(h.tets.size());
+  for (std::size_t i = 0; i < h.tets.size(); ++i) dd.tet_owned[i] = plan.part[h.tets[i]] == rank;
+  dd.ce6_owned.resize(h.ce6s.size());
+  for (std::size_t i = 0; i < h.ce6s.size(); ++i) {
+    const auto& ab = g.ce6_tets[h.ce6s[i]];
+    dd.ce6_owned[i] = plan.part[std::min(ab[0], ab[1])] == rank;
+  }
+}
+
+/// The halo plan: the nodes sent to and received from each rank, and the tets shared with it.
+std::vector<Neighbour> halo_neighbours(const PartitionPlan& plan, int rank, const HeldParts& h) {
+  const int size = plan.size;
+  const std::vector<int>& node_owner = plan.node_owner;
   const auto& node_ranks = plan.node_ranks;
   std::vector<Neighbour> nb(size);
   for (int r = 0; r < size; ++r) nb[r].rank = r;
-  for (std::size_t i = 0; i < nodes.size(); ++i) {
-    const int n = nodes[i];
+  for (std::size_t i = 0; i < h.nodes.size(); ++i) {
+    const int n = h.nodes[i];
     if (node_owner[n] == rank) {
       for (int r : node_ranks[n])
         if (r != rank) nb[r].send_nodes.push_back(int(i));
@@ -391,12 +405,49 @@ RankModel extract_rank(const Model& g, const PartitionPlan& plan, int rank, cons
       nb[node_owner[n]].recv_nodes.push_back(int(i));
     }
   }
-  for (std::size_t i = 0; i < tets.size(); ++i)
-    for (int r : held[tets[i]])
+  for (std::size_t i = 0; i < h.tets.size(); ++i)
+    for (int r : plan.held[h.tets[i]])
       if (r != rank) nb[r].shared_tets.push_back(int(i));
+  std::vector<Neighbour> out;
   for (int r = 0; r < size; ++r)
     if (r != rank && (!nb[r].send_nodes.empty() || !nb[r].recv_nodes.empty() || !nb[r].shared_tets.empty()))
-      dd.neighbours.push_back(std::move(nb[r]));
+      out.push_back(std::move(nb[r]));
+  return out;
+}
+
+}  // namespace
+
+RankModel extract_rank(const Model& g, const PartitionPlan& plan, int rank, const PieceIds& ids) {
+  const int nt = int(g.tet_nodes.size()), nn = int(g.X.size()), nc = int(g.ce6_nodes.size());
+  const bool piece = ids.tets > 0;
+  if (piece &&
+      (ids.tet.size() != std::size_t(nt) || ids.node.size() != std::size_t(nn) || ids.ce6.size() != std::size_t(nc)))
+    throw RunError("partition: a model piece whose global ids do not match its arrays");
+  const int size = plan.size;
+  if (rank < 0 || rank >= size || int(plan.part.size()) != nt)
+    throw InputError("partition: rank " + std::to_string(rank) + " of a partition into " + std::to_string(size) +
+                     " parts, or a plan of another model");
+  RankModel out;
+  Decomposition& dd = out.dd;
+  dd.rank = rank;
+  dd.size = size;
+  dd.reach = plan.reach;
+  dd.global_nodes = piece ? ids.nodes : nn;
+  dd.global_tets = piece ? ids.tets : nt;
+  dd.global_ce6 = piece ? ids.ce6s : nc;
+
+  const HeldParts h = select_held(g, plan, rank);
+  Model& m = out.model;
+  cut_elements(g, h, m);
+  cut_node_groups(g, plan.node_owner, rank, h, m);
+  copy_model_scalars(g, rank, size, m);
+  // The global colourings, restricted: each node then receives its element forces in the same
+  // order as on one rank, so the sums agree bit for bit.
+  m.tet_colours = restrict_colouring(g.tet_colours, h.tet_local);
+  m.ce6_colours = restrict_colouring(g.ce6_colours, h.ce6_local);
+
+  set_ownership(g, plan, h, ids, piece, dd);
+  dd.neighbours = halo_neighbours(plan, rank, h);
   return out;
 }
 
