@@ -98,7 +98,7 @@ Traffic step_traffic(const Solver& s) {
   for (char r : reached) reached_nodes += r;
   double carrying = 0, damaged = 0;
   const fdem::Ce6Params p = s.ce6_params();
-  for (const fdem::Ce6Damage& c : s.ce6.damage) {
+  for (const fdem::Ce6Damage& c : s.state.ce6.damage) {
     const bool carries = fdem::ce6_carries_force(p, c);
     carrying += carries;
     damaged += carries && fdem::ce6_max_damage(c) > 0;
@@ -133,7 +133,8 @@ double state_bytes(const Solver& s) {
   b += held(m.ce6_colours.order) + held(m.ce6_colours.offsets);
   b += held(m.surface_faces) + held(m.surface_tet) + held(m.platen_nodes) + held(m.platen_node_area) +
        held(m.platen_node_h) + held(m.top_nodes) + held(m.bottom_nodes) + held(m.lateral_nodes);
-  b += held(s.x) + held(s.v) + held(s.f) + held(s.ce6.damage) + held(s.ce6.anchors) + held(s.loads().platens.anchor);
+  b += held(s.state.x) + held(s.state.v) + held(s.state.f) + held(s.state.ce6.damage) + held(s.state.ce6.anchors) +
+       held(s.loads().platens.anchor);
   b += double(m.platen_nodes.size()) * sizeof(real);  // Solver::platen_k_
   b += double(fdem::device::bytes_in_use());
   return b;

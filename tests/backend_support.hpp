@@ -136,8 +136,8 @@ inline std::vector<std::uint8_t> flags_from_breaks(const Solver& run) {
   Scene scene = run.scene();
   scene.solver.backend = Backend::cpu;
   std::unique_ptr<Solver> start = backend_solver(scene);
-  for (std::size_t c = 0; c < run.ce6.size(); ++c)
-    if (run.ce6[c].mode != 0) start->contacts.activate_ce6(start->model(), int(c));
+  for (std::size_t c = 0; c < run.state.ce6.size(); ++c)
+    if (run.state.ce6[c].mode != 0) start->contacts.activate_ce6(start->model(), int(c));
   return start->contacts.active;
 }
 

@@ -92,9 +92,9 @@ FrameState frame_state_now(const Solver& s, real stress) {
   f.time = s.time();
   f.step = s.step_count();
   f.stress = stress;
-  f.x = s.x;
-  f.v = s.v;
-  f.ce6 = s.ce6.states();
+  f.x = s.state.x;
+  f.v = s.state.v;
+  f.ce6 = s.state.ce6.states();
   if (s.contacts.enabled()) f.active = s.contacts.active;
   return f;
 }
@@ -108,20 +108,20 @@ void load_frame_state(CheckpointIn& in, FrameState& f) {
 
 void write_frame(FieldWriter& w, const Solver& s, const std::string& label) {
   s.sync_host();
-  write_frame(w, s, s.time(), s.step_count(), s.x, s.v, s.ce6.states(),
+  write_frame(w, s, s.time(), s.step_count(), s.state.x, s.state.v, s.state.ce6.states(),
               s.contacts.enabled() ? &s.contacts.active : nullptr, label);
 }
 
 void write_frame(FieldWriter& w, const Solver& s, const FrameState& f, const std::string& label) {
-  if (f.x.size() < s.x.size() || f.ce6.size() < s.ce6.size() ||
+  if (f.x.size() < s.state.x.size() || f.ce6.size() < s.state.ce6.size() ||
       (!f.active.empty() && f.active.size() < s.model().tet_nodes.size())) {
     // The contact ghosts grew since the frame was kept: the ghosts appended since take their
     // present state (this rank writes its own tets only, and their nodes are the old ones).
     s.sync_host();
     FrameState g = f;
-    g.x.insert(g.x.end(), s.x.begin() + f.x.size(), s.x.end());
-    g.v.insert(g.v.end(), s.v.begin() + f.v.size(), s.v.end());
-    for (std::size_t c = f.ce6.size(); c < s.ce6.size(); ++c) g.ce6.push_back(s.ce6[c]);
+    g.x.insert(g.x.end(), s.state.x.begin() + f.x.size(), s.state.x.end());
+    g.v.insert(g.v.end(), s.state.v.begin() + f.v.size(), s.state.v.end());
+    for (std::size_t c = f.ce6.size(); c < s.state.ce6.size(); ++c) g.ce6.push_back(s.state.ce6[c]);
     if (!g.active.empty())
       g.active.insert(g.active.end(), s.contacts.active.begin() + f.active.size(), s.contacts.active.end());
     write_frame(w, s, g, label);
@@ -134,7 +134,7 @@ void write_diagnostic(FieldWriter& w, const Solver& s) {
   try {
     s.sync_host();
     const Model& m = s.model();
-    std::vector<Vec3> x = s.x, v = s.v;
+    std::vector<Vec3> x = s.state.x, v = s.state.v;
     std::vector<char> bad(x.size(), 0);
     for (std::size_t n = 0; n < x.size(); ++n)
       if (!std::isfinite(x[n].x + x[n].y + x[n].z + v[n].x + v[n].y + v[n].z)) {
@@ -150,7 +150,7 @@ void write_diagnostic(FieldWriter& w, const Solver& s) {
       const real vol = dot(cross(x[q[1]] - x[q[0]], x[q[2]] - x[q[0]]), x[q[3]] - x[q[0]]) / 6;
       inverted[t] = non_finite[t] == 0 && !(vol / m.tet_V0[t] > 0);
     }
-    write_frame(w, s, s.time(), s.step_count(), x, v, s.ce6.states(),
+    write_frame(w, s, s.time(), s.step_count(), x, v, s.state.ce6.states(),
                 s.contacts.enabled() ? &s.contacts.active : nullptr, "diagnostic",
                 {{"non_finite", &non_finite}, {"inverted", &inverted}}, true);
   } catch (const std::exception&) {

@@ -623,10 +623,10 @@ void RunSession::loop() {
 void RunSession::write_broken_ce6() const {
   std::vector<long> broken;  // id, mode
   solver_.sync_host();
-  for (std::size_t i = 0; i < solver_.ce6.size(); ++i)
-    if (solver_.ce6.damage[i].mode != 0 && solver_.owned_ce6()[i])
+  for (std::size_t i = 0; i < solver_.state.ce6.size(); ++i)
+    if (solver_.state.ce6.damage[i].mode != 0 && solver_.owned_ce6()[i])
       broken.insert(broken.end(),
-                    {dist_ ? solver_.decomposition().ce6_global[i] : long(i), long(solver_.ce6.damage[i].mode)});
+                    {dist_ ? solver_.decomposition().ce6_global[i] : long(i), long(solver_.state.ce6.damage[i].mode)});
   if (dist_) {
     const int size = solver_.decomposition().size;
     int len = int(broken.size());

@@ -33,8 +33,8 @@ Solver::Solver(const Scene& scene, Model model, Decomposition dd, MPI_Comm comm)
 }
 
 LoopParts Solver::loop_parts() {
-  return LoopParts{scene_, model_, laws_,      layout_,  dt_,    time_,   x,    v,
-                   f,      ce6,    ce6_broke_, contacts, loads_, energy_, *this};
+  return LoopParts{scene_,  model_,    laws_,           layout_,  dt_,    state.time, state.x, state.v,
+                   state.f, state.ce6, state.ce6_broke, contacts, loads_, energy_,    *this};
 }
 
 void Solver::setup(Decomposition dd) {
@@ -42,12 +42,7 @@ void Solver::setup(Decomposition dd) {
   const SolverSettings& sol = scene_.solver;
   if (sol.threads > 0) omp_set_num_threads(sol.threads);
   laws_ = make_element_laws(scene_);
-  const std::size_t nn = model_.X.size();
-  x = model_.X;
-  v.assign(nn, {0, 0, 0});
-  f.assign(nn, {0, 0, 0});
-  ce6.assign_intact(model_.ce6_nodes.size());
-  ce6_broke_.assign(model_.ce6_nodes.size(), 0);
+  state.start(model_.X, model_.ce6_nodes.size());
   layout_.set_up(model_, std::move(dd), scene_.contact.enabled());
   contacts = ContactSet(model_, scene_);
   if (layout_.distributed()) contacts.set_ownership(&layout_.own_tet, layout_.dd.reach, model_.X);
@@ -69,7 +64,7 @@ void Solver::grow_contact_ghosts() {
   const double t0 = MPI_Wtime();
   sync_host();
   GhostState now;
-  now.x = x, now.v = v, now.ce6 = ce6.states(), now.active = contacts.active;
+  now.x = state.x, now.v = state.v, now.ce6 = state.ce6.states(), now.active = contacts.active;
   GrownRank g = fdem::grow_contact_ghosts(layout_.comm, model_, layout_.dd, now);
   CheckpointOut kept;
   save_state(kept);
@@ -78,10 +73,10 @@ void Solver::grow_contact_ghosts() {
   CheckpointIn in(kept.payload(), "the state before the contact ghosts grew");
   load_state(in, &g.added);
   in.finish();
-  contacts.set_plan(x);  // the reach counts from here
+  contacts.set_plan(state.x);  // the reach counts from here
   ++growth_.count;
   growth_.tets += g.added_total;
-  growth_.step = step_;
+  growth_.step = state.step;
   restart_device();
   growth_.seconds += MPI_Wtime() - t0;
 }
@@ -119,15 +114,15 @@ void Solver::report_inverted() const {
   const Model& m = model_;
   for (std::size_t t = 0; t < m.tet_nodes.size(); ++t) {
     Vec3 xe[4], ve[4], fe[4];
-    gather(x, m.tet_nodes[t], xe);
-    gather(v, m.tet_nodes[t], ve);
+    gather(state.x, m.tet_nodes[t], xe);
+    gather(state.v, m.tet_nodes[t], ve);
     const Tet4Eval r = tet4_forces(xe, ve, m.tet_Xinv[t], m.tet_V0[t], laws_.lambda, laws_.mu, m.tet_eta[t], fe);
     if (!(r.J > 0))
-      throw RunError("step " + std::to_string(step_) + " (t = " + fmt(time_, 3) + " s): TET4 #" +
+      throw RunError("step " + std::to_string(state.step) + " (t = " + fmt(state.time, 3) + " s): TET4 #" +
                      std::to_string(model_.tet_input[t] + 1) + " inverted (J = " + fmt(r.J, 3) +
                      "). The run is unstable. " + instability_advice());
   }
-  throw RunError("step " + std::to_string(step_) + ": a TET4 inverted on the device but not in the host copy");
+  throw RunError("step " + std::to_string(state.step) + ": a TET4 inverted on the device but not in the host copy");
 }
 
 void Solver::prescribe(int node, int mask, Vec3 velocity) {
@@ -136,7 +131,7 @@ void Solver::prescribe(int node, int mask, Vec3 velocity) {
   sync_host();
   loads_.prescribed.set(node, mask, velocity);
   for (int d = 0; d < 3; ++d)
-    if (mask >> d & 1) v[node][d] = velocity[d];
+    if (mask >> d & 1) state.v[node][d] = velocity[d];
   host_changed();
 }
 
@@ -155,17 +150,17 @@ void Solver::upload_if_changed() {
 void Solver::check_finite(long bad_nodes) const {
   if (bad_nodes == 0) return;
   int first = -1;  // (a prescribed node counted as bad has had its velocity reset: then none here)
-  for (std::size_t n = 0; n < v.size(); ++n)
-    if (layout_.own_node[n] && !std::isfinite(v[n].x + v[n].y + v[n].z)) {
+  for (std::size_t n = 0; n < state.v.size(); ++n)
+    if (layout_.own_node[n] && !std::isfinite(state.v[n].x + state.v[n].y + state.v[n].z)) {
       first = int(n);
       break;
     }
   if (first < 0)
-    throw RunError("step " + std::to_string(step_) + " (t = " + fmt(time_, 3) + " s): the velocity of " +
+    throw RunError("step " + std::to_string(state.step) + " (t = " + fmt(state.time, 3) + " s): the velocity of " +
                    std::to_string(bad_nodes) + " node(s) is no longer finite" +
                    (layout_.dd.distributed() ? " (on another rank)" : "") + ". The run is unstable. " +
                    instability_advice());
-  throw RunError("step " + std::to_string(step_) + " (t = " + fmt(time_, 3) + " s): the velocity of " +
+  throw RunError("step " + std::to_string(state.step) + " (t = " + fmt(state.time, 3) + " s): the velocity of " +
                  std::to_string(bad_nodes) + " node(s) is no longer finite (first: node " +
                  std::to_string((layout_.dd.distributed() ? layout_.dd.node_global[first] : long(first)) + 1) +
                  " at reference position " + fmt(model_.X[first].x, 3) + ", " + fmt(model_.X[first].y, 3) + ", " +
@@ -215,7 +210,7 @@ void Solver::check_runaway(real ke) const {
 }
 
 std::string Solver::where() const {
-  return "step " + std::to_string(step_) + " (t = " + fmt(time_, 3) + " s)";
+  return "step " + std::to_string(state.step) + " (t = " + fmt(state.time, 3) + " s)";
 }
 
 std::string Solver::instability_advice() const {
@@ -225,14 +220,14 @@ std::string Solver::instability_advice() const {
 void Solver::step() {
   const real dt = dt_;
   upload_if_changed();
-  if (step_ == 0) {  // velocities given as initial conditions bring their own energy
+  if (state.step == 0) {  // velocities given as initial conditions bring their own energy
     real ke = 0.5 * dev_->kinetic2();
     layout_.sum(&ke, 1);
     energy_.initial_kinetic = ke;
   }
   // The platen speed over [t, t+dt], for the works of the interval (finish_step).
   PlatenLoad& platens = loads_.platens;
-  platens.step_speed = platens.enabled ? ramped_speed(time_ + 0.5 * dt, platens.speed, platens.ramp) : 0;
+  platens.step_speed = platens.enabled ? ramped_speed(state.time + 0.5 * dt, platens.speed, platens.ramp) : 0;
   bool gather_ghosts = false;
   host_current_ = false;
   // One rank: the device loop finishes the step inside the next force evaluation, whose first
@@ -280,7 +275,7 @@ bool Solver::finish_step(const AdvanceSums& a) {
   if (all.bad > 0 || all.lost > 0) sync_host();
   check_finite(long(all.bad));
   if (all.lost > 0) {  // every rank stops: those with the node name it
-    contacts.check_reach(model_, x);
+    contacts.check_reach(model_, state.x);
     throw RunError("tet-tet contact across ranks: a node on another rank has moved half the contact reach " +
                    fmt(layout_.dd.reach, 3) + " m since the contact ghosts were last gathered (that rank names it)");
   }
@@ -290,8 +285,8 @@ bool Solver::finish_step(const AdvanceSums& a) {
   // After every work of this step is counted (pressure and gravity just above).
   check_runaway(0.5 * all.ke);
   loads_.platens.top_offset = loads_.platens.top_offset_after(dt);
-  time_ += dt;
-  ++step_;
+  state.time += dt;
+  ++state.step;
   return all.far > 0;
 }
 
@@ -299,8 +294,8 @@ Monitors Solver::measure() {
   dev_->settle();  // the platen reactions and energies of the forces on the device
   const Model& m = model_;
   Monitors r;
-  r.step = step_;
-  r.time = time_;
+  r.step = state.step;
+  r.time = state.time;
   r.axial_strain = loads_.platens.top_offset / m.height0;
   r.force_top = -loads_.platens.force_top;
   r.force_bottom = loads_.platens.force_bottom;
@@ -322,7 +317,7 @@ Monitors Solver::measure() {
              b2 = long(sums.broken_II), b3 = long(sums.broken_mixed);
   r.lateral_strain = n_lateral > 0 ? -lat / n_lateral : 0;
   r.volumetric_strain = r.axial_strain + 2 * r.lateral_strain;
-  if (step_ == 0) energy_.initial_kinetic = ke;
+  if (state.step == 0) energy_.initial_kinetic = ke;
   r.lateral_stress = lat_v > 0 ? lat_sv / lat_v : 0;
   r.damaged = damaged;
   r.broken = broken;
@@ -392,11 +387,11 @@ void Solver::broken_faces(std::vector<std::array<Vec3, 3>>& corners, std::vector
   sync_host();
   corners.clear();
   mode.clear();
-  for (std::size_t i = 0; i < ce6.size(); ++i) {
-    if (!layout_.own_ce6[i] || !ce6_broken(ce6.damage[i])) continue;
+  for (std::size_t i = 0; i < state.ce6.size(); ++i) {
+    if (!layout_.own_ce6[i] || !ce6_broken(state.ce6.damage[i])) continue;
     const auto& q = model_.ce6_nodes[i];
     corners.push_back({model_.X[q[0]], model_.X[q[1]], model_.X[q[2]]});
-    mode.push_back(ce6.damage[i].mode);
+    mode.push_back(state.ce6.damage[i].mode);
   }
   if (!layout_.dd.distributed()) return;
   // Every rank's faces, in rank order (9 coordinates and the mode per face).
@@ -476,13 +471,7 @@ void Solver::save(CheckpointOut& out) const {
 }
 
 void Solver::save_state(CheckpointOut& out) const {
-  out.put(step_);
-  out.put(time_);
-  out.put(x);
-  out.put(v);
-  out.put(f);
-  out.put(ce6.states());
-  out.put(ce6_broke_);
+  state.save(out);
   loads_.save(out);
   energy_.save(out);
   contacts.save(out);
@@ -509,26 +498,7 @@ void Solver::load(CheckpointIn& in) {
 }
 
 void Solver::load_state(CheckpointIn& in, const GhostState* appended) {
-  in.get(step_);
-  in.get(time_);
-  const std::size_t nn = x.size(), nc = ce6.size();
-  in.get(x);
-  in.get(v);
-  in.get(f);
-  std::vector<Ce6State> ce6_saved;
-  in.get(ce6_saved);
-  ce6 = Ce6States{};
-  ce6.append(ce6_saved);
-  in.get(ce6_broke_);
-  if (appended) {  // the ghosts' state after the old layout's (forces: the next evaluation's)
-    x.insert(x.end(), appended->x.begin(), appended->x.end());
-    v.insert(v.end(), appended->v.begin(), appended->v.end());
-    f.resize(nn, Vec3{0, 0, 0});
-    ce6.append(appended->ce6);
-    ce6_broke_.resize(nc, 0);
-  }
-  if (x.size() != nn || v.size() != nn || f.size() != nn || ce6.size() != nc || ce6_broke_.size() != nc)
-    in.mismatch("node or CE6 counts differ");
+  state.load(in, appended);
   loads_.load(in, appended != nullptr);
   energy_.load(in);
   contacts.load(in, appended ? &appended->active : nullptr);

@@ -26,6 +26,7 @@
 #include "solver/energy_ledger.hpp"
 #include "solver/loads.hpp"
 #include "solver/rank_layout.hpp"
+#include "solver/solver_state.hpp"
 #include "solver/stable_step.hpp"
 
 namespace fdem {
@@ -97,7 +98,7 @@ class Solver : private StepBookkeeping {
   /// The CE6 law's parameters (from the scene's material).
   const Ce6Params& ce6_params() const { return laws_.ce6; }
   /// The loads with their state (platen anchors and travel, the confining pressure's forces):
-  /// the host copy, as x and v below.
+  /// the host copy, as `state` below.
   const Loads& loads() const { return loads_; }
   /// m, the top platen's downward travel from its start.
   real platen_travel() const { return loads_.platens.top_offset; }
@@ -117,8 +118,8 @@ class Solver : private StepBookkeeping {
     std::string key;
   };
   EndSteps end_steps() const;
-  long step_count() const { return step_; }
-  real time() const { return time_; }
+  long step_count() const { return state.step; }
+  real time() const { return state.time; }
 
   /// Advance one step. Throws RunError (naming the element, step and a fix) when the
   /// run becomes unstable: an inverted tet or a non-finite velocity.
@@ -134,7 +135,7 @@ class Solver : private StepBookkeeping {
   void load(CheckpointIn& in);
 
   /// The backend running the time loop (scene solver.backend). The state lives in the loop's
-  /// arrays during steps; x, v, f, ce6, the contact set and the loads' state are the host
+  /// arrays during steps; `state`, the contact set and the loads' state are the host
   /// copy, brought up to date by sync_host() (measure(), save() and the output functions call
   /// it). On the cpu backend they are mostly the loop's arrays themselves, but not all the time
   /// (the fused schedules swap copies; several ranks keep the CE6 state in slot order), so the
@@ -165,9 +166,8 @@ class Solver : private StepBookkeeping {
   /// Reference-configuration corners and break mode of every broken CE6 (for fracture statistics).
   void broken_faces(std::vector<std::array<Vec3, 3>>& corners, std::vector<int>& mode) const;
 
-  // State (node arrays indexed by node id; CE6 state by CE6 id).
-  std::vector<Vec3> x, v, f;
-  Ce6States ce6;
+  /// The nodes' and CE6s' evolving state with the clock (the host copy: see sync_host()).
+  SolverState state;
   ContactSet contacts;  // tet-tet contact (activation, pairs, friction history)
 
  private:
@@ -214,9 +214,7 @@ class Solver : private StepBookkeeping {
   Loads loads_;
   EnergyLedger energy_;
   StableStep stable_;
-  real dt_ = 0, time_ = 0;
-  long step_ = 0;
-  std::vector<std::uint8_t> ce6_broke_;  // set by the CE6 pass on the step a CE6 breaks
+  real dt_ = 0;
   Backend backend_ = Backend::cpu;
   std::unique_ptr<DeviceLoop> dev_;
   GhostGrowths growth_;

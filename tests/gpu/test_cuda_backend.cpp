@@ -52,16 +52,16 @@ TEST_P(CudaSchedule, ElasticBoxMatchesCpuTo1e10) {
   EXPECT_EQ(gpu->device_loop()->fused(), std::string(GetParam()) != "colour");
   EXPECT_EQ(gpu->device_loop()->integrates(), std::string(GetParam()) == "auto");
   cpu->sync_host(), gpu->sync_host();
-  const real dx = max_rel_diff(cpu->x, gpu->x, 1e-6);
-  const real df = max_rel_diff(cpu->f, gpu->f, 1e-6 * max_force(cpu->f));
+  const real dx = max_rel_diff(cpu->state.x, gpu->state.x, 1e-6);
+  const real df = max_rel_diff(cpu->state.f, gpu->state.f, 1e-6 * max_force(cpu->state.f));
   RecordProperty("max_rel_diff_x", std::to_string(dx));
   RecordProperty("max_rel_diff_f", std::to_string(df));
   EXPECT_LT(dx, 1e-10);
   EXPECT_LT(df, 1e-10);
-  ASSERT_EQ(cpu->x.size(), gpu->x.size());
-  EXPECT_EQ(std::memcmp(cpu->x.data(), gpu->x.data(), cpu->x.size() * sizeof(Vec3)), 0);
-  EXPECT_EQ(std::memcmp(cpu->v.data(), gpu->v.data(), cpu->v.size() * sizeof(Vec3)), 0);
-  EXPECT_EQ(std::memcmp(cpu->f.data(), gpu->f.data(), cpu->f.size() * sizeof(Vec3)), 0);
+  ASSERT_EQ(cpu->state.x.size(), gpu->state.x.size());
+  EXPECT_EQ(std::memcmp(cpu->state.x.data(), gpu->state.x.data(), cpu->state.x.size() * sizeof(Vec3)), 0);
+  EXPECT_EQ(std::memcmp(cpu->state.v.data(), gpu->state.v.data(), cpu->state.v.size() * sizeof(Vec3)), 0);
+  EXPECT_EQ(std::memcmp(cpu->state.f.data(), gpu->state.f.data(), cpu->state.f.size() * sizeof(Vec3)), 0);
   const Monitors a = cpu->measure(), b = gpu->measure();
   EXPECT_GT(a.axial_stress, 1e6);
   EXPECT_NEAR(a.axial_stress, b.axial_stress, 1e-10 * a.axial_stress);
@@ -91,9 +91,10 @@ TEST_P(CudaSchedule, FracturingBoxPeakWithin1PercentBrokenWithin5Percent) {
   // are): recorded here, asserted once a GPU has shown it.
   cpu->sync_host();
   gpu->sync_host();
-  RecordProperty("x_bit_identical", cpu->x.size() == gpu->x.size() &&
-                                        std::memcmp(cpu->x.data(), gpu->x.data(), cpu->x.size() * sizeof(Vec3)) == 0);
-  RecordProperty("max_rel_diff_x", std::to_string(max_rel_diff(cpu->x, gpu->x, 1e-6)));
+  RecordProperty("x_bit_identical",
+                 cpu->state.x.size() == gpu->state.x.size() &&
+                     std::memcmp(cpu->state.x.data(), gpu->state.x.data(), cpu->state.x.size() * sizeof(Vec3)) == 0);
+  RecordProperty("max_rel_diff_x", std::to_string(max_rel_diff(cpu->state.x, gpu->state.x, 1e-6)));
 }
 
 TEST(CudaBackend, GravityHydrostaticPressureAndPrescribedNodesMatchCpu) {
@@ -102,8 +103,8 @@ TEST(CudaBackend, GravityHydrostaticPressureAndPrescribedNodesMatchCpu) {
   auto cpu = backend_gravity_solver("cpu"), gpu = backend_gravity_solver("cuda");
   for (int i = 0; i < 1500; ++i) cpu->step(), gpu->step();
   cpu->sync_host(), gpu->sync_host();
-  EXPECT_LT(max_rel_diff(cpu->x, gpu->x, 1e-6), 1e-10);
-  EXPECT_EQ(gpu->v[0].x, 0.015);
+  EXPECT_LT(max_rel_diff(cpu->state.x, gpu->state.x, 1e-6), 1e-10);
+  EXPECT_EQ(gpu->state.v[0].x, 0.015);
   const Monitors a = cpu->measure(), b = gpu->measure();
   EXPECT_NEAR(a.confining_pressure, b.confining_pressure, 1e-9 * a.confining_pressure);
 }
@@ -121,8 +122,8 @@ TEST(CudaBackend, TwoRunsThroughFractureAreTheSameBitForBit) {
   EXPECT_GT(ra.broken, 20);
   EXPECT_EQ(ra.peak, rb.peak);
   EXPECT_EQ(ra.broken, rb.broken);
-  ASSERT_EQ(a->x.size(), b->x.size());
-  EXPECT_EQ(std::memcmp(a->x.data(), b->x.data(), a->x.size() * sizeof(Vec3)), 0);
+  ASSERT_EQ(a->state.x.size(), b->state.x.size());
+  EXPECT_EQ(std::memcmp(a->state.x.data(), b->state.x.data(), a->state.x.size() * sizeof(Vec3)), 0);
   const Monitors ma = a->measure(), mb = b->measure();
   EXPECT_EQ(ma.external_work, mb.external_work);
   EXPECT_EQ(ma.kinetic, mb.kinetic);
@@ -149,9 +150,9 @@ TEST(CudaBackend, TwoBlocksPerSmGivesTheSameBitsThroughFracture) {
   EXPECT_GT(a.broken, 20);
   EXPECT_EQ(a.peak, b.peak);
   EXPECT_EQ(a.broken, b.broken);
-  ASSERT_EQ(one->x.size(), two->x.size());
-  EXPECT_EQ(std::memcmp(one->x.data(), two->x.data(), one->x.size() * sizeof(Vec3)), 0);
-  EXPECT_EQ(std::memcmp(one->f.data(), two->f.data(), one->f.size() * sizeof(Vec3)), 0);
+  ASSERT_EQ(one->state.x.size(), two->state.x.size());
+  EXPECT_EQ(std::memcmp(one->state.x.data(), two->state.x.data(), one->state.x.size() * sizeof(Vec3)), 0);
+  EXPECT_EQ(std::memcmp(one->state.f.data(), two->state.f.data(), one->state.f.size() * sizeof(Vec3)), 0);
   EXPECT_EQ(one->measure().external_work, two->measure().external_work);
 }
 
@@ -199,7 +200,7 @@ TEST(CudaBackend, AProgramThatNeverStartedMpiGetsTheDeviceOrTheReasonNotAnAbort)
     EXPECT_EQ(gpu->backend(), Backend::cuda);
     for (int i = 0; i < 10; ++i) gpu->step(), cpu->step();
     cpu->sync_host(), gpu->sync_host();
-    EXPECT_EQ(std::memcmp(cpu->x.data(), gpu->x.data(), cpu->x.size() * sizeof(Vec3)), 0);
+    EXPECT_EQ(std::memcmp(cpu->state.x.data(), gpu->state.x.data(), cpu->state.x.size() * sizeof(Vec3)), 0);
   } else {
     try {
       backend_solver(backend_elastic_scene("cuda"));

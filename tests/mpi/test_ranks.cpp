@@ -148,8 +148,9 @@ TEST_P(RanksElastic, CurveAndNodesMatchOneRank) {
   EXPECT_GT(md.axial_stress, 1e6) << "loaded";
   EXPECT_EQ(md.step, mr.step);
   EXPECT_LT(worst_curve, 1e-10);
-  const double ex = node_error(*d, d->x, ref.x, ref.model().X, d->model().X);
-  const double ev = node_error(*d, d->v, ref.v, std::vector<Vec3>(ref.v.size()), std::vector<Vec3>(d->v.size()));
+  const double ex = node_error(*d, d->state.x, ref.state.x, ref.model().X, d->model().X);
+  const double ev = node_error(*d, d->state.v, ref.state.v, std::vector<Vec3>(ref.state.v.size()),
+                               std::vector<Vec3>(d->state.v.size()));
   EXPECT_LT(ex, 1e-10) << "displacements";
   EXPECT_LT(ev, 1e-10) << "velocities";
   if (world_rank() == 0)
@@ -194,8 +195,8 @@ TEST(Ranks, FracturingBoxMatchesOneRank) {
   const Model& m = d->model();
   d->sync_host();
   double on_boundary = 0;
-  for (std::size_t c = 0; c < d->ce6.size(); ++c)
-    if (d->owned_ce6()[c] && d->ce6[c].mode != 0 &&
+  for (std::size_t c = 0; c < d->state.ce6.size(); ++c)
+    if (d->owned_ce6()[c] && d->state.ce6[c].mode != 0 &&
         d->owned_tets()[m.ce6_tets[c][0]] != d->owned_tets()[m.ce6_tets[c][1]])
       on_boundary += 1;
   on_boundary = sum_over_ranks(on_boundary);
@@ -276,8 +277,8 @@ TEST_P(RanksDevice, DeviceLoopGivesTheCpuBackendsRun) {
     }
     g->sync_host();
     double differing = 0;
-    for (std::size_t n = 0; n < c->x.size(); ++n)
-      differing += c->owned_nodes()[n] && std::memcmp(&c->x[n], &g->x[n], sizeof(Vec3)) != 0;
+    for (std::size_t n = 0; n < c->state.x.size(); ++n)
+      differing += c->owned_nodes()[n] && std::memcmp(&c->state.x[n], &g->state.x[n], sizeof(Vec3)) != 0;
     EXPECT_EQ(sum_over_ranks(differing), 0) << "owned node positions differing";
   }
   if (world_size() > 1) {
@@ -337,8 +338,8 @@ TEST(Ranks, ContactPairAcrossRanksGivesOneRankForces) {
   for (Solver* s : {&ref, d.get()})
     for (std::size_t t = 0; t < s->model().tet_nodes.size(); ++t)
       if (upper(s->model(), int(t)))
-        for (int n : s->model().tet_nodes[t]) s->v[n] = {0, 0, -0.5};
-  const std::vector<Vec3> zero_r(ref.f.size()), zero_d(d->f.size());
+        for (int n : s->model().tet_nodes[t]) s->state.v[n] = {0, 0, -0.5};
+  const std::vector<Vec3> zero_r(ref.state.f.size()), zero_d(d->state.f.size());
   double worst_f = 0, worst_x = 0, across = 0;
   long touching = 0, touching_d = 0;
   Monitors mr, md;
@@ -349,8 +350,8 @@ TEST(Ranks, ContactPairAcrossRanksGivesOneRankForces) {
     mr = ref.measure();
     md = d->measure();
     if (mr.contacts == 0) continue;
-    worst_f = std::max(worst_f, node_error(*d, d->f, ref.f, zero_r, zero_d));
-    worst_x = std::max(worst_x, node_error(*d, d->x, ref.x, ref.model().X, d->model().X));
+    worst_f = std::max(worst_f, node_error(*d, d->state.f, ref.state.f, zero_r, zero_d));
+    worst_x = std::max(worst_x, node_error(*d, d->state.x, ref.state.x, ref.model().X, d->model().X));
     touching = std::max(touching, mr.contacts);
     touching_d = std::max(touching_d, md.contacts);
   }
@@ -401,10 +402,10 @@ TEST(Ranks, FragmentsTravellingBeyondTheReachGatherTheirContactGhosts) {
       s->sync_host();
       for (std::size_t t = 0; t < s->model().tet_nodes.size(); ++t)
         if (upper(s->model(), int(t)))
-          for (int n : s->model().tet_nodes[t]) s->v[n] = {0, 0, -5};
+          for (int n : s->model().tet_nodes[t]) s->state.v[n] = {0, 0, -5};
       s->host_changed();
     }
-    const std::vector<Vec3> zero_r(ref.f.size());
+    const std::vector<Vec3> zero_r(ref.state.f.size());
     double worst_f = 0, worst_x = 0;
     long touching = 0, touching_d = 0;
     Monitors mr, md;
@@ -433,14 +434,14 @@ TEST(Ranks, FragmentsTravellingBeyondTheReachGatherTheirContactGhosts) {
       int count = 0;
       for (std::size_t t = 0; t < global.tet_nodes.size(); ++t)
         if (!upper(global, int(t)))
-          for (int n : global.tet_nodes[t]) vz += ref.v[n].z, ++count;
+          for (int n : global.tet_nodes[t]) vz += ref.state.v[n].z, ++count;
       pushed = std::min(pushed, vz / count);
       // Bit for bit through the impact and fracture: the contact pairs are in global order
       // (ContactSet::rebuild), so every node sums its contact forces as on one rank.
-      const std::vector<Vec3> zero_d(d.f.size());
-      worst_x = std::max(worst_x, node_error(d, d.x, ref.x, ref.model().X, d.model().X));
+      const std::vector<Vec3> zero_d(d.state.f.size());
+      worst_x = std::max(worst_x, node_error(d, d.state.x, ref.state.x, ref.model().X, d.model().X));
       if (mr.contacts == 0) continue;
-      worst_f = std::max(worst_f, node_error(d, d.f, ref.f, zero_r, zero_d));
+      worst_f = std::max(worst_f, node_error(d, d.state.f, ref.state.f, zero_r, zero_d));
       worst_e = std::max(worst_e, std::fabs(md.contact - mr.contact) / std::fabs(mr.contact));
       touching = std::max(touching, mr.contacts);
       touching_d = std::max(touching_d, md.contacts);
@@ -451,7 +452,8 @@ TEST(Ranks, FragmentsTravellingBeyondTheReachGatherTheirContactGhosts) {
     auto same = [](const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
       return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(Vec3)) == 0;
     };
-    EXPECT_TRUE(same(restarted->x, d.x) && same(restarted->v, d.v)) << backend << ": the restarted run differs";
+    EXPECT_TRUE(same(restarted->state.x, d.state.x) && same(restarted->state.v, d.state.v))
+        << backend << ": the restarted run differs";
     EXPECT_EQ(restarted->ghost_growths().count, d.ghost_growths().count) << backend;
     EXPECT_LT(pushed, -0.5) << backend << ": the blocks meet (m/s, the lower block's mean velocity)";
     EXPECT_GT(touching, 0) << backend << ": pairs touch before a CE6 breaks";
@@ -474,10 +476,10 @@ TEST(Ranks, FragmentsTravellingBeyondTheReachGatherTheirContactGhosts) {
       const Decomposition& dd = d.decomposition();
       std::set<long> held(dd.tet_global.begin(), dd.tet_global.end());
       auto box = [&](long t) {
-        Aabb b{ref.x[global.tet_nodes[t][0]], ref.x[global.tet_nodes[t][0]]};
+        Aabb b{ref.state.x[global.tet_nodes[t][0]], ref.state.x[global.tet_nodes[t][0]]};
         for (int n : global.tet_nodes[t])
           for (int k = 0; k < 3; ++k)
-            b.lo[k] = std::min(b.lo[k], ref.x[n][k]), b.hi[k] = std::max(b.hi[k], ref.x[n][k]);
+            b.lo[k] = std::min(b.lo[k], ref.state.x[n][k]), b.hi[k] = std::max(b.hi[k], ref.state.x[n][k]);
         return b;
       };
       long missing = 0, near = 0;
@@ -518,7 +520,7 @@ TEST(Ranks, ContactReachGuardStopsARunBeforeAPartnerIsMissed) {
     const Model global = build_model(two_blocks(), scene);
     RankModel rm = extract_rank(global, block_per_rank(global), world_rank(), 1e-5);
     Solver d(scene, std::move(rm.model), std::move(rm.dd), MPI_COMM_WORLD);
-    for (Vec3& v : d.v) v = {50, 0, 0};
+    for (Vec3& v : d.state.v) v = {50, 0, 0};
     std::string message;
     try {
       for (int i = 0; i < 400; ++i) d.step();
@@ -583,14 +585,15 @@ TEST(Ranks, PrepartitionedFilesGiveTheSameRun) {
   auto on_the_fly = decomposed(scene, global, part);
   for (int i = 0; i < 2000; ++i) from_file.step(), on_the_fly->step();
   from_file.sync_host(), on_the_fly->sync_host();
-  ASSERT_EQ(from_file.x.size(), on_the_fly->x.size());
-  EXPECT_EQ(std::memcmp(from_file.x.data(), on_the_fly->x.data(), from_file.x.size() * sizeof(Vec3)), 0);
-  ASSERT_EQ(from_file.ce6.size(), on_the_fly->ce6.size());
-  EXPECT_EQ(
-      std::memcmp(from_file.ce6.damage.data(), on_the_fly->ce6.damage.data(), from_file.ce6.size() * sizeof(Ce6Damage)),
-      0);
-  EXPECT_EQ(std::memcmp(from_file.ce6.anchors.data(), on_the_fly->ce6.anchors.data(),
-                        from_file.ce6.size() * sizeof(Ce6Anchors)),
+  ASSERT_EQ(from_file.state.x.size(), on_the_fly->state.x.size());
+  EXPECT_EQ(std::memcmp(from_file.state.x.data(), on_the_fly->state.x.data(), from_file.state.x.size() * sizeof(Vec3)),
+            0);
+  ASSERT_EQ(from_file.state.ce6.size(), on_the_fly->state.ce6.size());
+  EXPECT_EQ(std::memcmp(from_file.state.ce6.damage.data(), on_the_fly->state.ce6.damage.data(),
+                        from_file.state.ce6.size() * sizeof(Ce6Damage)),
+            0);
+  EXPECT_EQ(std::memcmp(from_file.state.ce6.anchors.data(), on_the_fly->state.ce6.anchors.data(),
+                        from_file.state.ce6.size() * sizeof(Ce6Anchors)),
             0);
   EXPECT_GT(from_file.measure().damaged, 0) << "the run went far enough to damage CE6s";
 }

@@ -40,9 +40,9 @@ TEST_P(DebugSchedule, ElasticBoxIsBitIdenticalToCpu) {
   for (int i = 0; i < 3000; ++i) cpu->step(), dbg->step();
   expect_schedule(*dbg);
   cpu->sync_host(), dbg->sync_host();
-  EXPECT_TRUE(same_bits(cpu->x, dbg->x));
-  EXPECT_TRUE(same_bits(cpu->v, dbg->v));
-  EXPECT_TRUE(same_bits(cpu->f, dbg->f));
+  EXPECT_TRUE(same_bits(cpu->state.x, dbg->state.x));
+  EXPECT_TRUE(same_bits(cpu->state.v, dbg->state.v));
+  EXPECT_TRUE(same_bits(cpu->state.f, dbg->state.f));
   const Monitors a = cpu->measure(), b = dbg->measure();
   EXPECT_GT(a.axial_stress, 1e6) << "the box should be loaded";
   EXPECT_EQ(a.axial_stress, b.axial_stress);
@@ -68,7 +68,7 @@ TEST_P(DebugSchedule, ANodeMovingHalfTheBufferRebuildsTheListAsOnTheCpu) {
   }
   EXPECT_GT(cpu->contacts.times.rebuilds, 2) << "nodes should move half the buffer";
   cpu->sync_host(), dbg->sync_host();
-  EXPECT_TRUE(same_bits(cpu->x, dbg->x));
+  EXPECT_TRUE(same_bits(cpu->state.x, dbg->state.x));
   EXPECT_TRUE(same_bits(cpu->contacts.spring, dbg->contacts.spring));
 }
 
@@ -84,15 +84,17 @@ TEST_P(DebugSchedule, FracturingBoxWithContactAndPressureMatchesCpu) {
   EXPECT_EQ(ra.broken, rb.broken);
   EXPECT_EQ(ra.peak, rb.peak);
   cpu->sync_host(), dbg->sync_host();
-  EXPECT_TRUE(same_bits(cpu->x, dbg->x)) << "max relative difference " << max_rel_diff(cpu->x, dbg->x, 1e-9);
-  EXPECT_TRUE(same_bits(cpu->v, dbg->v));
+  EXPECT_TRUE(same_bits(cpu->state.x, dbg->state.x))
+      << "max relative difference " << max_rel_diff(cpu->state.x, dbg->state.x, 1e-9);
+  EXPECT_TRUE(same_bits(cpu->state.v, dbg->state.v));
   long anchored = 0;  // CE6s whose friction anchors are kept (damaged or broken)
-  for (std::size_t i = 0; i < cpu->ce6.size(); ++i) {
-    ASSERT_EQ(cpu->ce6[i].mode, dbg->ce6[i].mode) << "CE6 " << i;
-    for (int k = 0; k < 3; ++k) ASSERT_EQ(cpu->ce6[i].D[k], dbg->ce6[i].D[k]) << "CE6 " << i;
-    if (ce6_max_damage(cpu->ce6[i]) > 0) {
+  for (std::size_t i = 0; i < cpu->state.ce6.size(); ++i) {
+    ASSERT_EQ(cpu->state.ce6[i].mode, dbg->state.ce6[i].mode) << "CE6 " << i;
+    for (int k = 0; k < 3; ++k) ASSERT_EQ(cpu->state.ce6[i].D[k], dbg->state.ce6[i].D[k]) << "CE6 " << i;
+    if (ce6_max_damage(cpu->state.ce6[i]) > 0) {
       ++anchored;
-      ASSERT_EQ(std::memcmp(cpu->ce6[i].slip, dbg->ce6[i].slip, sizeof(cpu->ce6[i].slip)), 0) << "CE6 " << i;
+      ASSERT_EQ(std::memcmp(cpu->state.ce6[i].slip, dbg->state.ce6[i].slip, sizeof(cpu->state.ce6[i].slip)), 0)
+          << "CE6 " << i;
     }
   }
   EXPECT_GT(anchored, ra.broken) << "damaged CE6s that did not break keep anchors too";
@@ -135,13 +137,14 @@ TEST_P(DebugSchedule, GravityPrescribedNodesAndPressureAreBitIdenticalToCpu) {
   for (int i = 0; i < 1500; ++i) cpu->step(), dbg->step();
   expect_schedule(*dbg);
   cpu->sync_host(), dbg->sync_host();
-  EXPECT_TRUE(same_bits(cpu->x, dbg->x)) << "max relative difference " << max_rel_diff(cpu->x, dbg->x, 1e-9);
-  EXPECT_TRUE(same_bits(cpu->v, dbg->v));
-  EXPECT_TRUE(same_bits(cpu->f, dbg->f));
-  EXPECT_EQ(dbg->v[0].x, 0.015);
-  EXPECT_EQ(dbg->v[0].y, -0.02);
-  EXPECT_EQ(dbg->v[5].z, 0.03);
-  EXPECT_NE(dbg->v[5].x, 0.0) << "x is free: the pressure moves it";
+  EXPECT_TRUE(same_bits(cpu->state.x, dbg->state.x))
+      << "max relative difference " << max_rel_diff(cpu->state.x, dbg->state.x, 1e-9);
+  EXPECT_TRUE(same_bits(cpu->state.v, dbg->state.v));
+  EXPECT_TRUE(same_bits(cpu->state.f, dbg->state.f));
+  EXPECT_EQ(dbg->state.v[0].x, 0.015);
+  EXPECT_EQ(dbg->state.v[0].y, -0.02);
+  EXPECT_EQ(dbg->state.v[5].z, 0.03);
+  EXPECT_NE(dbg->state.v[5].x, 0.0) << "x is free: the pressure moves it";
   const Monitors a = cpu->measure(), b = dbg->measure();
   EXPECT_GT(a.confining_pressure, 1e5) << "the pressure should be rising";
   EXPECT_EQ(a.confining_pressure, b.confining_pressure);
@@ -223,10 +226,10 @@ TEST(DebugBackend, AStepLeftToTheFusedPassIsDoneWhenTheStateIsRead) {
   EXPECT_FALSE(plain->device_loop()->advance(plain->dt(), b));
   stepping->device_loop()->download();
   plain->device_loop()->download();
-  EXPECT_TRUE(same_bits(stepping->x, plain->x))
-      << "max relative difference " << max_rel_diff(stepping->x, plain->x, 1e-9);
-  EXPECT_TRUE(same_bits(stepping->v, plain->v));
-  EXPECT_TRUE(same_bits(stepping->f, plain->f));
+  EXPECT_TRUE(same_bits(stepping->state.x, plain->state.x))
+      << "max relative difference " << max_rel_diff(stepping->state.x, plain->state.x, 1e-9);
+  EXPECT_TRUE(same_bits(stepping->state.v, plain->state.v));
+  EXPECT_TRUE(same_bits(stepping->state.f, plain->state.f));
   // The step's bookkeeping (the works of contact and pressure over it, with the velocities after
   // it) comes with the next force evaluation, as on a step of the solver.
   stepping->device_loop()->compute_forces();
@@ -241,7 +244,7 @@ TEST(DebugBackend, AStepLeftToTheFusedPassIsDoneWhenTheStateIsRead) {
   auto again = make("fused");
   for (int i = 0; i < 2000; ++i) again->step();
   again->sync_host();
-  EXPECT_FALSE(same_bits(again->x, plain->x));
+  EXPECT_FALSE(same_bits(again->state.x, plain->state.x));
 }
 
 TEST(DebugBackend, NodesSharedByTetsKeepTheColourPasses) {
@@ -258,8 +261,8 @@ TEST(DebugBackend, NodesSharedByTetsKeepTheColourPasses) {
   EXPECT_FALSE(dbg->device_loop()->fused());
   for (int i = 0; i < 1000; ++i) cpu->step(), dbg->step();
   cpu->sync_host(), dbg->sync_host();
-  EXPECT_TRUE(same_bits(cpu->x, dbg->x));
-  EXPECT_TRUE(same_bits(cpu->f, dbg->f));
+  EXPECT_TRUE(same_bits(cpu->state.x, dbg->state.x));
+  EXPECT_TRUE(same_bits(cpu->state.f, dbg->state.f));
   EXPECT_GT(cpu->measure().axial_stress, 1e5) << "loaded";
   // The plan refuses such a model.
   FusedPlan plan;
@@ -274,14 +277,14 @@ TEST(DebugBackend, GravityHydrostaticPressureAndPrescribedNodesMatchCpu) {
   for (int i = 0; i < 1500; ++i) cpu->step(), dbg->step();
   EXPECT_TRUE(dbg->device_loop()->integrates()) << "the default schedule, one rank";
   cpu->sync_host(), dbg->sync_host();
-  EXPECT_LT(max_rel_diff(cpu->x, dbg->x, 1e-6), 1e-12);
-  EXPECT_LT(max_rel_diff(cpu->v, dbg->v, 1e-3), 1e-9);
-  EXPECT_EQ(dbg->v[0].x, 0.015);
-  EXPECT_EQ(dbg->v[0].y, -0.02);
-  EXPECT_EQ(cpu->v[0].x, 0.015);
-  EXPECT_EQ(cpu->v[0].y, -0.02);
-  EXPECT_NE(cpu->v[0].z, 7.0);
-  EXPECT_NE(cpu->v[0].z, 0.0) << "z is free: gravity and the pressure move it";
+  EXPECT_LT(max_rel_diff(cpu->state.x, dbg->state.x, 1e-6), 1e-12);
+  EXPECT_LT(max_rel_diff(cpu->state.v, dbg->state.v, 1e-3), 1e-9);
+  EXPECT_EQ(dbg->state.v[0].x, 0.015);
+  EXPECT_EQ(dbg->state.v[0].y, -0.02);
+  EXPECT_EQ(cpu->state.v[0].x, 0.015);
+  EXPECT_EQ(cpu->state.v[0].y, -0.02);
+  EXPECT_NE(cpu->state.v[0].z, 7.0);
+  EXPECT_NE(cpu->state.v[0].z, 0.0) << "z is free: gravity and the pressure move it";
   const Monitors a = cpu->measure(), b = dbg->measure();
   EXPECT_GT(a.confining_pressure, 1e5) << "the pressure should follow the axial stress";
   EXPECT_NEAR(a.confining_pressure, b.confining_pressure, 1e-9 * a.confining_pressure);
@@ -357,19 +360,19 @@ TEST(DebugBackend, HostCopyIsPoisonedUntilSynced) {
   auto dbg = backend_solver(backend_elastic_scene("debug"));
   dbg->step();
   // The device holds the state: the host copy must not be read as if current.
-  EXPECT_TRUE(std::isnan(dbg->x[0].x));
-  EXPECT_TRUE(std::isnan(dbg->v[5].z));
-  EXPECT_TRUE(std::isnan(dbg->ce6[0].D[0]));
+  EXPECT_TRUE(std::isnan(dbg->state.x[0].x));
+  EXPECT_TRUE(std::isnan(dbg->state.v[5].z));
+  EXPECT_TRUE(std::isnan(dbg->state.ce6[0].D[0]));
   dbg->sync_host();
-  EXPECT_EQ(dbg->x[0].x, dbg->model().X[0].x + 0 * dbg->x[0].x);  // node 0 is on the bottom: still in place
-  for (const Vec3& p : dbg->x) ASSERT_TRUE(std::isfinite(p.x + p.y + p.z));
+  EXPECT_EQ(dbg->state.x[0].x, dbg->model().X[0].x + 0 * dbg->state.x[0].x);  // node 0 is on the bottom: still in place
+  for (const Vec3& p : dbg->state.x) ASSERT_TRUE(std::isfinite(p.x + p.y + p.z));
   // A monitor row is summed on the device: the host copy stays as it was, and the row is the
   // CPU backend's to round-off.
   auto cpu = backend_solver(backend_elastic_scene("cpu"));
   for (int i = 0; i < 400; ++i) cpu->step();
   for (int i = 0; i < 399; ++i) dbg->step();
   const Monitors a = cpu->measure(), b = dbg->measure();
-  EXPECT_TRUE(std::isnan(dbg->x[3].z));
+  EXPECT_TRUE(std::isnan(dbg->state.x[3].z));
   EXPECT_GT(a.strain, 0);
   EXPECT_NEAR(a.strain, b.strain, 1e-12 * a.strain);
   EXPECT_NEAR(a.kinetic, b.kinetic, 1e-12 * a.kinetic);
@@ -387,17 +390,17 @@ TEST(DebugBackend, HostChangesAndCheckpointsReachTheDevice) {
   for (int i = 0; i < 1000; ++i) cpu->step(), dbg->step();
   cpu->sync_host(), dbg->sync_host();
   for (Solver* s : {cpu.get(), dbg.get()}) {
-    s->v[7] = s->v[7] + Vec3{0.01, 0, 0};
+    s->state.v[7] = s->state.v[7] + Vec3{0.01, 0, 0};
     // A damage the CE6's opening does not give (the law keeps the larger): the device must
     // read it from the upload, not take the CE6 as intact.
-    for (real& d : s->ce6.damage[5].D) d = std::max(d, real(0.5));
+    for (real& d : s->state.ce6.damage[5].D) d = std::max(d, real(0.5));
     s->host_changed();
   }
   for (int i = 0; i < 1000; ++i) cpu->step(), dbg->step();
   // The damage set above goes up with the checkpoint (the fused pass reads a CE6's damage only
   // where the upload marked it damaged).
   cpu->sync_host(), dbg->sync_host();
-  EXPECT_GE(dbg->ce6[5].D[0], 0.5);
+  EXPECT_GE(dbg->state.ce6[5].D[0], 0.5);
   CheckpointOut out;
   dbg->save(out);
   auto resumed = backend_solver(backend_fracture_scene("debug"));
@@ -407,11 +410,11 @@ TEST(DebugBackend, HostChangesAndCheckpointsReachTheDevice) {
   cpu->sync_host(), dbg->sync_host();
   resumed->sync_host();
   EXPECT_GT(cpu->measure().broken, 0);
-  EXPECT_TRUE(same_bits(cpu->x, dbg->x));
-  EXPECT_TRUE(same_bits(cpu->x, resumed->x));
-  EXPECT_TRUE(same_bits(cpu->v, resumed->v));
-  EXPECT_GE(cpu->ce6[5].D[0], 0.5);
-  EXPECT_EQ(cpu->ce6[5].D[0], dbg->ce6[5].D[0]);
+  EXPECT_TRUE(same_bits(cpu->state.x, dbg->state.x));
+  EXPECT_TRUE(same_bits(cpu->state.x, resumed->state.x));
+  EXPECT_TRUE(same_bits(cpu->state.v, resumed->state.v));
+  EXPECT_GE(cpu->state.ce6[5].D[0], 0.5);
+  EXPECT_EQ(cpu->state.ce6[5].D[0], dbg->state.ce6[5].D[0]);
 }
 
 TEST(DebugBackend, CliRunGivesTheCpuFiles) {
@@ -491,8 +494,8 @@ TEST(DebugBackend, TheSteppingPassTakesNodeMassesFromTetVolumesOnlyWhereTheyAreT
     auto cpu = run(perturb, "cpu"), dbg = run(perturb, "debug");
     ASSERT_TRUE(dbg->device_loop()->integrates());
     cpu->sync_host(), dbg->sync_host();
-    EXPECT_TRUE(same_bits(cpu->x, dbg->x)) << perturb;
-    EXPECT_TRUE(same_bits(cpu->v, dbg->v)) << perturb;
+    EXPECT_TRUE(same_bits(cpu->state.x, dbg->state.x)) << perturb;
+    EXPECT_TRUE(same_bits(cpu->state.v, dbg->state.v)) << perturb;
     const Monitors a = cpu->measure(), b = dbg->measure();
     EXPECT_GT(a.kinetic, 0);
     EXPECT_NEAR(a.kinetic, b.kinetic, 1e-12 * a.kinetic) << perturb;
@@ -511,8 +514,8 @@ TEST(DebugBackend, TwoBlocksPerSmReachesTheFusedPassAndKeepsTheCpuBits) {
     EXPECT_EQ(dbg->device_loop()->blocks_per_sm(), std::string(schedule) == "colour" ? 1 : 2) << schedule;
     for (int i = 0; i < 500; ++i) cpu->step(), dbg->step();
     cpu->sync_host(), dbg->sync_host();
-    EXPECT_TRUE(same_bits(cpu->x, dbg->x)) << schedule;
-    EXPECT_TRUE(same_bits(cpu->f, dbg->f)) << schedule;
+    EXPECT_TRUE(same_bits(cpu->state.x, dbg->state.x)) << schedule;
+    EXPECT_TRUE(same_bits(cpu->state.f, dbg->state.f)) << schedule;
     const Monitors a = cpu->measure(), b = dbg->measure();
     EXPECT_EQ(a.axial_stress, b.axial_stress) << schedule;
     EXPECT_GT(a.viscous, 0) << schedule;  // the pass's own sums

@@ -53,8 +53,8 @@ Body body(const Solver& s, bool upper, int cells) {
   for (std::size_t n = 0; n < m.X.size(); ++n) {
     if (in_upper(m, n, cells) != upper) continue;
     b.mass += m.mass[n];
-    b.momentum += m.mass[n] * s.v[n];
-    b.centre += m.mass[n] * s.x[n];
+    b.momentum += m.mass[n] * s.state.v[n];
+    b.centre += m.mass[n] * s.state.x[n];
   }
   b.centre = (1 / b.mass) * b.centre;
   return b;
@@ -71,7 +71,7 @@ TEST(ContactBlocks, BlockBouncesOffABlockConservingEnergy) {
   const Model& m = s.model();
   for (std::size_t n = 0; n < m.X.size(); ++n) {
     if (in_upper(m, n, 2))
-      s.v[n] = {0, 0, -v0};
+      s.state.v[n] = {0, 0, -v0};
     else
       s.prescribe(int(n), 7, {0, 0, 0});  // the lower block is the ground
   }
@@ -245,7 +245,7 @@ void bar_halves(const std::string& activation) {
   auto mid_broken = [&] {
     s.sync_host();
     int k = 0;
-    for (int c : mid_ce6) k += ce6_broken(s.ce6[c]);
+    for (int c : mid_ce6) k += ce6_broken(s.state.ce6[c]);
     return k;
   };
   const real v = 0.5;  // m/s, each end
@@ -268,8 +268,8 @@ void bar_halves(const std::string& activation) {
   auto gap = [&] {
     s.sync_host();
     real lo_top = 1e9, hi_bottom = -1e9;
-    for (int n : mid_upper) lo_top = std::min(lo_top, s.x[n].z);
-    for (int n : mid_lower) hi_bottom = std::max(hi_bottom, s.x[n].z);
+    for (int n : mid_upper) lo_top = std::min(lo_top, s.state.x[n].z);
+    for (int n : mid_lower) hi_bottom = std::max(hi_bottom, s.state.x[n].z);
     return lo_top - hi_bottom;
   };
   Monitors row = s.measure();
@@ -364,10 +364,10 @@ int shear_break_handover(const std::string& activation) {
     for (std::size_t k = 0; k < mid.size(); ++k) {
       const int c = mid[k];
       if (broke_at[k] >= 0 && s.step_count() == broke_at[k] + 1) {
-        EXPECT_FALSE(ce6_carries_force(s.ce6_params(), s.ce6[c])) << "CE6 #" << c;
+        EXPECT_FALSE(ce6_carries_force(s.ce6_params(), s.state.ce6[c])) << "CE6 #" << c;
         handed_over += joint_force(c) > 0;
       }
-      if (broken[k] || !ce6_broken(s.ce6[c])) continue;
+      if (broken[k] || !ce6_broken(s.state.ce6[c])) continue;
       broken[k] = 1, ++breaks;
       broke_at[k] = s.step_count();
       EXPECT_EQ(joint_force(c), 0) << "CE6 #" << c << " broke at step " << s.step_count()

@@ -36,14 +36,14 @@ TEST(Determinism, OneAndTwoThreadsGiveBitIdenticalStates) {
   const auto pb = run_steps(2, steps);
   Solver &a = *pa, &b = *pb;
   omp_set_num_threads(omp_get_num_procs());
-  ASSERT_EQ(a.x.size(), b.x.size());
-  EXPECT_EQ(std::memcmp(a.x.data(), b.x.data(), a.x.size() * sizeof(Vec3)), 0);
-  EXPECT_EQ(std::memcmp(a.v.data(), b.v.data(), a.v.size() * sizeof(Vec3)), 0);
+  ASSERT_EQ(a.state.x.size(), b.state.x.size());
+  EXPECT_EQ(std::memcmp(a.state.x.data(), b.state.x.data(), a.state.x.size() * sizeof(Vec3)), 0);
+  EXPECT_EQ(std::memcmp(a.state.v.data(), b.state.v.data(), a.state.v.size() * sizeof(Vec3)), 0);
   long damaged = 0;
-  for (std::size_t i = 0; i < a.ce6.size(); ++i) {
-    EXPECT_EQ(a.ce6[i].mode, b.ce6[i].mode);
-    for (int k = 0; k < 3; ++k) EXPECT_EQ(a.ce6[i].D[k], b.ce6[i].D[k]);
-    damaged += ce6_max_damage(a.ce6[i]) > 0;
+  for (std::size_t i = 0; i < a.state.ce6.size(); ++i) {
+    EXPECT_EQ(a.state.ce6[i].mode, b.state.ce6[i].mode);
+    for (int k = 0; k < 3; ++k) EXPECT_EQ(a.state.ce6[i].D[k], b.state.ce6[i].D[k]);
+    damaged += ce6_max_damage(a.state.ce6[i]) > 0;
   }
   EXPECT_GT(damaged, 0) << "the run should reach damage for the check to cover the CE6 law";
   RecordProperty("damaged_ce6", std::to_string(damaged));

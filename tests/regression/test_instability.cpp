@@ -26,7 +26,7 @@ TEST(Instability, TooLargeTimeStepStopsWithAMessageNamingTheFix) {
   EXPECT_NE(message.find("time_step_safety"), std::string::npos) << message;
   EXPECT_NE(message.find("unstable"), std::string::npos) << message;
   // Every node position is still finite: the run was stopped before NaN spread.
-  for (const Vec3& x : s.x) ASSERT_TRUE(std::isfinite(x.x) && std::isfinite(x.y) && std::isfinite(x.z));
+  for (const Vec3& x : s.state.x) ASSERT_TRUE(std::isfinite(x.x) && std::isfinite(x.y) && std::isfinite(x.z));
 }
 
 TEST(Instability, StableStepRunsWithoutBeingStopped) {

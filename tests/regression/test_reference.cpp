@@ -72,10 +72,10 @@ class Reference : public ::testing::TestWithParam<Leg> {
     ASSERT_EQ(s.step_count(), r.steps);
     EXPECT_EQ(s.time(), r.time);
     EXPECT_EQ(s.platen_travel(), r.top_offset);
-    EXPECT_TRUE(same_bits(s.x, r.x)) << "first node apart: " << first_difference(s.x, r.x)
-                                     << ", max relative difference " << max_rel_diff(s.x, r.x, 1e-9);
-    EXPECT_TRUE(same_bits(s.v, r.v)) << "first node apart: " << first_difference(s.v, r.v);
-    EXPECT_TRUE(same_bits(s.f, r.f)) << "first node apart: " << first_difference(s.f, r.f);
+    EXPECT_TRUE(same_bits(s.state.x, r.x)) << "first node apart: " << first_difference(s.state.x, r.x)
+                                           << ", max relative difference " << max_rel_diff(s.state.x, r.x, 1e-9);
+    EXPECT_TRUE(same_bits(s.state.v, r.v)) << "first node apart: " << first_difference(s.state.v, r.v);
+    EXPECT_TRUE(same_bits(s.state.f, r.f)) << "first node apart: " << first_difference(s.state.f, r.f);
   }
 
   /// CE6 damage and break mode of every CE6, and the friction anchors of those that keep them
@@ -84,10 +84,10 @@ class Reference : public ::testing::TestWithParam<Leg> {
   static long expect_same_ce6(const Solver& s, const ReferenceStepper& r) {
     long broken = 0;
     for (std::size_t c = 0; c < r.ce6.size(); ++c) {
-      EXPECT_EQ(s.ce6[c].mode, r.ce6[c].mode) << "CE6 " << c;
-      EXPECT_EQ(std::memcmp(s.ce6[c].D, r.ce6[c].D, sizeof r.ce6[c].D), 0) << "CE6 " << c;
+      EXPECT_EQ(s.state.ce6[c].mode, r.ce6[c].mode) << "CE6 " << c;
+      EXPECT_EQ(std::memcmp(s.state.ce6[c].D, r.ce6[c].D, sizeof r.ce6[c].D), 0) << "CE6 " << c;
       if (ce6_max_damage(r.ce6[c]) > 0) {
-        EXPECT_EQ(std::memcmp(s.ce6[c].slip, r.ce6[c].slip, sizeof r.ce6[c].slip), 0) << "CE6 " << c;
+        EXPECT_EQ(std::memcmp(s.state.ce6[c].slip, r.ce6[c].slip, sizeof r.ce6[c].slip), 0) << "CE6 " << c;
       }
       broken += r.ce6[c].mode != 0;
     }
@@ -188,7 +188,7 @@ TEST_P(Reference, TwoBlocksCollideAndSlide) {
   ReferenceStepper ref(solver.scene(), solver.model(), solver.dt());
   const int lower_vertices = 27;  // (2 + 1)^3
   for (std::size_t n = 0; n < solver.model().X.size(); ++n)
-    if (solver.model().node_vertex[n] >= lower_vertices) solver.v[n] = ref.v[n] = Vec3{0.5, 0, -2};
+    if (solver.model().node_vertex[n] >= lower_vertices) solver.state.v[n] = ref.v[n] = Vec3{0.5, 0, -2};
   solver.host_changed();
   long touched = 0;
   real spring = 0;  // m, the longest friction spring of the run

@@ -15,12 +15,12 @@ namespace {
 real front_position(const Solver& s, real v0) {
   const Model& m = s.model();
   real x_above = 0, v_above = v0, x_below = 1e30, v_below = 0;
-  for (std::size_t n = 0; n < s.x.size(); ++n)
-    if (m.X[n].y == 0 && m.X[n].z == 0 && s.v[n].x > 0.5 * v0 && m.X[n].x >= x_above)
-      x_above = m.X[n].x, v_above = s.v[n].x;
-  for (std::size_t n = 0; n < s.x.size(); ++n)
+  for (std::size_t n = 0; n < s.state.x.size(); ++n)
+    if (m.X[n].y == 0 && m.X[n].z == 0 && s.state.v[n].x > 0.5 * v0 && m.X[n].x >= x_above)
+      x_above = m.X[n].x, v_above = s.state.v[n].x;
+  for (std::size_t n = 0; n < s.state.x.size(); ++n)
     if (m.X[n].y == 0 && m.X[n].z == 0 && m.X[n].x > x_above && m.X[n].x < x_below)
-      x_below = m.X[n].x, v_below = s.v[n].x;
+      x_below = m.X[n].x, v_below = s.state.v[n].x;
   return x_above + (x_below - x_above) * (v_above - 0.5 * v0) / (v_above - v_below);
 }
 
@@ -37,7 +37,7 @@ TEST(WaveSpeed, PWaveInConstrainedBarMatchesTheory) {
   Solver s(scene, build_model(mesh, scene));
   ASSERT_EQ(s.model().ce6_nodes.size(), 0u);
   const real v0 = 0.01;  // m/s
-  for (std::size_t n = 0; n < s.x.size(); ++n) {
+  for (std::size_t n = 0; n < s.state.x.size(); ++n) {
     const bool end = s.model().X[n].x == 0;
     s.prescribe(int(n), end ? 7 : 6, {end ? v0 : 0, 0, 0});  // uniaxial strain: lateral motion blocked
   }

@@ -34,7 +34,7 @@ struct Outcome {
 long broken_count(const Solver& s) {
   s.sync_host();
   long n = 0;
-  for (const Ce6Damage& c : s.ce6.damage) n += c.mode != 0;
+  for (const Ce6Damage& c : s.state.ce6.damage) n += c.mode != 0;
   return n;
 }
 
@@ -68,8 +68,10 @@ void report(const char* name, const Outcome& o) {
 
 bool all_finite(const Solver& s) {
   s.sync_host();
-  for (std::size_t n = 0; n < s.x.size(); ++n)
-    if (!std::isfinite(s.x[n].x + s.x[n].y + s.x[n].z + s.v[n].x + s.v[n].y + s.v[n].z)) return false;
+  for (std::size_t n = 0; n < s.state.x.size(); ++n)
+    if (!std::isfinite(s.state.x[n].x + s.state.x[n].y + s.state.x[n].z + s.state.v[n].x + s.state.v[n].y +
+                       s.state.v[n].z))
+      return false;
   return true;
 }
 
@@ -165,7 +167,7 @@ TEST(Stability, TimeStepAtPointNineAndOnePointOneOfTheTrueLimit) {
     Solver solver(s, model);
     std::mt19937 rng(11);
     std::uniform_real_distribution<real> uni(-1e-3, 1e-3);  // m/s: a small random vibration
-    for (Vec3& v : solver.v) v = {uni(rng), uni(rng), uni(rng)};
+    for (Vec3& v : solver.state.v) v = {uni(rng), uni(rng), uni(rng)};
     // The energy measured with staggered velocities oscillates near the limit (its modes beat),
     // so compare its mean over the first and the last 500 steps of 5000: equal when stable.
     real early = 0, late = 0;
@@ -454,8 +456,8 @@ TEST(Stability, AFragmentFlyingFarKeepsTheBroadPhaseSmall) {
   Solver solver(s, build_model(a, s));
   const Model& m = solver.model();
   for (std::size_t n = 0; n < m.X.size(); ++n)
-    if (m.node_vertex[n] >= off) solver.v[n] = {0, 0, 1e4};  // m/s
-  const BroadPhaseStats first = solver.contacts.last_build;  // built with the first forces
+    if (m.node_vertex[n] >= off) solver.state.v[n] = {0, 0, 1e4};  // m/s
+  const BroadPhaseStats first = solver.contacts.last_build;        // built with the first forces
   auto upper = [&](int t) { return m.node_vertex[m.tet_nodes[t][0]] >= off; };
   auto across = [&] {
     long n = 0;
@@ -466,7 +468,7 @@ TEST(Stability, AFragmentFlyingFarKeepsTheBroadPhaseSmall) {
   Outcome o = run(solver, 0, 5000, 1000);
   const BroadPhaseStats last = solver.contacts.last_build;
   real top = -1e300;
-  for (const Vec3& p : solver.x) top = std::max(top, p.z);
+  for (const Vec3& p : solver.state.x) top = std::max(top, p.z);
   std::printf(
       "[stability] flying block: %.3g m away after %ld steps; broad phase: %ld boxes, %ld entries, cell %.3g m "
       "(first build: %ld entries, cell %.3g m, %ld pairs, %ld joining the blocks), %ld pairs now, %ld joining "
