@@ -1,11 +1,22 @@
 #include "solver/loads.hpp"
 
+#include <cmath>
+
 #include "physics/integrate.hpp"
 
 namespace fdem {
 
 real ConfiningPressure::pressure_at(real time, real axial) const {
   return confining_pressure(hydrostatic, target, hydrostatic ? target : ramped_speed(time, target, ramp), axial);
+}
+
+void PlatenLoad::monitor(const Model& m, Monitors& r) const {
+  r.axial_strain = top_offset / m.height0;
+  r.force_top = -force_top;
+  r.force_bottom = force_bottom;
+  r.axial_stress = axial_stress(m.area0);
+  // Brazilian test: axial_stress is P / (D t) for a line-loaded disc.
+  if (m.line_loaded) r.indirect_tensile = 2 / M_PI * r.axial_stress;
 }
 
 void PlatenLoad::save(CheckpointOut& out) const {

@@ -12,6 +12,7 @@
 #include "model/model.hpp"
 #include "physics/confinement.hpp"
 #include "scene/scene.hpp"
+#include "solver/monitors.hpp"
 
 namespace fdem {
 
@@ -34,6 +35,9 @@ struct PlatenLoad {
   real top_offset_after(real dt) const { return top_offset + step_speed * dt; }
   /// Mean of the two reactions over the loaded area area0 (m^2), compression positive, Pa.
   real axial_stress(real area0) const { return mean_axial_stress(force_top, force_bottom, area0); }
+  /// Its monitor columns: axial strain and stress, the two reactions, and a line-loaded disc's
+  /// indirect tensile stress.
+  void monitor(const Model& m, Monitors& r) const;
   /// Its part of a checkpoint: travel, reactions, anchors.
   void save(CheckpointOut& out) const;
   void load(CheckpointIn& in);
@@ -55,6 +59,8 @@ struct ConfiningPressure {
   /// The pressure an evaluation at `time` (s) applies, after platen reactions of axial stress
   /// `axial` (Pa, the hydrostatic path).
   real pressure_at(real time, real axial) const;
+  /// Its monitor column: the pressure applied.
+  void monitor(Monitors& r) const { r.confining_pressure = pressure; }
   /// Its part of a checkpoint: the pressure, its power and the face forces. `ghosts_appended`:
   /// the checkpoint's layout lacks the faces of contact ghosts gathered since (zero forces).
   void save(CheckpointOut& out) const;

@@ -238,7 +238,7 @@ RunSession::RunSession(Solver& solver, std::ostream& log, const RunOptions& opti
     replace_earlier_run();
   if (!csv_.f) throw InputError(scene_.file + ": output.folder: cannot write '" + csv_path_ + "'");
   if (!fields_) {
-    csv_.put(std::string(kMonitorsHeader) + "\n");
+    csv_.put(monitors_header());
     fields_ = std::make_unique<FieldWriter>(out_.folder, fields_name_);
   }
   // Several ranks: the merged index after every change of the frames (collective); at once

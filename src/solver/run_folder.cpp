@@ -24,31 +24,35 @@ const char* const kSummaryHeader =
     "planarity,mean_facet_angle_deg,crack_centroid_x_m,crack_centroid_y_m,crack_centroid_z_m,steps,time_s,wall_s,"
     "end_reason";
 
-const char* const kMonitorsHeader =
-    "step,time_s,axial_strain,axial_stress_Pa,lateral_strain,volumetric_strain,force_top_N,force_bottom_N,"
-    "damaged_ce6,broken_ce6,broken_mode_I,broken_mode_II,broken_mixed,kinetic_J,strain_J,cohesive_stored_J,"
-    "cohesive_dissipated_J,friction_J,viscous_J,platen_stored_J,platen_friction_J,external_work_J,energy_error,"
-    "contact_J,contact_friction_J,active_tets,contact_pairs,contacts,confining_pressure_Pa,"
-    "indirect_tensile_Pa,lateral_stress_Pa";
+std::string monitors_header() {
+  std::string h;
+  for (const MonitorColumn& c : kMonitorColumns) h += (h.empty() ? "" : ",") + std::string(c.name);
+  return h + '\n';
+}
 
 std::string monitor_row(const Monitors& m, const Solver& solver) {
   std::ostringstream o;
   o << std::setprecision(10);
-  o << m.step << ',' << m.time << ',' << m.axial_strain << ',' << m.axial_stress << ',' << m.lateral_strain << ','
-    << m.volumetric_strain << ',' << m.force_top << ',' << m.force_bottom << ',' << m.damaged << ',' << m.broken << ','
-    << m.broken_I << ',' << m.broken_II << ',' << m.broken_mixed << ',' << m.kinetic << ',' << m.strain << ','
-    << m.cohesive_stored << ',' << m.cohesive_dissipated << ',' << m.friction << ',' << m.viscous << ','
-    << m.platen_stored << ',' << m.platen_friction << ',' << m.external_work << ',' << m.energy_error << ','
-    << m.contact << ',' << m.contact_friction << ',' << m.active_tets << ',' << m.contact_pairs << ',' << m.contacts
-    << ',' << m.confining_pressure << ',' << m.indirect_tensile << ',' << m.lateral_stress << '\n';
+  for (std::size_t k = 0; k < kMonitorColumns.size(); ++k) {
+    const MonitorColumn& c = kMonitorColumns[k];
+    if (k > 0) o << ',';
+    if (c.count)
+      o << m.*c.count;
+    else
+      o << m.*c.value;
+  }
+  o << '\n';
   const std::string row = o.str();
   if (row.find("nan") != std::string::npos || row.find("inf") != std::string::npos) {
-    std::stringstream names(kMonitorsHeader), cells(row);
-    std::string name, cell;
-    while (std::getline(names, name, ',') && std::getline(cells, cell, ','))
-      if (cell.find("nan") != std::string::npos || cell.find("inf") != std::string::npos) break;
-    throw RunError("step " + std::to_string(m.step) + ": the monitor " + name + " is " + cell +
-                   ": the run is unstable. " + solver.instability_advice());
+    std::stringstream cells(row);
+    std::string cell;
+    for (const MonitorColumn& c : kMonitorColumns)
+      if (std::getline(cells, cell, ',') &&
+          (cell.find("nan") != std::string::npos || cell.find("inf") != std::string::npos))
+        throw RunError("step " + std::to_string(m.step) + ": the monitor " + c.name + " is " + cell +
+                       ": the run is unstable. " + solver.instability_advice());
+    throw RunError("step " + std::to_string(m.step) + ": a monitor is not finite: the run is unstable. " +
+                   solver.instability_advice());
   }
   return row;
 }

@@ -19,8 +19,8 @@ struct RunSummary;
 
 /// Columns of summary.csv.
 extern const char* const kSummaryHeader;
-/// Columns of monitors.csv.
-extern const char* const kMonitorsHeader;
+/// The header line of monitors.csv (kMonitorColumns' names).
+std::string monitors_header();
 
 /// One monitor row (10 significant digits); a row with a non-finite value throws RunError
 /// instead (no output file holds NaN or inf), naming the step and the column.

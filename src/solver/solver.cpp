@@ -296,10 +296,8 @@ Monitors Solver::measure() {
   Monitors r;
   r.step = state.step;
   r.time = state.time;
-  r.axial_strain = loads_.platens.top_offset / m.height0;
-  r.force_top = -loads_.platens.force_top;
-  r.force_bottom = loads_.platens.force_bottom;
-  r.axial_stress = loads_.platens.axial_stress(model_.area0);
+  loads_.platens.monitor(m, r);
+  loads_.confinement.monitor(r);
   // This rank's sums: on the device where the state is (no copy of the state to the host).
   upload_if_changed();
   MonitorSums sums = dev_->measure_sums();
@@ -338,9 +336,6 @@ Monitors Solver::measure() {
   r.active_tets = long(sums.active_tets);
   r.contact_pairs = long(sums.contact_pairs);
   r.contacts = contacts.touching;
-  r.confining_pressure = loads_.confinement.pressure;
-  // Brazilian test: axial_stress is P / (D t) for a line-loaded disc.
-  if (m.line_loaded) r.indirect_tensile = 2 / M_PI * r.axial_stress;
   // (sums.friction_stored, the friction-spring energy of broken faces, is counted with their work)
   const real accounted = energy_.accounted(ke, se, pl_stored);
   r.energy_error = energy_.balance_error(accounted);

@@ -25,6 +25,7 @@
 #include "solver/device_loop.hpp"
 #include "solver/energy_ledger.hpp"
 #include "solver/loads.hpp"
+#include "solver/monitors.hpp"
 #include "solver/rank_layout.hpp"
 #include "solver/solver_state.hpp"
 #include "solver/stable_step.hpp"
@@ -40,24 +41,6 @@ struct TimeStepBeyondBound : InputError {
 class CheckpointOut;
 class CheckpointIn;
 struct GhostState;
-
-/// One row of the monitor CSV (SI units; stresses and strains compression positive).
-struct Monitors {
-  long step = 0;
-  real time = 0;
-  real axial_strain = 0, axial_stress = 0, lateral_strain = 0, volumetric_strain = 0;
-  real force_top = 0, force_bottom = 0;  // N, platen reactions along the axis (compression positive)
-  long damaged = 0, broken = 0, broken_I = 0, broken_II = 0, broken_mixed = 0;
-  real kinetic = 0, strain = 0, cohesive_stored = 0, cohesive_dissipated = 0, friction = 0, viscous = 0;
-  real platen_stored = 0, platen_friction = 0, external_work = 0;
-  real contact = 0, contact_friction = 0;                 // J, work into tet-tet contact (normal) and its friction
-  long active_tets = 0, contact_pairs = 0, contacts = 0;  // activated tets, candidate pairs, touching pairs
-  real confining_pressure = 0;                            // Pa, applied on the lateral surface
-  // Pa, -(s_xx + s_yy)/2 with the viscous part, averaged over the tets of the middle third of the height
-  real lateral_stress = 0;
-  real indirect_tensile = 0;  // Pa, 2 P / (pi D t) of a line-loaded disc (Brazilian test), else 0
-  real energy_error = 0;      // |external - (everything else)| / max(external, floor)
-};
 
 /// Growths of the contact ghosts so far (several ranks, partition/grow.hpp).
 struct GhostGrowths {
