@@ -56,7 +56,7 @@ struct Options {
 
 Result run(real h, const std::string& activation, const Options& opt) {
   fdem::MeshSpec spec;
-  spec.shape = "cylinder";
+  spec.shape = fdem::MeshShape::cylinder;
   spec.diameter = 0.02;
   spec.height = 0.04;
   spec.element_size = h;

@@ -314,7 +314,7 @@ int main(int argc, char** argv) {
   meshes.reserve(sizes.size());
   for (double h : sizes) {
     fdem::MeshSpec spec;
-    spec.shape = "cylinder";
+    spec.shape = fdem::MeshShape::cylinder;
     spec.diameter = 0.02;
     spec.height = 0.04;
     spec.element_size = h;

@@ -30,7 +30,7 @@ inline Scene test_scene() {
 
 /// A gmsh cylinder (axis z) of the given diameter, height and element size, m.
 inline MeshSpec cylinder(real diameter, real height, real element_size) {
-  return MeshSpec::round("cylinder", diameter, height, element_size);
+  return MeshSpec::round(MeshShape::cylinder, diameter, height, element_size);
 }
 
 /// Load along z until `strain` (platen approach / height), measuring every `every` steps.

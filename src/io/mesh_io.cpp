@@ -217,9 +217,9 @@ Mesh mesh_with_gmsh(const MeshSpec& s, const std::string& what) {
   gmsh::option::setNumber("Mesh.OptimizeThreshold", s.optimize_threshold);
   gmsh::option::setNumber("Mesh.Smoothing", s.smoothing);  // Laplacian passes; with 1 a few poor tets stay
 
-  if (s.shape == "cylinder") {
+  if (s.shape == MeshShape::cylinder) {
     occ::addCylinder(0, 0, 0, 0, 0, s.height, s.diameter / 2);
-  } else if (s.shape == "disc") {
+  } else if (s.shape == MeshShape::disc) {
     const real r = s.diameter / 2, t = s.height;
     const int vol = occ::addCylinder(0, -t / 2, r, 0, t, 0, r);
     // The seam of the lateral surface runs along x = 0, z = diameter (checked: OCC puts it at the
@@ -283,14 +283,16 @@ Mesh generate_mesh(const MeshSpec& s) {
   real volume = 0;
   auto positive = [](real v) { return v > 0 && std::isfinite(v); };
   if (!positive(h)) throw InputError("mesh.element_size must be a positive length in metres, got " + fmt(h));
-  if (s.shape == "cylinder" || s.shape == "disc") {
+  if (s.shape == MeshShape::cylinder || s.shape == MeshShape::disc) {
+    const std::string shape = name_of(s.shape);
     if (!positive(s.diameter) || !positive(s.height))
-      throw InputError("mesh: a " + s.shape + " needs diameter > 0 and height > 0 (m), got diameter " +
-                       fmt(s.diameter) + ", height " + fmt(s.height));
-    what = "generated " + s.shape + " (diameter " + fmt(s.diameter) + " m, " +
-           (s.shape == "disc" ? "thickness " : "height ") + fmt(s.height) + " m, element_size " + fmt(h) + " m)";
+      throw InputError("mesh: a " + shape + " needs diameter > 0 and height > 0 (m), got diameter " + fmt(s.diameter) +
+                       ", height " + fmt(s.height));
+    what = "generated " + shape + " (diameter " + fmt(s.diameter) + " m, " +
+           (s.shape == MeshShape::disc ? "thickness " : "height ") + fmt(s.height) + " m, element_size " + fmt(h) +
+           " m)";
     volume = 3.14159265358979323846 * s.diameter * s.diameter / 4 * s.height;
-  } else if (s.shape == "box") {
+  } else if (s.shape == MeshShape::box) {
     if (!positive(s.size.x) || !positive(s.size.y) || !positive(s.size.z))
       throw InputError("mesh: a box needs size > 0 in x, y and z (m), got (" + fmt(s.size.x) + ", " + fmt(s.size.y) +
                        ", " + fmt(s.size.z) + ")");
@@ -298,7 +300,10 @@ Mesh generate_mesh(const MeshSpec& s) {
            fmt(h) + " m)";
     volume = s.size.x * s.size.y * s.size.z;
   } else {
-    throw InputError("mesh.shape " + quote(s.shape) + " is unknown; use cylinder, disc or box, or give mesh.file");
+    throw InputError(
+        std::string("mesh: nothing to generate (") +
+        (s.shape == MeshShape::file ? "the shape says the mesh is read from mesh.file" : "an unknown shape") +
+        "); use cylinder, disc or box, or give mesh.file");
   }
   // About 6-8 tets per h^3 of volume; refuse what gmsh would take hours on (or run out of memory).
   const double estimate = 8 * volume / (h * h * h);

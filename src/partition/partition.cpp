@@ -521,7 +521,8 @@ std::uint64_t model_key(const Scene& s) {
     const real c[] = {b.min.x, b.min.y, b.min.z, b.max.x, b.max.y, b.max.z};
     h = fnv1a64(c, sizeof c, h);
   }
-  const std::string words = g.shape + "|" + g.file;
+  // (A mesh read from a file has the empty word, as it had when the shape was a string.)
+  const std::string words = std::string(g.generated() ? name_of(g.shape) : "") + "|" + g.file;
   return fnv1a64(words.data(), words.size(), h);
 }
 

@@ -343,7 +343,7 @@ class Reader {
             "paths are relative to the scene file's folder" +
                 (scene_dir.empty() ? std::string() : " (" + scene_dir + ")"));
     m.file = resolved.string();
-    m.shape.clear();
+    m.shape = MeshShape::file;
   }
 
   void generate(const YAML::Node& n, MeshSpec& m) {
@@ -367,11 +367,11 @@ class Reader {
     }
     const size_t errors_before = errors_.size();
     const bool round = shape != "box";
+    choice_named(shape, m.shape);  // one of `shapes`
     check_map(n, p,
               round ? std::vector<std::string>{"shape", "diameter", "height", "element_size", "optimize_threshold",
                                                "smoothing"}
                     : std::vector<std::string>{"shape", "size", "element_size", "optimize_threshold", "smoothing"});
-    m.shape = shape;
     m.file.clear();
     auto require = [&](const std::string& key, const std::string& what) {
       if (!n[key]) error(p + "." + key, "missing for shape " + shape, "give " + what);
@@ -547,7 +547,7 @@ class Reader {
 
   /// Cross-checks between sections, run only when the values involved are valid.
   void cohesive_law(const Scene& s) {
-    if (s.mesh.shape.empty()) return;  // mesh from a file: no element size known here
+    if (!s.mesh.generated()) return;  // mesh from a file: no element size known here
     const Material& m = s.material;
     const double h = s.mesh.element_size;
     const double o_p = 2 * h * m.tensile_strength / m.cohesive_penalty_open;

@@ -111,7 +111,7 @@ void set_confining_pressure(Scene& s, const std::string& value) {
 void set_mesh_size(Scene& s, SeriesKey key, const std::string& value) {
   const real v = number(key, value);
   require(v > 0, key, value, "must be > 0 m");
-  require(!s.mesh.shape.empty() && (key == SeriesKey::element_size || s.mesh.shape != "box"), key, value,
+  require(s.mesh.generated() && (key == SeriesKey::element_size || s.mesh.shape != MeshShape::box), key, value,
           "needs a generated cylinder or disc mesh (mesh.generate in " + s.file + ")");
   if (key == SeriesKey::element_size) {
     s.mesh.element_size = v;

@@ -35,9 +35,10 @@ void check(const fdem::Scene& s) {
   // poisson_ratio 0.4999999 gives inf; a limit on the moduli is a physics decision).
   if (!(m.poisson_ratio >= 0 && m.poisson_ratio < 0.5)) invariant_broken("poisson_ratio is outside [0, 0.5)");
   const fdem::MeshSpec& mesh = s.mesh;
-  if (mesh.file.empty() == mesh.shape.empty()) invariant_broken("the mesh is neither generated nor read (or both)");
-  if (!mesh.shape.empty()) {
-    if (mesh.shape != "cylinder" && mesh.shape != "disc" && mesh.shape != "box")
+  if (mesh.file.empty() != mesh.generated()) invariant_broken("the mesh is neither generated nor read (or both)");
+  if (mesh.generated()) {
+    if (mesh.shape != fdem::MeshShape::cylinder && mesh.shape != fdem::MeshShape::disc &&
+        mesh.shape != fdem::MeshShape::box)
       invariant_broken("mesh.generate.shape is unknown");
     if (!finite_positive(mesh.element_size)) invariant_broken("mesh.generate.element_size is not positive");
   } else if (!finite_positive(mesh.scale)) {

@@ -22,7 +22,7 @@ struct Outcome {
 
 Outcome run(const std::string& activation) {
   MeshSpec spec;
-  spec.shape = "cylinder";
+  spec.shape = MeshShape::cylinder;
   spec.diameter = 0.02;
   spec.height = 0.04;
   spec.element_size = 0.008;  // 160 tets: full activation stays affordable in CI

@@ -15,7 +15,7 @@ namespace {
 const Mesh& cylinder() {
   static const Mesh mesh = [] {
     MeshSpec spec;
-    spec.shape = "cylinder";
+    spec.shape = MeshShape::cylinder;
     spec.diameter = 0.02;
     spec.height = 0.04;
     spec.element_size = 0.005;

@@ -9,7 +9,7 @@ using namespace fdem;
 
 TEST(FracturingUcs, PeakThenFailureWithTheEnergyBalanceClosed) {
   MeshSpec spec;
-  spec.shape = "cylinder";
+  spec.shape = MeshShape::cylinder;
   spec.diameter = 0.02;
   spec.height = 0.04;
   spec.element_size = 0.005;

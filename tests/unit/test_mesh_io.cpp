@@ -87,7 +87,7 @@ std::string message_of(const std::function<void()>& f) {
 
 MeshSpec cylinder_spec() {
   MeshSpec s;
-  s.shape = "cylinder";
+  s.shape = MeshShape::cylinder;
   s.diameter = 0.05;
   s.height = 0.1;
   s.element_size = 0.005;
@@ -129,7 +129,7 @@ TEST(GenerateMesh, CylinderGeometryAndVolume) {
 
 TEST(GenerateMesh, BoxVolumeExact) {
   MeshSpec s;
-  s.shape = "box";
+  s.shape = MeshShape::box;
   s.size = {0.02, 0.03, 0.05};
   s.element_size = 0.008;
   const Mesh m = generate_mesh(s);
@@ -145,7 +145,7 @@ TEST(GenerateMesh, BoxVolumeExact) {
 
 TEST(GenerateMesh, DiscAxisYSpansZ0ToDiameter) {
   MeshSpec s;
-  s.shape = "disc";
+  s.shape = MeshShape::disc;
   s.diameter = 0.05;
   s.height = 0.02;  // thickness along y
   s.element_size = 0.004;
@@ -206,8 +206,10 @@ TEST(GenerateMesh, OptimisationKeysReachGmshAndRaiseTheWorstTet) {
 
 TEST(GenerateMesh, BadSpecsThrow) {
   MeshSpec s = cylinder_spec();
-  s.shape = "sphere";
-  EXPECT_NE(message_of([&] { generate_mesh(s); }).find("sphere"), std::string::npos);
+  s.shape = MeshShape::file;  // (an unknown shape word is the scene parser's error: Scene tests)
+  EXPECT_NE(message_of([&] { generate_mesh(s); }).find("read from mesh.file"), std::string::npos);
+  s.shape = MeshShape(7);
+  EXPECT_NE(message_of([&] { generate_mesh(s); }).find("unknown shape"), std::string::npos);
   s = cylinder_spec();
   s.diameter = 0;
   EXPECT_NE(message_of([&] { generate_mesh(s); }).find("diameter"), std::string::npos);
@@ -218,7 +220,7 @@ TEST(GenerateMesh, BadSpecsThrow) {
   s.element_size = 1e-6;  // ~1.6e13 tets: refused before gmsh starts
   EXPECT_NE(message_of([&] { generate_mesh(s); }).find("million tetrahedra"), std::string::npos);
   s = MeshSpec{};
-  s.shape = "box";
+  s.shape = MeshShape::box;
   s.size = {1, 0, 1};
   s.element_size = 0.1;
   EXPECT_NE(message_of([&] { generate_mesh(s); }).find("box"), std::string::npos);
@@ -269,7 +271,7 @@ TEST(ReadMsh, LoadMeshDispatchesOnFile) {
   EXPECT_NEAR(total_volume(m), 8.0, 1e-14);
   EXPECT_EQ(m.source, s.file);
   MeshSpec g;
-  g.shape = "box";
+  g.shape = MeshShape::box;
   g.size = {1, 1, 1};
   g.element_size = 0.5;
   EXPECT_NEAR(total_volume(load_mesh(g)), 1.0, 1e-12);

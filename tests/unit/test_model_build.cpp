@@ -397,7 +397,7 @@ TEST(ModelBuildGmsh, BrazilianDiscIsLineLoadedOnItsDiametralPlane) {
   // A disc (axis y, diameter along z) touches the platens along lines: no flat ends, so the
   // nominal loaded area is the diametral plane D x t, and the axial stress is P / (D t).
   Scene scene;
-  const Model m = build_model(generate_mesh(MeshSpec::round("disc", 0.03, 0.015, 0.006)), scene);
+  const Model m = build_model(generate_mesh(MeshSpec::round(MeshShape::disc, 0.03, 0.015, 0.006)), scene);
   EXPECT_TRUE(m.line_loaded);
   EXPECT_NEAR(m.height0, 0.03, 1e-9);
   EXPECT_NEAR(m.area0, 0.03 * 0.015, 1e-9 * 0.03 * 0.015);

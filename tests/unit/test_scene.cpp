@@ -75,7 +75,7 @@ TEST(Scene, DefaultSceneParses) {
   EXPECT_DOUBLE_EQ(s.material.youngs_modulus, 12.2e9);
   EXPECT_DOUBLE_EQ(s.material.cohesive_penalty_overlap, 12200e9);
   EXPECT_EQ(s.material.softening, Softening::munjiza);
-  EXPECT_EQ(s.mesh.shape, "cylinder");
+  EXPECT_EQ(s.mesh.shape, MeshShape::cylinder);
   EXPECT_TRUE(s.mesh.file.empty());
   EXPECT_DOUBLE_EQ(s.mesh.diameter, 0.02);
   EXPECT_DOUBLE_EQ(s.mesh.height, 0.04);
@@ -154,7 +154,7 @@ TEST(Scene, CheckpointAndEnergyWatchKeysAreRead) {
 TEST(Scene, MeshFileRelativeToSceneFolderWithRegions) {
   const Scene s = load_scene(kData + "/scenes/from_file.yaml");
   EXPECT_EQ(s.name, "tiny_from_file");
-  EXPECT_TRUE(s.mesh.shape.empty());
+  EXPECT_FALSE(s.mesh.generated());
   EXPECT_EQ(s.mesh.file, kData + "/scenes/tiny.msh");
   EXPECT_DOUBLE_EQ(s.mesh.scale, 1e-3);
   EXPECT_FALSE(s.platens.enabled);
@@ -179,7 +179,7 @@ TEST(Scene, MeshOptimisationKeysAreRead) {
 
 TEST(Scene, BoxAndNoFractureRegions) {
   const Scene s = load_scene(kData + "/scenes/box.yaml");
-  EXPECT_EQ(s.mesh.shape, "box");
+  EXPECT_EQ(s.mesh.shape, MeshShape::box);
   EXPECT_DOUBLE_EQ(s.mesh.size.y, 0.02);
   EXPECT_DOUBLE_EQ(s.mesh.size.z, 0.03);
   EXPECT_FALSE(s.fracture.everywhere);
@@ -196,7 +196,7 @@ TEST(Scene, ParseFromTextLabelsMessages) {
       "brazilian.yaml");
   EXPECT_EQ(s.name, "brazilian");
   EXPECT_EQ(s.file, "brazilian.yaml");
-  EXPECT_EQ(s.mesh.shape, "disc");
+  EXPECT_EQ(s.mesh.shape, MeshShape::disc);
   const std::string msg = parse_error(
       "mesh: {generate: {shape: disc, diameter: 0.05, height: 0.025, "
       "element_size: 0.002}}\nsolver: {end: {time: -1}}\n");
