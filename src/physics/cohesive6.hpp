@@ -144,55 +144,16 @@ FDEM_HD real past_peak(real a, real p, real w) {
   return w > 0 ? (a - p) / w : real(1);
 }
 
-/// The mid-plane of a CE6's two faces: unit normal n and the weight w of one integration point.
-struct MidPlane {
-  Vec3 n;
-  real w;  // A/3
-};
-
-/// The element's constants at size h: overlap and friction stiffness per unit area, the opening
-/// at the tensile peak and the mode I softening width.
-struct Ce6Scales {
-  real k_ov, k_t, o_p, w_n;
-};
-
-/// One integration point (the midpoint of edge k, k+1 of the mid-plane) on this step.
-struct Ce6Point {
-  real open;       // m, normal opening (negative: overlap)
-  Vec3 slip;       // m, tangential separation vector
-  real slip_len;   // m, its length
-  real strength;   // Pa, shear strength: cohesion + friction on the overlap pressure
-  real slip_peak;  // m, the slip at the shear peak
-  real Dn, Ds;     // damage measures past the peaks, opening and slip
-  Vec3 rate;       // m/s, the rate of separation
-};
-
-FDEM_HD_INLINE Ce6Point ce6_point(const Ce6Params& p, const Ce6Scales& c, real h, Vec3 n, const Vec3 (&d)[3],
-                                  const Vec3 (&dd)[3], int k) {
-  Ce6Point q;
-  const int a = k, b = (k + 1) % 3;
-  const Vec3 dk = real(0.5) * (d[a] + d[b]);
-  q.rate = real(0.5) * (dd[a] + dd[b]);
-  q.open = dot(n, dk);
-  q.slip = dk - q.open * n;
-  q.slip_len = norm(q.slip);
-  const real sig_ov = q.open < 0 ? c.k_ov * q.open : real(0);
-  q.strength = p.cohesion + (-sig_ov) * p.tan_phi;
-  q.slip_peak = p.P_tan > 0 ? 2 * h * q.strength / p.P_tan : real(0);
-  q.Dn = past_peak(q.open, c.o_p, c.w_n);
-  q.Ds = past_peak(q.slip_len, q.slip_peak, softening_width(p.GII, q.strength, q.slip_peak, p.Z));
-  return q;
-}
-
-/// Breaking: at least two points fully damaged; the mode from those points' mix.
-FDEM_HD_INLINE void ce6_break_mode(Ce6Damage& s, const Ce6Point (&q)[3]) {
+/// Breaking: at least two points fully damaged; the mode from those points' mix of the
+/// opening and slip damage measures Dn, Ds.
+FDEM_HD void ce6_break_mode(Ce6Damage& s, const real (&Dn)[3], const real (&Ds)[3]) {
   int count = 0;
   real num = 0, den = 0;
   for (int k = 0; k < 3; ++k) {
     if (s.D[k] >= 1) {
       ++count;
-      num += q[k].Dn * q[k].Dn;
-      den += q[k].Dn * q[k].Dn + q[k].Ds * q[k].Ds;
+      num += Dn[k] * Dn[k];
+      den += Dn[k] * Dn[k] + Ds[k] * Ds[k];
     }
   }
   if (count >= 2) {
@@ -201,46 +162,25 @@ FDEM_HD_INLINE void ce6_break_mode(Ce6Damage& s, const Ce6Point (&q)[3]) {
   }
 }
 
-/// A traction (Pa) and its stored energy per unit area (J/m^2).
-struct Ce6Traction {
-  Vec3 t;
-  real e;
-};
-
-/// A broken point in overlap: Coulomb friction, an elastic predictor on the anchor projected
-/// to the current plane. The anchor is the last step's sliding on the step of the break; it is
-/// this step's, so no friction, where the CE6 went from undamaged to broken in one step and
-/// stored no anchor.
-FDEM_HD_INLINE void ce6_friction(const Ce6Params& p, const Ce6Scales& c, Vec3 n, const Ce6Point& q, bool anchor_stored,
-                                 Vec3& anchor_k, Ce6Traction& out) {
-  const real tmax = p.mu_rock * (-c.k_ov * q.open);
-  const Vec3 anchor = anchor_stored ? anchor_k - dot(n, anchor_k) * n : q.slip;
-  const Vec3 rel = q.slip - anchor;
-  const Vec3 trial = c.k_t * rel;
+/// Coulomb friction of a broken point in overlap, up to tmax (Pa) with spring stiffness k_t
+/// (Pa/m) on slip sv: an elastic predictor on the anchor projected to the current plane. The
+/// anchor is the last step's sliding on the step of the break (anchor_stored); it is this
+/// step's, so no friction, where the CE6 went from undamaged to broken in one step and stored
+/// none. Adds the traction to t and its stored energy per unit area to e.
+FDEM_HD void ce6_friction(real tmax, real k_t, Vec3 n, Vec3 sv, bool anchor_stored, Vec3& anchor_k, Vec3& t, real& e) {
+  const Vec3 anchor = anchor_stored ? anchor_k - dot(n, anchor_k) * n : sv;
+  const Vec3 rel = sv - anchor;
+  const Vec3 trial = k_t * rel;
   const real tn = norm(trial);
   if (tn > tmax && tn > 0) {
     const Vec3 dir = (real(1) / tn) * trial;
-    anchor_k = q.slip - (c.k_t > 0 ? tmax / c.k_t : real(0)) * dir;
-    out.t += tmax * dir;
-    out.e += c.k_t > 0 ? real(0.5) * tmax * tmax / c.k_t : real(0);
+    anchor_k = sv - (k_t > 0 ? tmax / k_t : real(0)) * dir;
+    t += tmax * dir;
+    e += k_t > 0 ? real(0.5) * tmax * tmax / k_t : real(0);
   } else {
     anchor_k = anchor;
-    out.t += trial;
-    out.e += real(0.5) * c.k_t * dot(rel, rel);
-  }
-}
-
-/// An unbroken point: the pre-peak curves scaled by the softening z(D), in opening and slip.
-FDEM_HD_INLINE void ce6_cohesion(const Ce6Params& p, const Ce6Scales& c, Vec3 n, const Ce6Point& q, real D,
-                                 Ce6Traction& out) {
-  const real z = softening_z(D, p.softening);
-  if (q.open >= 0) {
-    out.t = (z * prepeak(q.open, c.o_p, p.ft)) * n;
-    out.e = z * prepeak_energy(q.open, c.o_p, p.ft);
-  }
-  if (q.slip_len > 0) {
-    out.t += (z * prepeak(q.slip_len, q.slip_peak, q.strength) / q.slip_len) * q.slip;
-    out.e += z * prepeak_energy(q.slip_len, q.slip_peak, q.strength);
+    t += trial;
+    e += real(0.5) * k_t * dot(rel, rel);
   }
 }
 
@@ -263,51 +203,76 @@ FDEM_HD Ce6Eval cohesive6_forces(const Ce6Params& p, const Vec3 (&x)[6], const V
   if (!(n2 > 0) || !(h > 0)) return out;
   const Vec3 n = (real(1) / n2) * nn;
   const real w = n2 / 6;  // A/3, weight of one integration point
-  Ce6Scales c;
-  c.k_ov = p.P_overlap / h;
-  c.k_t = p.P_tan / h;
-  c.o_p = p.P_open > 0 ? 2 * h * p.ft / p.P_open : real(0);
-  c.w_n = softening_width(p.GI, p.ft, c.o_p, p.Z);
+
+  const real k_ov = p.P_overlap / h;  // overlap stiffness per unit area
+  const real k_t = p.P_tan / h;       // tangential (friction spring) stiffness per unit area
+  const real o_p = p.P_open > 0 ? 2 * h * p.ft / p.P_open : real(0);
+  const real w_n = softening_width(p.GI, p.ft, o_p, p.Z);
 
   Vec3 d[3], dd[3];
   for (int i = 0; i < 3; ++i) {
     d[i] = x[i + 3] - x[i];
     dd[i] = v[i + 3] - v[i];
   }
-  // Kinematics at the three points and, while intact, the damage update and the break.
-  Ce6Point q[3];
+
+  // Kinematics at the three points and, while intact, the damage update.
+  real o[3], sl[3], fs[3], sp[3], Dn[3], Ds[3];
+  Vec3 sv[3], dkdot[3];
   const bool was_broken = s.mode != 0;
   const bool had_damage = ce6_max_damage(s) > 0;  // anchors stored on the last step
   for (int k = 0; k < 3; ++k) {
-    q[k] = ce6_point(p, c, h, n, d, dd, k);
+    const int a = k, b = (k + 1) % 3;
+    const Vec3 dk = real(0.5) * (d[a] + d[b]);
+    dkdot[k] = real(0.5) * (dd[a] + dd[b]);
+    o[k] = dot(n, dk);
+    sv[k] = dk - o[k] * n;
+    sl[k] = norm(sv[k]);
+    const real sig_ov = o[k] < 0 ? k_ov * o[k] : real(0);
+    fs[k] = p.cohesion + (-sig_ov) * p.tan_phi;
+    sp[k] = p.P_tan > 0 ? 2 * h * fs[k] / p.P_tan : real(0);
+    Dn[k] = past_peak(o[k], o_p, w_n);
+    Ds[k] = past_peak(sl[k], sp[k], softening_width(p.GII, fs[k], sp[k], p.Z));
     if (!was_broken) {
-      real Dc = std::sqrt(q[k].Dn * q[k].Dn + q[k].Ds * q[k].Ds);
+      real Dc = std::sqrt(Dn[k] * Dn[k] + Ds[k] * Ds[k]);
       if (Dc > 1) Dc = 1;
       if (Dc > s.D[k]) s.D[k] = Dc;
     }
   }
-  if (!was_broken) ce6_break_mode(s, q);
+
+  if (!was_broken) ce6_break_mode(s, Dn, Ds);
   const bool broken = s.mode != 0;
   const bool damaged = ce6_max_damage(s) > 0;  // anchors are kept from the first damage on
 
   for (int k = 0; k < 3; ++k) {
-    Ce6Traction tr{{0, 0, 0}, 0};
-    if (q[k].open < 0) {  // the overlap penalty, in every state
-      tr.t = (c.k_ov * q[k].open) * n;
-      tr.e = real(0.5) * c.k_ov * q[k].open * q[k].open;
+    Vec3 t{0, 0, 0};
+    real e = 0;  // stored energy per unit area
+    if (o[k] < 0) {
+      const real sig = k_ov * o[k];
+      t = sig * n;
+      e = real(0.5) * k_ov * o[k] * o[k];
     }
     if (broken) {
-      if (q[k].open < 0)
-        ce6_friction(p, c, n, q[k], was_broken || had_damage, anchors[k], tr);
-      else
-        anchors[k] = q[k].slip;
+      if (o[k] < 0) {
+        const real tmax = p.mu_rock * (-k_ov * o[k]);
+        ce6_friction(tmax, k_t, n, sv[k], was_broken || had_damage, anchors[k], t, e);
+      } else {
+        anchors[k] = sv[k];
+      }
     } else {
-      if (damaged) anchors[k] = q[k].slip;  // the anchor follows until the break
-      ce6_cohesion(p, c, n, q[k], s.D[k], tr);
+      const real z = softening_z(s.D[k], p.softening);
+      if (damaged) anchors[k] = sv[k];  // the anchor follows until the break
+      if (o[k] >= 0) {
+        t = (z * prepeak(o[k], o_p, p.ft)) * n;
+        e = z * prepeak_energy(o[k], o_p, p.ft);
+      }
+      if (sl[k] > 0) {
+        t += (z * prepeak(sl[k], sp[k], fs[k]) / sl[k]) * sv[k];
+        e += z * prepeak_energy(sl[k], sp[k], fs[k]);
+      }
     }
-    out.power += w * dot(tr.t, q[k].rate);
-    out.stored += w * tr.e;
-    const Vec3 fk = real(0.5) * w * tr.t;
+    out.power += w * dot(t, dkdot[k]);
+    out.stored += w * e;
+    const Vec3 fk = real(0.5) * w * t;
     const int a = k, b = (k + 1) % 3;
     f[a] += fk;
     f[b] += fk;
