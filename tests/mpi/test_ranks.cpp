@@ -373,6 +373,89 @@ TEST(Ranks, ContactPairAcrossRanksGivesOneRankForces) {
         world_size(), across, touching, worst_f, worst_x);
 }
 
+/// The two-block fall of the test below, stepped on one rank (ref) and decomposed (d): the
+/// largest differences, the contacts, the lower block's push, and a run restarted at step 700
+/// from a checkpoint of d.
+struct TwoBlockFall {
+  double worst_f = 0, worst_x = 0, worst_e = 0;
+  long touching = 0, touching_d = 0;
+  Monitors mr, md;
+  real pushed = 0;
+  std::unique_ptr<Solver> restarted;
+};
+
+TwoBlockFall step_two_block_fall(Solver& ref, Solver& d, const Scene& scene, const RankModel& start,
+                                 const Model& global) {
+  TwoBlockFall r;
+  const std::vector<Vec3> zero_r(ref.state.f.size());
+  for (int i = 1; i <= 2500; ++i) {
+    ref.step();
+    d.step();
+    if (r.restarted) r.restarted->step();
+    if (i == 700) {
+      // A checkpoint after growths holds the grown rank model: a solver of the rank model the
+      // run started with continues from it bit for bit.
+      CheckpointOut o;
+      d.save(o);
+      r.restarted = std::make_unique<Solver>(scene, start.model, start.dd, MPI_COMM_WORLD);
+      CheckpointIn in(o.payload(), "checkpoint in memory");
+      r.restarted->load(in);
+      in.finish();
+    }
+    r.mr = ref.measure();
+    r.md = d.measure();
+    ref.sync_host();  // (a device backend's monitor row leaves the host copy as it was)
+    d.sync_host();
+    real vz = 0;  // the lower block's mean velocity: it moves once the upper one hits it
+    int count = 0;
+    for (std::size_t t = 0; t < global.tet_nodes.size(); ++t)
+      if (!upper(global, int(t)))
+        for (int n : global.tet_nodes[t]) vz += ref.state.v[n].z, ++count;
+    r.pushed = std::min(r.pushed, vz / count);
+    // Bit for bit through the impact and fracture: the contact pairs are in global order
+    // (ContactSet::rebuild), so every node sums its contact forces as on one rank.
+    const std::vector<Vec3> zero_d(d.state.f.size());
+    r.worst_x = std::max(r.worst_x, node_error(d, d.state.x, ref.state.x, ref.model().X, d.model().X));
+    if (r.mr.contacts == 0) continue;
+    r.worst_f = std::max(r.worst_f, node_error(d, d.state.f, ref.state.f, zero_r, zero_d));
+    r.worst_e = std::max(r.worst_e, std::fabs(r.md.contact - r.mr.contact) / std::fabs(r.mr.contact));
+    r.touching = std::max(r.touching, r.mr.contacts);
+    r.touching_d = std::max(r.touching_d, r.md.contacts);
+  }
+  return r;
+}
+
+/// Tets whose box comes within half the reach of the box of one of d's own tets (at the
+/// one-rank run's positions, brute force), and how many of them d does not hold.
+struct NearTets {
+  long near = 0, missing = 0;
+};
+
+NearTets near_tets_not_held(const Solver& ref, const Solver& d, const Model& global, real reach) {
+  const Decomposition& dd = d.decomposition();
+  std::set<long> held(dd.tet_global.begin(), dd.tet_global.end());
+  auto box = [&](long t) {
+    Aabb b{ref.state.x[global.tet_nodes[t][0]], ref.state.x[global.tet_nodes[t][0]]};
+    for (int n : global.tet_nodes[t])
+      for (int k = 0; k < 3; ++k)
+        b.lo[k] = std::min(b.lo[k], ref.state.x[n][k]), b.hi[k] = std::max(b.hi[k], ref.state.x[n][k]);
+    return b;
+  };
+  NearTets r;
+  for (std::size_t i = 0; i < dd.tet_global.size(); ++i) {
+    if (!dd.tet_owned[i]) continue;
+    const Aabb a = box(dd.tet_global[i]);
+    for (long u = 0; u < long(global.tet_nodes.size()); ++u) {
+      const Aabb b = box(u);
+      bool close = true;
+      for (int k = 0; k < 3; ++k) close = close && a.lo[k] - 0.5 * reach <= b.hi[k] && b.lo[k] - 0.5 * reach <= a.hi[k];
+      r.near += close;
+      r.missing += close && !held.count(u);
+    }
+  }
+  return r;
+}
+
 TEST(Ranks, FragmentsTravellingBeyondTheReachGatherTheirContactGhosts) {
   // The upper block starts 0.5 mm above the lower one and falls at 5 m/s onto it; the contact
   // reach is 0.3 mm, so at the start neither rank holds a tet of the other block. Each time a
@@ -405,47 +488,12 @@ TEST(Ranks, FragmentsTravellingBeyondTheReachGatherTheirContactGhosts) {
           for (int n : s->model().tet_nodes[t]) s->state.v[n] = {0, 0, -5};
       s->host_changed();
     }
-    const std::vector<Vec3> zero_r(ref.state.f.size());
-    double worst_f = 0, worst_x = 0;
-    long touching = 0, touching_d = 0;
-    Monitors mr, md;
-    std::unique_ptr<Solver> restarted;
-    real pushed = 0;
-    double worst_e = 0;
-    for (int i = 1; i <= 2500; ++i) {
-      ref.step();
-      d.step();
-      if (restarted) restarted->step();
-      if (i == 700) {
-        // A checkpoint after growths holds the grown rank model: a solver of the rank model the
-        // run started with continues from it bit for bit.
-        CheckpointOut o;
-        d.save(o);
-        restarted = std::make_unique<Solver>(scene, start.model, start.dd, MPI_COMM_WORLD);
-        CheckpointIn in(o.payload(), "checkpoint in memory");
-        restarted->load(in);
-        in.finish();
-      }
-      mr = ref.measure();
-      md = d.measure();
-      ref.sync_host();  // (a device backend's monitor row leaves the host copy as it was)
-      d.sync_host();
-      real vz = 0;  // the lower block's mean velocity: it moves once the upper one hits it
-      int count = 0;
-      for (std::size_t t = 0; t < global.tet_nodes.size(); ++t)
-        if (!upper(global, int(t)))
-          for (int n : global.tet_nodes[t]) vz += ref.state.v[n].z, ++count;
-      pushed = std::min(pushed, vz / count);
-      // Bit for bit through the impact and fracture: the contact pairs are in global order
-      // (ContactSet::rebuild), so every node sums its contact forces as on one rank.
-      const std::vector<Vec3> zero_d(d.state.f.size());
-      worst_x = std::max(worst_x, node_error(d, d.state.x, ref.state.x, ref.model().X, d.model().X));
-      if (mr.contacts == 0) continue;
-      worst_f = std::max(worst_f, node_error(d, d.state.f, ref.state.f, zero_r, zero_d));
-      worst_e = std::max(worst_e, std::fabs(md.contact - mr.contact) / std::fabs(mr.contact));
-      touching = std::max(touching, mr.contacts);
-      touching_d = std::max(touching_d, md.contacts);
-    }
+    const TwoBlockFall fall = step_two_block_fall(ref, d, scene, start, global);
+    const Monitors &mr = fall.mr, &md = fall.md;
+    const std::unique_ptr<Solver>& restarted = fall.restarted;
+    const double worst_f = fall.worst_f, worst_x = fall.worst_x, worst_e = fall.worst_e;
+    const long touching = fall.touching, touching_d = fall.touching_d;
+    const real pushed = fall.pushed;
     d.sync_host();
     restarted->sync_host();
     EXPECT_EQ(restarted->model().tet_nodes.size(), d.model().tet_nodes.size()) << backend;
@@ -472,30 +520,9 @@ TEST(Ranks, FragmentsTravellingBeyondTheReachGatherTheirContactGhosts) {
       EXPECT_GT(long(d.model().tet_nodes.size()), held_at_start) << backend;
       // Every tet whose box comes within half the reach of an own tet's box now is held: the
       // ghosts were gathered within the reach where the nodes were, less than a quarter of the
-      // reach ago (brute force over the one-rank run's positions).
-      const Decomposition& dd = d.decomposition();
-      std::set<long> held(dd.tet_global.begin(), dd.tet_global.end());
-      auto box = [&](long t) {
-        Aabb b{ref.state.x[global.tet_nodes[t][0]], ref.state.x[global.tet_nodes[t][0]]};
-        for (int n : global.tet_nodes[t])
-          for (int k = 0; k < 3; ++k)
-            b.lo[k] = std::min(b.lo[k], ref.state.x[n][k]), b.hi[k] = std::max(b.hi[k], ref.state.x[n][k]);
-        return b;
-      };
-      long missing = 0, near = 0;
-      for (std::size_t i = 0; i < dd.tet_global.size(); ++i) {
-        if (!dd.tet_owned[i]) continue;
-        const Aabb a = box(dd.tet_global[i]);
-        for (long u = 0; u < long(global.tet_nodes.size()); ++u) {
-          const Aabb b = box(u);
-          bool close = true;
-          for (int k = 0; k < 3; ++k)
-            close = close && a.lo[k] - 0.5 * reach <= b.hi[k] && b.lo[k] - 0.5 * reach <= a.hi[k];
-          near += close;
-          missing += close && !held.count(u);
-        }
-      }
-      EXPECT_EQ(missing, 0) << backend << " (" << near << " near pairs)";
+      // reach ago.
+      const NearTets near = near_tets_not_held(ref, d, global, reach);
+      EXPECT_EQ(near.missing, 0) << backend << " (" << near.near << " near pairs)";
     } else {
       EXPECT_EQ(g.count, 0) << backend;
     }
