@@ -61,19 +61,23 @@ void write_unstable_summary(const std::string& path, const std::string& name, st
 
 }  // namespace
 
+bool series_key_named(const std::string& word, SeriesKey& key) {
+  return choice_named(word == "platen_speed" ? std::string("platen_velocity") : word, key);
+}
+
 SeriesAxis parse_series_axis(const std::string& arg) {
   const std::size_t eq = arg.find('=');
   const std::string keys = choice_list<SeriesKey>(", ");
   if (eq == std::string::npos || eq == 0)
     throw InputError("--vary " + arg + ": expected key=value1,value2,... with key one of " + keys);
   SeriesAxis a;
-  std::string key = arg.substr(0, eq);
-  if (key == "platen_speed") key = "platen_velocity";  // the name users also say
+  const std::string key = arg.substr(0, eq);
   if (key == "precision")
     throw InputError("--vary " + arg +
                      ": fdem computes in double precision only (core/config.hpp); a single-precision solver is not "
                      "built, and casting the outputs would not measure its error, so there is no precision axis");
-  if (!choice_named(key, a.key)) throw InputError("--vary " + arg + ": unknown key '" + key + "'; allowed: " + keys);
+  if (!series_key_named(key, a.key))
+    throw InputError("--vary " + arg + ": unknown key '" + key + "'; allowed: " + keys);
   // The same value twice (also spelled differently: 1 and 1.0, 1e6 and 1000000) would run twice
   // and, in fdem triaxial, count twice in the Mohr-Coulomb fit.
   auto same = [](const std::string& x, const std::string& y) { return x == y || decimal(x) == decimal(y); };

@@ -45,6 +45,9 @@ struct SeriesAxis {
   std::vector<std::string> values;  // as typed: they name the run folders
 };
 
+/// The key a word names, platen_speed (what users also say) included; false where none.
+bool series_key_named(const std::string& word, SeriesKey& key);
+
 /// Parses "key=v1,v2,..." (throws InputError naming the argument and the fix).
 SeriesAxis parse_series_axis(const std::string& arg);
 

@@ -22,8 +22,11 @@ namespace fs = std::filesystem;
 // How exact a value of an axis is: larger is more exact; NaN where there is no order.
 real exactness(SeriesKey key, const std::string& value) {
   switch (key) {
-    case SeriesKey::activation:
-      return value == "full" ? 2 : value == "adaptive" ? 1 : 0;
+    case SeriesKey::activation: {
+      Activation a = Activation::none;
+      choice_named(value, a);  // (checked by apply_series_value before any run)
+      return a == Activation::full ? 2 : a == Activation::adaptive ? 1 : 0;
+    }
     case SeriesKey::mass_scaling:
     case SeriesKey::platen_velocity:
     case SeriesKey::element_size:
@@ -205,10 +208,9 @@ SeriesValues parse_reference(const std::string& arg) {
   for (std::string kv; std::getline(in, kv, ',');) {
     const std::size_t eq = kv.find('=');
     if (eq == std::string::npos) throw InputError("--reference " + arg + ": expected key=value[,key=value]");
-    std::string key = kv.substr(0, eq);
-    if (key == "platen_speed") key = "platen_velocity";  // as --vary accepts it
+    const std::string key = kv.substr(0, eq);
     SeriesValue v{SeriesKey::sigma3, kv.substr(eq + 1)};
-    if (!choice_named(key, v.key))
+    if (!series_key_named(key, v.key))
       throw InputError("--reference " + kv + ": " + key + " is not varied (--vary takes " +
                        choice_list<SeriesKey>(", ") + ")");
     ref.push_back(v);
