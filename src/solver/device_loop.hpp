@@ -20,7 +20,7 @@
 #include "solver/ce6_states.hpp"
 #include "solver/contact_set.hpp"
 #include "solver/energy_ledger.hpp"
-#include "solver/loads.hpp"
+#include "loads/loads.hpp"
 #include "solver/rank_layout.hpp"
 
 namespace fdem {

@@ -20,7 +20,6 @@
 #include "solver/device_loop.hpp"
 #include "solver/element_passes.hpp"
 #include "solver/halo_passes.hpp"
-#include "solver/load_passes.hpp"
 #include "solver/loop_sums.hpp"
 #include "solver/pass_support.hpp"
 
@@ -41,19 +40,13 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
                                     : ElementSchedule::fused) {
     elements_.set_backend(b, std::move(plan));
     contact_.set_backend(b, integrates());
-    each_load([&](auto& load) { load.set_backend(b); });
+    parts.loads.each([&](auto& load) { load.set_backend(b); });
     auto set = [&](auto&... a) { (a.set_backend(b), ...); };
     set(X_, x_, v_, f_, x2_, v2_, mass_, sums_, own_node_, own_tet_, mid_third_, ext_tet_, ext_static_, unreached_,
         lateral_nodes_);
     halo_.set_backend(b, direct_mpi);
     sums_.resize(kAll);
     clear_sums(0, kAll);  // a slot a schedule never writes (kWatched) reads 0
-  }
-
-  /// f(load) for every load's pass, in a fixed order.
-  template <class F>
-  void each_load(F&& f) {
-    std::apply([&](auto&... load) { (f(load), ...); }, loads_);
   }
 
   Backend backend() const override { return b_; }
@@ -93,9 +86,9 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
       throw RunError("device loop: the fused pass cannot integrate this run (several ranks or nodes outside the tets)");
     if (s.layout.halo) halo_.plan(*s.layout.halo, s.layout.dd);
     mid_third_.upload(middle_third_tets(m));
-    each_load([&](auto& load) { load.place(m, s.loads, integrates()); });
+    s.loads.each([&](auto& load) { load.place(m, integrates()); });
     if (s.contacts.enabled()) contact_.place(s);
-    place_held_flags(s, pressure_.loaded_nodes());
+    place_held_flags(s, s.loads.confinement.loaded_nodes());
   }
 
   /// Where the fused pass integrates: the tets with a node on a platen or a lateral face
@@ -130,7 +123,7 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     place(b_, f_, s.f);
     if (integrates()) own_copy(x2_, s.x.size()), own_copy(v2_, s.v.size());
     elements_.upload_state(s.ce6, s.ce6_broke, s.layout.own_ce6);
-    each_load([&](auto& load) { load.upload_state(s.loads); });
+    s.loads.each([&](auto& load) { load.upload_state(); });
     if (!s.contacts.enabled()) return;
     contact_.upload_state(s.contacts);
     flags_merged_ = false;
@@ -145,7 +138,7 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     v_.download(s.v);
     f_.download(s.f);
     elements_.download_state(s.ce6, s.ce6_broke);
-    each_load([&](const auto& load) { load.download_state(s.loads); });
+    s.loads.each([&](auto& load) { load.download_state(); });
     if (s.contacts.enabled()) contact_.download_state(s.contacts);
     t_.copies += seconds_since(t0);
   }
@@ -286,8 +279,9 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
   /// written twice).
   void start_forces() {
     Vec3* f = f_.data();
-    if (gravity_.enabled) {
-      gravity_.start_forces(int(x_.size()), mass_.data(), v_.data(), own_node_.data(), f, sums_.data());
+    const GravityLoad& gravity = p_.loads.gravity;
+    if (gravity.enabled) {
+      gravity.start_forces<Exec>(int(x_.size()), mass_.data(), v_.data(), own_node_.data(), f, sums_.data());
       return;
     }
     const int* un = unreached_.data();
@@ -310,17 +304,19 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
 
   /// What the element passes read of the node state.
   ElementInputs element_inputs(const LoopParts& s) {
-    return ElementInputs{x_.data(),        v_.data(),  f_.data(),     mass_.data(), own_tet_.data(),
-                         gravity_.enabled, gravity_.g, s.laws.lambda, s.laws.mu,    sums_.data()};
+    const GravityLoad& gravity = s.loads.gravity;
+    return ElementInputs{x_.data(),       v_.data(), f_.data(),     mass_.data(), own_tet_.data(),
+                         gravity.enabled, gravity.g, s.laws.lambda, s.laws.mu,    sums_.data()};
   }
   /// The forces held for the fused pass that integrates.
   HeldForces held_forces() const {
-    return HeldForces{ext_tet_.data(),       contact_.gather_place(), contact_.held_sum(),
-                      platens_.held_place(), platens_.held_force(),   pressure_.held()};
+    const Loads& l = p_.loads;
+    return HeldForces{ext_tet_.data(),        contact_.gather_place(), contact_.held_sum(),
+                      l.platens.held_place(), l.platens.held_force(),  l.confinement.held()};
   }
   /// The step the fused pass takes: into the second copies of x and v.
   FusedStep fused_step() {
-    return FusedStep{x2_.data(), v2_.data(), prescribed_.node_step(mass_.data(), waiting_.step_dt)};
+    return FusedStep{x2_.data(), v2_.data(), p_.loads.prescribed.node_step(mass_.data(), waiting_.step_dt)};
   }
 
   /// Where the fused pass stepped: the last evaluation's sums (its contact, platens and pressure
@@ -420,12 +416,12 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
   void platens_and_pressure(const LoopParts& s, real top_offset, real time, bool gather) {
     const Vec3* x = x_.data();
     real* sums = sums_.data();
-    const PlatenLoad& platens = s.loads.platens;
+    PlatenLoad& platens = s.loads.platens;
     if (platens.enabled) {
-      const auto platen = platens_.forces(platens, top_offset, integrates(), f_.data());
+      const auto platen = platens.forces(top_offset, integrates(), f_.data());
       // After the platen nodes, where it comes here (gather), the pairs' per-node sum (after them,
       // so that the order of the platens' sums does not change with the pairs').
-      const int npn = platens_.nodes();
+      const int npn = platens.nodes();
       const int ng = gather && s.contacts.enabled() ? int(contact_.gathered_nodes()) : 0;
       const auto pairs = contact_.gather();
       Vec3* held = contact_.held_sum_out();
@@ -444,13 +440,13 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     // evaluation's platen reactions. Several ranks sum those over the ranks first and put them
     // back on the device (a reduction of their own; the rest of the evaluation's sums wait for
     // the step's).
-    const ConfiningPressure& cf = s.loads.confinement;
+    ConfiningPressure& cf = s.loads.confinement;
     if (cf.enabled && cf.hydrostatic && s.layout.dd.distributed()) {
       device::to_host(b_, reactions_.data(), sums + kTop, sizeof reactions_);
       s.layout.sum(reactions_.data(), 2);
       device::to_device(b_, sums + kTop, reactions_.data(), sizeof reactions_);
     }
-    if (cf.enabled) pressure_.forces(cf, s.model.area0, time, x, v_.data(), own_node_.data(), f_.data(), sums);
+    if (cf.enabled) cf.forces<Exec>(s.model.area0, time, x, v_.data(), own_node_.data(), f_.data(), sums);
     clock_.lap(t_.pressure);
   }
 
@@ -589,14 +585,15 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
           }
         },
         sums_.data() + kBad);
-    prescribed_.apply(x, v, dt);
+    p_.loads.prescribed.apply<Exec>(x, v, dt);
   }
 
   /// The powers of the last contact and pressure forces, and of gravity, with the velocities now
   /// (the work over a step with the mean of the velocities before and after it).
   void new_powers(bool contact, bool pressure, bool gravity) {
     contact_pressure_powers(contact, pressure, false);
-    if (gravity) gravity_.power(int(x_.size()), mass_.data(), v_.data(), own_node_.data(), sums_.data());
+    if (gravity)
+      p_.loads.gravity.new_power<Exec>(int(x_.size()), mass_.data(), v_.data(), own_node_.data(), sums_.data());
   }
 
   /// The powers of the last contact pair forces (-sum f.v) and confining pressure forces with
@@ -604,10 +601,11 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
   /// then the faces); with `watch`, the broad phase's watch too (the watched nodes after them,
   /// counted into kWatched; where the fused pass steps, this saves the watch a launch).
   void contact_pressure_powers(bool contact, bool pressure, bool watch) {
-    const int np = contact ? int(contact_.pairs()) : 0, nf = pressure ? pressure_.faces() : 0;
+    const ConfiningPressure& cf = p_.loads.confinement;
+    const int np = contact ? int(contact_.pairs()) : 0, nf = pressure ? cf.face_count() : 0;
     const int nw = watch ? contact_.watched() : 0;
     const auto pair = contact_.power(elements_.tet_nodes());
-    const auto face = pressure_.power();
+    const auto face = cf.new_power();
     const auto moved = contact_.watch(p_.contacts.buffer());
     const Vec3* x = x_.data();
     const Vec3* v = v_.data();
@@ -641,7 +639,7 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
   void take_left_step() {
     waiting_.step = false;
     integrate_nodes(waiting_.step_dt, nullptr, 0);
-    new_powers(p_.contacts.enabled(), p_.loads.confinement.enabled, gravity_.enabled);
+    new_powers(p_.contacts.enabled(), p_.loads.confinement.enabled, p_.loads.gravity.enabled);
   }
 
   /// Where the fused pass integrates: the element part of the last evaluation, left to the next
@@ -670,7 +668,7 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     lateral_strain(s.model, out);
     out.kinetic = 0.5 * kinetic2();
     elements_.measure(x_.data(), v_.data(), own_tet_.data(), mid_third_.data(), s.laws.lambda, s.laws.mu, out);
-    if (s.loads.platens.enabled) out.platen_stored = platens_.stored(s.loads.platens, x_.data());
+    if (s.loads.platens.enabled) out.platen_stored = s.loads.platens.stored<Exec>(x_.data());
     if (s.contacts.enabled()) contact_.measure(own_tet_.data(), out);
     t_.monitor += seconds_since(t0);
     return out;
@@ -703,8 +701,9 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     const double vec = sizeof(Vec3);
     // Gravity (f written from m and v) or the zeroing of the nodes no TET4 reaches; integration
     // (x, v, f, m; 1/m divided) and the kinetic-energy sum.
+    const Loads& loads = p_.loads;
     const double start =
-        gravity_.enabled ? nn * (vec + vec + sizeof(real)) : double(unreached_.size()) * (vec + sizeof(int));
+        loads.gravity.enabled ? nn * (vec + vec + sizeof(real)) : double(unreached_.size()) * (vec + sizeof(int));
     // Where the fused pass integrates, each tet moves its own 4 nodes instead (m read, x and v
     // written to the second copies; its place in the prescribed lists) after adding what contact,
     // platens and pressure hold for it (its flags; where flagged, each node's places, and the sum
@@ -713,12 +712,12 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     // read.) The tet's own x and v are read again for the step.
     const double ng = double(contact_.gathered_nodes());
     const double held = nt + double(ext_nodes_) * 3 * sizeof(int) + ng * (sizeof(int) + 2 * vec) +
-                        double(platens_.nodes() + pressure_.node_face_entries()) * vec;
+                        double(loads.platens.nodes() + loads.confinement.node_face_entries()) * vec;
     const double mass_read = elements_.mass_from_volume() ? 0 : sizeof(real);  // (else from V0, read for TET4)
     const double node = integrates()
-                            ? nt * 4 * (4 * vec + mass_read + (prescribed_.per_node() ? sizeof(int) : 0)) + held
+                            ? nt * 4 * (4 * vec + mass_read + (loads.prescribed.per_node() ? sizeof(int) : 0)) + held
                             : start + nn * (5 * vec + sizeof(real));
-    return elements_.bytes_per_step(gravity_.enabled, integrates()) + contact_.bytes_per_step() + node;
+    return elements_.bytes_per_step(loads.gravity.enabled, integrates()) + contact_.bytes_per_step() + node;
   }
 
  private:
@@ -756,12 +755,6 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
   // The parts.
   Elements elements_;
   ContactPasses<Exec> contact_;
-  // The loads, each one type (solver/load_passes.hpp), and by name for the passes of a step.
-  std::tuple<GravityPass<Exec>, PlatenPass<Exec>, PressurePass<Exec>, PrescribedPass<Exec>> loads_;
-  GravityPass<Exec>& gravity_ = std::get<GravityPass<Exec>>(loads_);
-  PlatenPass<Exec>& platens_ = std::get<PlatenPass<Exec>>(loads_);
-  PressurePass<Exec>& pressure_ = std::get<PressurePass<Exec>>(loads_);
-  PrescribedPass<Exec>& prescribed_ = std::get<PrescribedPass<Exec>>(loads_);
   HaloPasses<Exec> halo_;  // several ranks
   // The node state and this rank's layout.
   DeviceArray<Vec3> X_, x_, v_, f_;

@@ -11,10 +11,12 @@
 #include <vector>
 
 #include "core/forall.hpp"
+#include "loads/confinement.hpp"
+#include "loads/gravity.hpp"
+#include "loads/prescribed.hpp"
 #include "physics/cohesive6.hpp"
 #include "physics/tet4.hpp"
 #include "solver/device_loop.hpp"
-#include "solver/load_passes.hpp"
 #include "solver/loop_sums.hpp"
 #include "solver/pass_support.hpp"
 
@@ -370,8 +372,8 @@ class ElementPasses : SumSlots {
       for (int i = 0; i < 4; ++i) {
         const int n = q[i];
         xe[i] = x[n], ve[i] = v[n];
-        if (kOwn) {  // the force starts with gravity (GravityPass::start_forces), or at zero
-          start[i] = gravity ? (from_volume ? tet_mass : mass[n]) * g : Vec3{0, 0, 0};
+        if (kOwn) {  // the force starts with gravity (GravityLoad::start_forces), or at zero
+          start[i] = gravity ? gravity_force(from_volume ? tet_mass : mass[n], g) : Vec3{0, 0, 0};
           if (gravity) acc[0] += dot(start[i], ve[i]);  // (one rank: every node owned)
         }
       }

@@ -6,49 +6,9 @@
 #include "core/config.hpp"
 #include "core/vec.hpp"
 #include "solver/device_loop.hpp"
+#include "solver/sum_slots.hpp"
 
 namespace fdem {
-
-/// The slots of the loop's sums array. [0, kBad): a force evaluation's sums, [kBad, kSums): an
-/// integration's. Gravity's and the element passes' come last of the first, and the
-/// integration's kinetic energy and gravity power first of the second, so that a fused pass that
-/// integrates sums into one run of slots (kGravity to kGravityNew). A pass that sums into a run
-/// of slots asserts their order where it does.
-struct SumSlots {
-  enum Slot : int {
-    kAdded,     // activation: tets it added to the candidates
-    kMoved,     // the broad phase's watch: nodes that moved half the buffer
-    kTouching,  // contact: touching pairs, slip dissipated, spring energy, power
-    kConDiss,
-    kConStored,
-    kConPower,
-    kTop,  // platens: the two reactions and the friction dissipated
-    kBottom,
-    kPlatenFric,
-    kPressurePower,
-    kGravity,  // gravity's power with the forces' velocities
-    kVisc,     // the element passes: viscous power, inverted TET4s, CE6 powers, breaks
-    kInverted,
-    kCoh,
-    kFric,
-    kBreaks,
-    kBad,  // integration: non-finite velocities, m v.v, gravity's new power, reach counts
-    kKinetic2,
-    kGravityNew,
-    kFar,
-    kLost,
-    kConPowerNew,  // the last forces' powers with the new velocities
-    kPressurePowerNew,
-    kWatched,       // the broad phase's watch where the fused pass steps (with the new powers)
-    kSums = 24,     // (kWatched + 1 at most)
-    kPrev = kSums,  // [kPrev, kPrev + kBad): the last evaluation's [0, kBad), kept for its step
-    kAll = kPrev + kBad
-  };
-  static_assert(kWatched < kSums, "an integration's slots end before kPrev");
-  /// The sums that the whole model sums over the ranks (the others are each rank's own).
-  static constexpr std::array<int, 9> kWhole = {kTop,  kBottom,  kPlatenFric, kVisc,    kCoh,
-                                                kFric, kConDiss, kConStored,  kTouching};
-};
 
 /// A force evaluation's start: the last one's scalars [0, kBad) kept at [kPrev, kPrev + kBad)
 /// (when `keep`), then slots [0, clear) zeroed.

@@ -1,8 +1,8 @@
 #pragma once
 // One row of monitors.csv, and its columns: each field once, with its name and unit. The header
 // and the rows are written from the one table, kMonitorColumns, in its order. The loads fill
-// their own fields (loads.hpp: PlatenLoad::monitor, ConfiningPressure::monitor); the Solver
-// fills the sums over the model and the energies.
+// their own fields (src/loads: each load's monitor()); the Solver fills the sums over the model
+// and the energies.
 #include <array>
 
 #include "core/vec.hpp"

@@ -296,8 +296,7 @@ Monitors Solver::measure() {
   Monitors r;
   r.step = state.step;
   r.time = state.time;
-  loads_.platens.monitor(m, r);
-  loads_.confinement.monitor(r);
+  loads_.monitor(m, r);
   // This rank's sums: on the device where the state is (no copy of the state to the host).
   upload_if_changed();
   MonitorSums sums = dev_->measure_sums();

@@ -24,7 +24,7 @@
 #include "solver/contact_set.hpp"
 #include "solver/device_loop.hpp"
 #include "solver/energy_ledger.hpp"
-#include "solver/loads.hpp"
+#include "loads/loads.hpp"
 #include "solver/monitors.hpp"
 #include "solver/rank_layout.hpp"
 #include "solver/solver_state.hpp"
