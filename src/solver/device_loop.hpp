@@ -14,13 +14,13 @@
 
 #include "core/device_memory.hpp"
 #include "core/vec.hpp"
+#include "loads/loads.hpp"
 #include "model/laws.hpp"
 #include "model/model.hpp"
 #include "scene/scene.hpp"
 #include "solver/ce6_states.hpp"
 #include "solver/contact_set.hpp"
 #include "solver/energy_ledger.hpp"
-#include "loads/loads.hpp"
 #include "solver/rank_layout.hpp"
 
 namespace fdem {
@@ -135,8 +135,8 @@ class DeviceLoop {
   /// True when the fused pass also integrates (one rank; FDEM_DEVICE_SCHEDULE=auto): a force
   /// evaluation computes contact, platens and pressure and leaves its elements to the next
   /// step's pass, which computes them, adds the forces held for each node and moves the tet's
-  /// nodes by the step advance() left pending. No force array and no integration pass; a read of
-  /// the state in between completes the evaluation first (the same bits).
+  /// nodes by the step. No force array and no integration pass; a read of the state in between
+  /// completes the evaluation first (the same bits).
   virtual bool integrates() const = 0;
   /// The resident blocks of 256 threads per multiprocessor the CUDA kernels of the fused pass are
   /// compiled for (FDEM_CUDA_BLOCKS_PER_SM, device_blocks_per_sm): 1, or 2 (half the registers
@@ -154,22 +154,22 @@ class DeviceLoop {
   virtual void poison_host() = 0;
   /// Kinetic energy x 2 of the state on the device (the first step's initial energy).
   virtual real kinetic2() = 0;
-  /// Solver::compute_forces on the device.
-  virtual void compute_forces() = 0;
-  /// Central difference with time step dt, prescribed velocities, and the powers with the new
-  /// velocities; where the fused pass integrates (integrates()), left pending for the next
-  /// compute_forces (or for the first read of the state before it). Several ranks: the sums
-  /// come to the host now, into `out`, in the same copy as the last force evaluation's scalars
-  /// (which waited on the device), and it returns true; the Solver sums both over the ranks in
-  /// one reduction (take_reduced). One rank: they stay on the device and it returns false; the
-  /// next compute_forces reads them in the copy that brings the broad phase's decision and
-  /// finishes the step there (Solver::finish_step), so a step copies to the host once.
-  virtual bool advance(real dt, AdvanceSums& out) = 0;
+  /// The forces at the state, with no step before them: the first evaluation, and the one after
+  /// the contact ghosts were gathered again.
+  virtual void evaluate() = 0;
+  /// One step of dt: the central difference, the prescribed velocities and the powers with the
+  /// new velocities, then the forces at the new state. The step's bookkeeping
+  /// (StepBookkeeping::finish_step) runs at the step's first copy to the host. One rank: the
+  /// copy that brings the broad phase's decision, so a step copies to the host once. Several
+  /// ranks: the integration's sums with the last evaluation's scalars, before the forces (the
+  /// Solver sums them over the ranks in one reduction, take_reduced). Returns true when
+  /// finish_step asked for the contact ghosts to be gathered again: the forces then wait for the
+  /// Solver, which gathers them and calls evaluate() on the grown layout's loop.
+  virtual bool step(real dt) = 0;
   /// Several ranks: AdvanceSums::more summed over the ranks, in Solver::finish_step's one
   /// reduction of the step: the last force evaluation's whole-model sums (platen reactions,
   /// powers, slip, touching pairs) to the Solver, and whether any rank activated tets in it or
-  /// took flags from its host since the last merge (the next compute_forces merges the flags
-  /// then).
+  /// took flags from its host since the last merge (the next evaluation merges the flags then).
   virtual void take_reduced(const real* more) = 0;
   /// The last force evaluation's scalars to the Solver now (one copy), if they are still on the
   /// device: Solver::measure and Solver::sync_host call it, so that between steps the Solver's

@@ -132,7 +132,7 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
 
   void download() override {
     const LoopParts& s = p_;
-    materialize();
+    complete_forces();
     const auto t0 = Clock::now();
     x_.download(s.x);
     v_.download(s.v);
@@ -146,7 +146,7 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
   void poison_host() override { poison_host_state(p_, waiting_.force_sums, integrates()); }
 
   real kinetic2() override {
-    materialize();
+    complete_forces();
     const Vec3* v = v_.data();
     const real* mass = mass_.data();
     const std::uint8_t* own_n = own_node_.data();
@@ -156,25 +156,64 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
   }
 
   // A step's sums stay on the device (sums_, SumSlots). They come to the host once per step on
-  // one rank, with the next evaluation's first copy, and twice on several ranks
-  // (docs/device-loop.md, "Sums and the step's one copy").
+  // one rank, with the step's first copy, and twice on several ranks (docs/device-loop.md, "Sums
+  // and the step's one copy").
 
-  void compute_forces() override {
+  /// A step, its passes in order: the integration (where the fused pass integrates: that pass,
+  /// with the elements), the powers with the new velocities, then the forces at the new state
+  /// (forces()). The step's bookkeeping (StepBookkeeping::finish_step) runs at its first copy to
+  /// the host: on one rank the copy inside forces(), on several ranks the integration's own.
+  bool step(real dt) override {
     const LoopParts& s = p_;
+    ++t_.steps;
     clock_.restart();
-    // A step's integration not read yet (one rank): its sums come with this evaluation's first
-    // copy, and so do the last evaluation's scalars, kept at kPrev. A second evaluation without a
-    // step between brings the first's scalars to the Solver first.
-    const bool finish = waiting_.step_sums;
+    if (integrates()) {  // one rank: the fused pass takes the step, inside forces()
+      forces(true, dt);
+      return false;
+    }
+    // Several ranks with contact: the owned nodes a quarter of the contact reach from where the
+    // contact ghosts were last gathered (time to gather them again) and half the reach (too
+    // late: Solver::finish_step). Prescribed nodes count before their prescription.
+    const bool reach_check = s.layout.halo && s.contacts.enabled() && s.layout.dd.reach > 0;
+    integrate_nodes(dt, reach_check ? contact_.plan_x() : nullptr, s.layout.dd.reach);
+    clock_.lap(t_.integrate);
+    if (s.layout.halo) halo_.update_nodes(*s.layout.halo, x_, v_, s.layout.halo_seconds);  // ghosts: their owners'
+    new_powers(s.contacts.enabled(), s.loads.confinement.enabled, s.loads.gravity.enabled);
+    if (!s.layout.dd.distributed()) {  // the sums wait for the first copy of the forces
+      clock_.lap(t_.energy);
+      forces(true, 0);
+      return false;
+    }
+    // Several ranks: the step's reduction first (finish_step), so that contact ghosts can be
+    // gathered before the forces at the new state (Solver::step, then evaluate()).
+    if (s.book.finish_step(ranks_step_sums())) return true;
+    forces(false, 0);
+    return false;
+  }
+
+  void evaluate() override {
+    clock_.restart();
+    forces(false, 0);
+  }
+
+  /// The forces at the state. `finish`: one rank, the step's sums wait on the device: its
+  /// bookkeeping runs at this evaluation's first copy. `dt` > 0: where the fused pass integrates,
+  /// the step to take first (that pass's, or the integration's own passes where a read of the
+  /// state completed the elements since).
+  void forces(bool finish, real dt) {
+    const LoopParts& s = p_;
+    // The last evaluation's scalars, kept at kPrev where they wait: they come with this
+    // evaluation's first copy. An evaluation without a step before it brings them first.
     if (waiting_.force_sums && !finish) settle();
     const bool prev = waiting_.force_sums;
     // Where the fused pass integrates, the element part of an evaluation waits for the next step:
     // that step's pass computes the elements at the state the last evaluation left, adds the
     // forces contact, platens and pressure put there, and moves its nodes (fused_pass, kStep).
     // Where it was completed since (complete_forces), the step is a pass of its own.
-    const bool stepping = waiting_.step && waiting_.elements;
-    if (waiting_.step && !stepping) {
-      take_left_step();
+    const bool stepping = dt > 0 && waiting_.elements;
+    if (dt > 0 && !stepping) {
+      integrate_nodes(dt, nullptr, 0);
+      new_powers(s.contacts.enabled(), s.loads.confinement.enabled, s.loads.gravity.enabled);
       clock_.lap(t_.integrate);
     }
     // The last evaluation's scalars kept at kPrev, then the slots cleared: one launch, or where
@@ -182,7 +221,7 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     const KeepAndClear keep_and_clear{sums_.data(), prev, stepping ? kSums : kBad};
     if (!stepping) Exec::forall(1, [=] FDEM_LAMBDA(int) { keep_and_clear(); });
 
-    element_forces(s, stepping, keep_and_clear);
+    element_forces(s, stepping, dt, keep_and_clear);
     // The broad phase's watch: has a node of an active tet moved half the buffer? (A count.)
     ContactSet& cs = s.contacts;
     if (cs.enabled() && !stepping) activate(0, true);  // (stepping: with the new powers, above)
@@ -211,7 +250,6 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     device::read_finish(b_, a.data(), sizeof a);
     if (stepping) take_stepped_sums(s, a);
     if (finish) {  // the step that led here: its bookkeeping, checks and clock (may throw)
-      waiting_.step_sums = false;
       if (prev && !stepping) apply_force_sums(s, ForceSums::from_slots(a.data() + kPrev));
       if (s.book.finish_step(advance_sums_from(a.data())))
         throw RunError("device loop: a step on one rank asked to gather contact ghosts");
@@ -223,7 +261,7 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
   /// The rest of a force evaluation, after the step's copy `a`: inverted TET4s named, the
   /// flags merged, contact, activation by this evaluation's breaks, the platens and the
   /// pressure. `completed`: where the fused pass integrates, an evaluation it completed before
-  /// the step without settle() (materialize()) is named now, a step late. `ahead`: the pairs ran
+  /// the step without settle() (complete_forces(), a download) is named now, a step late. `ahead`: the pairs ran
   /// ahead of the copy.
   void after_first_copy(const LoopParts& s, const std::array<real, kAll>& a, bool stepping, bool completed,
                         bool ahead) {
@@ -237,7 +275,7 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     ContactSet& cs = s.contacts;
     if (s.layout.halo && cs.enabled()) merge_shared_flags(s);
     // Tet-tet contact: the candidate list rebuilt when flags changed or a node moved half the
-    // buffer; the pairs (queued ahead in compute_forces, or now).
+    // buffer; the pairs (queued ahead in forces(), or now).
     if (cs.enabled()) contact_forces(s, cs.rebuild_due || a[kMoved] > 0 || a[kWatched] > 0, ahead);
     // Adaptive activation, on the evaluations where a CE6 broke, for the next evaluation's
     // contact. (Where the fused pass integrates: with the pass's breaks, in take_stepped_sums.)
@@ -245,19 +283,19 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     clock_.lap(t_.activation);
     if (!integrates()) platens_and_pressure(s, s.loads.platens.top_offset, s.time, false);
     // The scalars stay on the device: one rank reads them with the next evaluation's first copy,
-    // several ranks with the integration's sums (advance()), and sum them over the ranks in the
+    // several ranks with the integration's sums (ranks_step_sums()), and sum them over the ranks in the
     // step's one reduction (take_reduced); or settle() before either.
     waiting_.force_sums = true;
     waiting_.elements = integrates();
   }
 
-  // The parts of compute_forces(). (Public where they hold a pass: nvcc's extended lambdas need
+  // The parts of forces(). (Public where they hold a pass: nvcc's extended lambdas need
   // their enclosing function public.)
 
   /// The elements' forces by the schedule: colour by colour or fused, after the start of each
   /// node's force; where the fused pass integrates, the last evaluation's elements with the step
-  /// (`stepping`), else nothing (they wait for that pass).
-  void element_forces(const LoopParts& s, bool stepping, const KeepAndClear& keep_and_clear) {
+  /// of dt (`stepping`), else nothing (they wait for that pass).
+  void element_forces(const LoopParts& s, bool stepping, real dt, const KeepAndClear& keep_and_clear) {
     switch (schedule_) {
       case ElementSchedule::colour:
         start_forces();
@@ -269,7 +307,7 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
         clock_.lap(t_.ce6);  // (the TET4 column stays empty)
         break;
       case ElementSchedule::fused_with_step:
-        if (stepping) step_in_fused_pass(s, keep_and_clear);
+        if (stepping) step_in_fused_pass(s, dt, keep_and_clear);
         break;
     }
   }
@@ -289,14 +327,14 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
   }
 
   /// The fused pass that integrates: the last evaluation's elements at the state it left, the
-  /// forces held for each node, and the step advance() left, into the second copies of x and v
-  /// (then swapped: the moved state). Then, in one launch, the powers of the last forces with
-  /// the new velocities (gravity's: in the pass) and the broad phase's watch (timed as energy).
-  void step_in_fused_pass(const LoopParts& s, const KeepAndClear& keep_and_clear) {
-    elements_.template fused_pass<Elements::kStep>(element_inputs(s), held_forces(), fused_step(), keep_and_clear);
+  /// forces held for each node, and the step of dt, into the second copies of x and v (then
+  /// swapped: the moved state). Then, in one launch, the powers of the last forces with the new
+  /// velocities (gravity's: in the pass) and the broad phase's watch (timed as energy).
+  void step_in_fused_pass(const LoopParts& s, real dt, const KeepAndClear& keep_and_clear) {
+    elements_.template fused_pass<Elements::kStep>(element_inputs(s), held_forces(), fused_step(dt), keep_and_clear);
     std::swap(x_, x2_);
     std::swap(v_, v2_);
-    waiting_.step = waiting_.elements = false;
+    waiting_.elements = false;
     clock_.lap(t_.ce6);  // (the TET4 and integration columns stay empty)
     contact_pressure_powers(s.contacts.enabled(), s.loads.confinement.enabled, s.contacts.enabled());
     clock_.lap(t_.energy);
@@ -314,9 +352,9 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     return HeldForces{ext_tet_.data(),        contact_.gather_place(), contact_.held_sum(),
                       l.platens.held_place(), l.platens.held_force(),  l.confinement.held()};
   }
-  /// The step the fused pass takes: into the second copies of x and v.
-  FusedStep fused_step() {
-    return FusedStep{x2_.data(), v2_.data(), p_.loads.prescribed.node_step(mass_.data(), waiting_.step_dt)};
+  /// The step of dt (s) the fused pass takes: into the second copies of x and v.
+  FusedStep fused_step(real dt) {
+    return FusedStep{x2_.data(), v2_.data(), p_.loads.prescribed.node_step(mass_.data(), dt)};
   }
 
   /// Where the fused pass stepped: the last evaluation's sums (its contact, platens and pressure
@@ -389,7 +427,7 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
 
   /// Contact on the candidate list (ContactPasses::pairs), then (`gather`) the deterministic
   /// per-node sum into f, or where the fused pass integrates into the held sum (there, for pairs
-  /// queued ahead with platens, in the platens' launch instead: compute_forces).
+  /// queued ahead with platens, in the platens' launch instead: forces()).
   void contact_pairs(const LoopParts& s, bool gather) {
     // Where the fused pass integrates, the break flags up now are an earlier evaluation's (its
     // pass computes the elements of the last one): not read.
@@ -478,7 +516,7 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     if (waiting_.force_sums) {  // the rank's own sums, the whole model's where they are summed (kWhole)
       std::array<real, kBad> b = rank_sums_;
       for (int k = 0; k < int(kWhole.size()); ++k) b[kWhole[k]] = more[k];
-      if (s.loads.confinement.enabled && s.loads.confinement.hydrostatic)  // summed already (compute_forces)
+      if (s.loads.confinement.enabled && s.loads.confinement.hydrostatic)  // summed already (platens_and_pressure)
         b[kTop] = reactions_[0], b[kBottom] = reactions_[1];
       apply_force_sums(s, ForceSums::from_slots(b.data()));
     }
@@ -511,35 +549,14 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
   }
 
  public:
-  bool advance(real dt, AdvanceSums& out) override {
+  /// Several ranks: the integration's sums and the last force evaluation's in one copy, for the
+  /// step's reduction. The powers of that evaluation with which the works of the step begin
+  /// (Solver::step_sums) are the rank's own.
+  AdvanceSums ranks_step_sums() {
     const LoopParts& s = p_;
-    ++t_.steps;
-    if (integrates()) {                  // the next force evaluation's pass moves the nodes
-      if (waiting_.step) materialize();  // (a step already pending, no evaluation since: never in Solver::step)
-      waiting_.step_dt = dt;
-      waiting_.step = waiting_.step_sums = true;
-      return false;
-    }
-    clock_.restart();
-    // Several ranks with contact: the owned nodes a quarter of the contact reach from where the
-    // contact ghosts were last gathered (time to gather them again) and half the reach (too
-    // late: Solver::step). Prescribed nodes count before their prescription below.
-    const bool reach_check = s.layout.halo && s.contacts.enabled() && s.layout.dd.reach > 0;
-    integrate_nodes(dt, reach_check ? contact_.plan_x() : nullptr, s.layout.dd.reach);
-    clock_.lap(t_.integrate);
-    if (s.layout.halo) halo_.update_nodes(*s.layout.halo, x_, v_, s.layout.halo_seconds);  // ghosts: their owners'
-    new_powers(s.contacts.enabled(), s.loads.confinement.enabled, s.loads.gravity.enabled);
-    if (!s.layout.dd.distributed()) {  // read with the next evaluation's first copy
-      waiting_.step_sums = true;
-      clock_.lap(t_.energy);
-      return false;
-    }
-    // Several ranks: the integration's sums and the last force evaluation's in one copy; the
-    // powers of that evaluation with which the works of the step begin (Solver::step_sums) are
-    // the rank's own.
     const std::array<real, kSums> r = read_sums<kSums>();
     clock_.lap(t_.energy);
-    out = advance_sums_from(r.data());
+    AdvanceSums out = advance_sums_from(r.data());
     if (waiting_.force_sums) {
       std::copy(r.begin(), r.begin() + kBad, rank_sums_.begin());
       s.energy.p_contact = r[kConPower];
@@ -547,7 +564,7 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     }
     out.n_more = int(out.more.size());
     reduction_values(out.more.data());
-    return true;
+    return out;
   }
 
   /// Several ranks: what this rank adds to the step's reduction (take_reduced): the waiting
@@ -625,23 +642,6 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
         sums_.data() + kConPowerNew);
   }
 
-  /// Where the fused pass integrates, for whatever reads the state before the next step's pass:
-  /// the last evaluation completed (complete_forces), and the step advance() left pending done
-  /// by the integration's own passes (its sums wait for the next evaluation's copy, as on one
-  /// rank).
-  void materialize() {
-    complete_forces();
-    if (waiting_.step) take_left_step();
-  }
-
-  /// The step advance() left to the fused pass, done by the integration's own passes (its sums
-  /// wait for the next evaluation's copy).
-  void take_left_step() {
-    waiting_.step = false;
-    integrate_nodes(waiting_.step_dt, nullptr, 0);
-    new_powers(p_.contacts.enabled(), p_.loads.confinement.enabled, p_.loads.gravity.enabled);
-  }
-
   /// Where the fused pass integrates: the element part of the last evaluation, left to the next
   /// step's pass, done now by the same pass without the step (f: each node's whole force, the
   /// colour passes'), then the activation by its breaks. Its sums go to the evaluation's slots.
@@ -662,7 +662,7 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
 
   MonitorSums measure_sums() override {
     const LoopParts& s = p_;
-    materialize();
+    complete_forces();
     const auto t0 = Clock::now();
     MonitorSums out;
     lateral_strain(s.model, out);
@@ -772,10 +772,7 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
   // writes the second copies of x and v, swapped after it).
   struct Waiting {
     bool force_sums = false;  // the last force evaluation's scalars, sums_ [0, kBad)
-    bool step_sums = false;   // one rank: a step's integration sums; its finish_step not yet run
     bool elements = false;    // the last evaluation's element part, left to the next step's pass
-    bool step = false;        // the step advance() left to that pass, of step_dt (s)
-    real step_dt = 0;
   } waiting_;
   bool flags_merged_ = false;  // false from an upload of the host's flags to the next merge
   bool merge_wanted_ = false;  // several ranks: a rank raised a flag (the step's reduction said)

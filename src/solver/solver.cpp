@@ -137,7 +137,7 @@ void Solver::prescribe(int node, int mask, Vec3 velocity) {
 
 void Solver::compute_forces() {
   upload_if_changed();
-  dev_->compute_forces();
+  dev_->evaluate();
   host_current_ = false;  // the forces (and after a growth of the contact ghosts, more) changed there
 }
 
@@ -228,16 +228,15 @@ void Solver::step() {
   // The platen speed over [t, t+dt], for the works of the interval (finish_step).
   PlatenLoad& platens = loads_.platens;
   platens.step_speed = platens.enabled ? ramped_speed(state.time + 0.5 * dt, platens.speed, platens.ramp) : 0;
-  bool gather_ghosts = false;
   host_current_ = false;
-  // One rank: the device loop finishes the step inside the next force evaluation, whose first
-  // copy to the host brings the integration's sums too (DeviceLoop::advance).
-  AdvanceSums a;
-  if (dev_->advance(dt, a)) gather_ghosts = finish_step(a);
-  // Several ranks: a node a quarter of the contact reach from where the contact ghosts were
-  // gathered (on any rank): every rank gathers them again, before the broad phase looks.
-  if (gather_ghosts) grow_contact_ghosts();
-  compute_forces();
+  // The loop takes the step, calls finish_step with its sums at its first copy to the host, and
+  // evaluates the forces at the new state. Several ranks: where a node is a quarter of the
+  // contact reach from where the contact ghosts were gathered (on any rank), every rank gathers
+  // them again first, and the forces come after.
+  if (dev_->step(dt)) {
+    grow_contact_ghosts();
+    compute_forces();
+  }
   if (backend_ == Backend::debug) dev_->poison_host();
 }
 
