@@ -160,15 +160,15 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
   // and the step's one copy").
 
   /// A step, its passes in order: the integration (where the fused pass integrates: that pass,
-  /// with the elements), the powers with the new velocities, then the forces at the new state
-  /// (forces()). The step's bookkeeping (StepBookkeeping::finish_step) runs at its first copy to
-  /// the host: on one rank the copy inside forces(), on several ranks the integration's own.
+  /// with the elements), the powers with the new velocities, then the forces at the new state.
+  /// The step's bookkeeping (StepBookkeeping::finish_step) runs at its first copy to the host: on
+  /// one rank the copy inside the forces, on several ranks the integration's own.
   bool step(real dt) override {
     const LoopParts& s = p_;
     ++t_.steps;
     clock_.restart();
-    if (integrates()) {  // one rank: the fused pass takes the step, inside forces()
-      forces(true, dt);
+    if (integrates()) {  // one rank: the fused pass takes the step
+      forces_with_step(true, dt);
       return false;
     }
     // Several ranks with contact: the owned nodes a quarter of the contact reach from where the
@@ -181,112 +181,125 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     new_powers(s.contacts.enabled(), s.loads.confinement.enabled, s.loads.gravity.enabled);
     if (!s.layout.dd.distributed()) {  // the sums wait for the first copy of the forces
       clock_.lap(t_.energy);
-      forces(true, 0);
+      forces(true);
       return false;
     }
     // Several ranks: the step's reduction first (finish_step), so that contact ghosts can be
     // gathered before the forces at the new state (Solver::step, then evaluate()).
     if (s.book.finish_step(ranks_step_sums())) return true;
-    forces(false, 0);
+    forces(false);
     return false;
   }
 
   void evaluate() override {
     clock_.restart();
-    forces(false, 0);
+    if (integrates())
+      forces_with_step(false, 0);
+    else
+      forces(false);
   }
 
-  /// The forces at the state. `finish`: one rank, the step's sums wait on the device: its
-  /// bookkeeping runs at this evaluation's first copy. `dt` > 0: where the fused pass integrates,
-  /// the step to take first (that pass's, or the integration's own passes where a read of the
-  /// state completed the elements since).
-  void forces(bool finish, real dt) {
+  /// The forces at the state by the colour or the fused schedule, its passes in order.
+  /// `finish`: one rank, the step's sums wait on the device: its bookkeeping runs at this
+  /// evaluation's copy.
+  void forces(bool finish) {
     const LoopParts& s = p_;
     // The last evaluation's scalars, kept at kPrev where they wait: they come with this
-    // evaluation's first copy. An evaluation without a step before it brings them first.
+    // evaluation's copy. An evaluation without a step before it brings them first.
     if (waiting_.force_sums && !finish) settle();
     const bool prev = waiting_.force_sums;
-    // Where the fused pass integrates, the element part of an evaluation waits for the next step:
-    // that step's pass computes the elements at the state the last evaluation left, adds the
-    // forces contact, platens and pressure put there, and moves its nodes (fused_pass, kStep).
-    // Where it was completed since (complete_forces), the step is a pass of its own.
+    const KeepAndClear keep_and_clear{sums_.data(), prev, kBad};
+    Exec::forall(1, [=] FDEM_LAMBDA(int) { keep_and_clear(); });
+    element_forces(s, false, 0, keep_and_clear);
+    // The broad phase's watch: has a node of an active tet moved half the buffer? (A count.)
+    ContactSet& cs = s.contacts;
+    if (cs.enabled()) activate(0, true);
+    clock_.lap(t_.activation);
+    const std::array<real, kAll> a = read_sums<kAll>();  // the step's one copy
+    if (finish) finish_step_at_copy(s, a, prev, false);
+    clock_.lap(t_.activation);
+    name_inverted(s, a[kInverted]);
+    s.loads.gravity.power = a[kGravity];
+    if (s.layout.halo && cs.enabled()) merge_shared_flags(s);
+    // Tet-tet contact: the candidate list rebuilt when flags changed or a node moved half the
+    // buffer; the pairs, friction and their per-node sum.
+    if (cs.enabled()) contact_forces(s, cs.rebuild_due || a[kMoved] > 0, false);
+    // Adaptive activation, on the evaluations where a CE6 broke, for the next one's contact.
+    if (a[kBreaks] > 0) activate(elements_.ce6_slots(), false);
+    clock_.lap(t_.activation);
+    platens_and_pressure(s, s.loads.platens.top_offset, s.time, false);
+    // The scalars stay on the device: one rank reads them with the next step's copy, several
+    // ranks with the integration's sums (ranks_step_sums()), and sum them over the ranks in the
+    // step's one reduction (take_reduced); or settle() before either.
+    waiting_.force_sums = true;
+  }
+
+  /// Where the fused pass integrates (one rank): the step of dt (0: none), then the forces at
+  /// the state it leads to, its passes in order. The element part of an evaluation waits for the
+  /// next step: that step's pass computes the elements at the state the last evaluation left,
+  /// adds the forces contact, platens and pressure put there, and moves its nodes (fused_pass,
+  /// kStep). Where a read of the state completed them since (complete_forces), the step is the
+  /// integration's own passes. `finish` as forces().
+  void forces_with_step(bool finish, real dt) {
+    const LoopParts& s = p_;
+    if (waiting_.force_sums && !finish) settle();
+    const bool prev = waiting_.force_sums;
     const bool stepping = dt > 0 && waiting_.elements;
     if (dt > 0 && !stepping) {
       integrate_nodes(dt, nullptr, 0);
       new_powers(s.contacts.enabled(), s.loads.confinement.enabled, s.loads.gravity.enabled);
       clock_.lap(t_.integrate);
     }
-    // The last evaluation's scalars kept at kPrev, then the slots cleared: one launch, or where
-    // the fused pass steps, in its launch (before it adds its sums).
+    // The last evaluation's scalars kept at kPrev, then the slots cleared: where the fused pass
+    // steps, in its launch (before it adds its sums).
     const KeepAndClear keep_and_clear{sums_.data(), prev, stepping ? kSums : kBad};
     if (!stepping) Exec::forall(1, [=] FDEM_LAMBDA(int) { keep_and_clear(); });
-
-    element_forces(s, stepping, dt, keep_and_clear);
-    // The broad phase's watch: has a node of an active tet moved half the buffer? (A count.)
+    element_forces(s, stepping, dt, keep_and_clear);  // (the watch with the new powers)
     ContactSet& cs = s.contacts;
-    if (cs.enabled() && !stepping) activate(0, true);  // (stepping: with the new powers, above)
+    if (cs.enabled() && !stepping) activate(0, true);
     clock_.lap(t_.activation);
-    // The step's one copy to the host. Where the fused pass integrates (one rank), the rest of
-    // the evaluation is queued behind it, so that the device works while the host waits and
-    // decides: contact's pairs on the candidate list as it stands, then the platens and the
-    // confining pressure at the platen travel and the time the step leads to (those
-    // finish_step() sets below). A rebuild below discards the pairs and runs them again (the
-    // friction springs are kept apart until then; the timing columns count both runs). Their
-    // forces, the platens' and the pressure's wait for the next step's pass in arrays of their
-    // own, so their place among the launches does not change a sum. A run that stops in between
-    // (an inverted TET4, a velocity not finite) downloads those pairs' forces with the springs
-    // from before them, and the platens' anchors and the pressure's forces of the evaluation
-    // queued (with their held sums left on the device): its diagnostic frame reads none of them.
+    // The step's one copy to the host, with the rest of the evaluation queued behind it so that
+    // the device works while the host decides: contact's pairs on the list as it stands, the
+    // platens and the pressure at the travel and time the step leads to. A rebuild runs the pairs
+    // again (docs/device-loop.md, "Auto: the step in the fused pass").
     std::array<real, kAll> a;
     device::read_start(b_, sums_.data(), sizeof a);
-    const bool ahead = integrates() && cs.enabled() && !cs.rebuild_due;
+    const bool ahead = cs.enabled() && !cs.rebuild_due;
     // The per-node sum of the pairs' forces queued ahead goes into the platens' launch (both write
     // forces held for the pass: their order changes no sum); after a rebuild, its own launch.
     const bool gather_with_platens = ahead && s.loads.platens.enabled;
     if (ahead) contact_pairs(s, !gather_with_platens);
-    if (integrates())
-      platens_and_pressure(s, finish ? s.loads.platens.top_offset_after(s.dt) : s.loads.platens.top_offset,
-                           finish ? (s.time + s.dt) : s.time, gather_with_platens);
+    platens_and_pressure(s, finish ? s.loads.platens.top_offset_after(s.dt) : s.loads.platens.top_offset,
+                         finish ? (s.time + s.dt) : s.time, gather_with_platens);
     device::read_finish(b_, a.data(), sizeof a);
     if (stepping) take_stepped_sums(s, a);
-    if (finish) {  // the step that led here: its bookkeeping, checks and clock (may throw)
-      if (prev && !stepping) apply_force_sums(s, ForceSums::from_slots(a.data() + kPrev));
-      if (s.book.finish_step(advance_sums_from(a.data())))
-        throw RunError("device loop: a step on one rank asked to gather contact ghosts");
-    }
+    if (finish) finish_step_at_copy(s, a, prev, stepping);
     clock_.lap(t_.activation);
-    after_first_copy(s, a, stepping, finish && prev, ahead);
+    // Inverted TET4s of an evaluation completed before the step without settle() (by a download)
+    // are named now, a step late. (The pass's own: in take_stepped_sums.)
+    name_inverted(s, !stepping && finish && prev ? a[kPrev + kInverted] + a[kInverted] : stepping ? 0 : a[kInverted]);
+    // Tet-tet contact: the candidate list rebuilt when flags changed or a node moved half the
+    // buffer; the pairs again after a rebuild, else those queued ahead. (Activation by the
+    // pass's breaks: in take_stepped_sums.)
+    if (cs.enabled()) contact_forces(s, cs.rebuild_due || a[kMoved] > 0 || a[kWatched] > 0, ahead);
+    clock_.lap(t_.activation);
+    waiting_.force_sums = true;
+    waiting_.elements = true;
   }
 
-  /// The rest of a force evaluation, after the step's copy `a`: inverted TET4s named, the
-  /// flags merged, contact, activation by this evaluation's breaks, the platens and the
-  /// pressure. `completed`: where the fused pass integrates, an evaluation it completed before
-  /// the step without settle() (complete_forces(), a download) is named now, a step late. `ahead`: the pairs ran
-  /// ahead of the copy.
-  void after_first_copy(const LoopParts& s, const std::array<real, kAll>& a, bool stepping, bool completed,
-                        bool ahead) {
-    // Inverted TET4s of the elements computed in this call, or of the evaluation completed
-    // (Solver::step and sync_host settle first).
-    if ((stepping ? 0 : a[kInverted]) + (integrates() && completed && !stepping ? a[kPrev + kInverted] : 0) > 0) {
-      download();  // rare: the host finds and names the element
-      s.book.report_inverted();
-    }
-    if (!integrates()) s.loads.gravity.power = a[kGravity];  // (integrating: with the evaluation's sums)
-    ContactSet& cs = s.contacts;
-    if (s.layout.halo && cs.enabled()) merge_shared_flags(s);
-    // Tet-tet contact: the candidate list rebuilt when flags changed or a node moved half the
-    // buffer; the pairs (queued ahead in forces(), or now).
-    if (cs.enabled()) contact_forces(s, cs.rebuild_due || a[kMoved] > 0 || a[kWatched] > 0, ahead);
-    // Adaptive activation, on the evaluations where a CE6 broke, for the next evaluation's
-    // contact. (Where the fused pass integrates: with the pass's breaks, in take_stepped_sums.)
-    if (!integrates() && a[kBreaks] > 0) activate(elements_.ce6_slots(), false);
-    clock_.lap(t_.activation);
-    if (!integrates()) platens_and_pressure(s, s.loads.platens.top_offset, s.time, false);
-    // The scalars stay on the device: one rank reads them with the next evaluation's first copy,
-    // several ranks with the integration's sums (ranks_step_sums()), and sum them over the ranks in the
-    // step's one reduction (take_reduced); or settle() before either.
-    waiting_.force_sums = true;
-    waiting_.elements = integrates();
+  /// One rank, at the step's copy `a`: the last evaluation's scalars to the Solver (unless the
+  /// fused pass `stepped` and took them), then the step's bookkeeping and checks (may throw).
+  void finish_step_at_copy(const LoopParts& s, const std::array<real, kAll>& a, bool prev, bool stepped) {
+    if (prev && !stepped) apply_force_sums(s, ForceSums::from_slots(a.data() + kPrev));
+    if (s.book.finish_step(advance_sums_from(a.data())))
+      throw RunError("device loop: a step on one rank asked to gather contact ghosts");
+  }
+
+  /// `inverted` > 0: rare, a TET4 inverted in the elements computed; the host finds and names it.
+  void name_inverted(const LoopParts& s, real inverted) {
+    if (!(inverted > 0)) return;
+    download();
+    s.book.report_inverted();
   }
 
   // The parts of forces(). (Public where they hold a pass: nvcc's extended lambdas need
