@@ -3,9 +3,9 @@
 // device_loop.cpp (CpuExec, the cpu backend; HostExec, the debug backend) and by
 // cuda/device_loop.cu (CudaExec), so the passes are one source. The loop holds the node state
 // and the step's sums, and orders the passes of its parts: the elements
-// (solver/element_passes.hpp), contact (solver/contact_passes.hpp), the loads
-// (solver/load_passes.hpp) and the halo (solver/halo_passes.hpp). Lambdas capture raw pointers
-// and small views by value (a device lambda cannot read `this`).
+// (solver/element_passes.hpp), contact (solver/contact_passes.hpp), the loads (src/loads)
+// and the halo (solver/halo_passes.hpp). Lambdas capture raw pointers and small views by value
+// (a device lambda cannot read `this`).
 #include <algorithm>
 #include <array>
 #include <chrono>
@@ -184,9 +184,9 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
       forces(true);
       return false;
     }
-    // Several ranks: the step's reduction first (finish_step), so that contact ghosts can be
-    // gathered before the forces at the new state (Solver::step, then evaluate()).
+    // Several ranks: the step's reduction first (finish_step), then contact ghosts if it asks.
     if (s.book.finish_step(ranks_step_sums())) return true;
+    clock_.restart();  // (the reduction's wait is no pass's time)
     forces(false);
     return false;
   }

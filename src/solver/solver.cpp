@@ -126,8 +126,9 @@ void Solver::report_inverted() const {
 }
 
 void Solver::prescribe(int node, int mask, Vec3 velocity) {
-  // The state first: a step left pending reads the lists below as they were (on the cpu
-  // backend the loop borrows them).
+  // The state first: the host copy brought up to date (the element part of an evaluation left
+  // to the fused pass completed), before its velocities and the lists change (on the cpu
+  // backend the loop borrows the lists).
   sync_host();
   loads_.prescribed.set(node, mask, velocity);
   for (int d = 0; d < 3; ++d)
