@@ -43,7 +43,6 @@ class PrescribedVelocities {
   /// Set by the caller (Solver::prescribe), none from the scene yet.
   void set_up(const Scene&) {}
   bool on() const { return !node.empty(); }
-  bool empty() const { return node.empty(); }
   /// One entry per node (the loop applies the entries in parallel): a node prescribed again
   /// takes the new components, as if the calls were applied in turn.
   void set(int n, int components, Vec3 v);

@@ -277,7 +277,7 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     clock_.lap(t_.activation);
     // Inverted TET4s of an evaluation completed before the step without settle() (by a download)
     // are named now, a step late. (The pass's own: in take_stepped_sums.)
-    name_inverted(s, !stepping && finish && prev ? a[kPrev + kInverted] + a[kInverted] : stepping ? 0 : a[kInverted]);
+    name_inverted(s, stepping ? 0 : a[kInverted] + (finish && prev ? a[kPrev + kInverted] : 0));
     // Tet-tet contact: the candidate list rebuilt when flags changed or a node moved half the
     // buffer; the pairs again after a rebuild, else those queued ahead. (Activation by the
     // pass's breaks: in take_stepped_sums.)

@@ -207,7 +207,7 @@ void Solver::check_step_count() const {
 void Solver::check_runaway(real ke) const {
   // Energy enters only through the platens, the pressure and gravity; prescribed velocities
   // (tests) bring their own.
-  energy_.check_runaway(ke, !loads_.prescribed.node.empty(), where(), [&] { return instability_advice(); });
+  energy_.check_runaway(ke, loads_.prescribed.on(), where(), [&] { return instability_advice(); });
 }
 
 std::string Solver::where() const {
@@ -340,7 +340,7 @@ Monitors Solver::measure() {
   r.energy_error = energy_.balance_error(accounted);
   // The energy balance: work put in against everything stored, dissipated and moving. Runs
   // with prescribed node velocities (tests) do not account for the work those do.
-  energy_.check_row(accounted, ke, scene_.solver.max_energy_error, !loads_.prescribed.node.empty(), where(),
+  energy_.check_row(accounted, ke, scene_.solver.max_energy_error, loads_.prescribed.on(), where(),
                     [&] { return instability_advice(); });
   return r;
 }
