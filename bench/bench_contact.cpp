@@ -10,6 +10,13 @@
 //
 // Usage: bench_contact [--sizes 0.008,0.006] [--velocity 0.2] [--mass-scaling 5]
 //                      [--post-peak 0.5] [--threads T] [--only adaptive|full]
+//                      [--backend cpu|debug|cuda] [--max-steps N]
+//                      [--meshes DIR] [--write-meshes DIR]
+// --backend runs the same model on the device loop (cuda: on the GPU; the contact phases' shares
+// are then not measured, only the wall time). --max-steps stops a run after N steps, peak or not:
+// a short run that checks the program, not a measurement. --write-meshes writes each size's
+// cylinder to DIR/cylinder_<size>.msh and stops; --meshes reads them from there instead of
+// meshing (for a machine without gmsh, such as the GPU machine).
 // This is a benchmark, not a test: it checks nothing.
 #include <omp.h>
 
@@ -23,6 +30,7 @@
 #include <string>
 #include <vector>
 
+#include "core/device_memory.hpp"
 #include "io/mesh_io.hpp"
 #include "model/model.hpp"
 #include "solver/solver.hpp"
@@ -52,14 +60,29 @@ struct Options {
   real velocity = 0.2, mass_scaling = 5, post_peak = 0.5;
   int threads = 0;
   std::string only;
+  fdem::Backend backend = fdem::Backend::cpu;
+  long max_steps = 0;  // 0: no limit
+  std::string meshes, write_meshes;
 };
 
-Result run(real h, const std::string& activation, const Options& opt) {
+std::string mesh_path(const std::string& dir, real h) {
+  char name[64];
+  std::snprintf(name, sizeof name, "/cylinder_%g.msh", h);
+  return dir + name;
+}
+
+/// The 0.02 m x 0.04 m cylinder of element size h: generated, or read from opt.meshes.
+fdem::Mesh cylinder(real h, const Options& opt) {
+  if (!opt.meshes.empty()) return fdem::read_msh(mesh_path(opt.meshes, h));
   fdem::MeshSpec spec;
   spec.shape = fdem::MeshShape::cylinder;
   spec.diameter = 0.02;
   spec.height = 0.04;
   spec.element_size = h;
+  return fdem::generate_mesh(spec);
+}
+
+Result run(real h, const std::string& activation, const Options& opt) {
   fdem::Scene scene;
   scene.name = "bench_contact";
   scene.file = "(bench)";
@@ -68,8 +91,9 @@ Result run(real h, const std::string& activation, const Options& opt) {
   scene.platens.velocity = opt.velocity;
   scene.solver.mass_scaling = opt.mass_scaling;
   scene.solver.threads = opt.threads;
+  scene.solver.backend = opt.backend;
   if (!choice_named(activation, scene.contact.activation)) throw std::invalid_argument(activation);
-  fdem::Solver s(scene, fdem::build_model(fdem::generate_mesh(spec), scene));
+  fdem::Solver s(scene, fdem::build_model(cylinder(h, opt), scene));
   Result r;
   r.activation = activation;
   r.tets = long(s.model().tet_nodes.size());
@@ -84,6 +108,7 @@ Result run(real h, const std::string& activation, const Options& opt) {
         {row.axial_strain, row.axial_stress, row.active_tets, row.contact_pairs, row.contacts, row.broken});
     if (row.axial_stress > r.peak) r.peak = row.axial_stress, r.strain_at_peak = row.axial_strain;
     if (row.axial_stress < opt.post_peak * r.peak || row.axial_strain > strain_cap) break;
+    if (opt.max_steps > 0 && s.step_count() >= opt.max_steps) break;
   }
   r.wall = std::chrono::duration<double>(Clock::now() - t0).count();
   r.steps = s.step_count();
@@ -118,14 +143,28 @@ int main(int argc, char** argv) {
       opt.threads = std::atoi(argv[i + 1]);
     else if (k == "--only")
       opt.only = argv[i + 1];
+    else if (k == "--backend")
+      opt.backend = fdem::parse_backend(argv[i + 1], "--backend");
+    else if (k == "--max-steps")
+      opt.max_steps = std::atol(argv[i + 1]);
+    else if (k == "--meshes")
+      opt.meshes = argv[i + 1];
+    else if (k == "--write-meshes")
+      opt.write_meshes = argv[i + 1];
     else {
       std::fprintf(stderr, "unknown option %s\n", k.c_str());
       return 2;
     }
   }
   if (opt.threads > 0) omp_set_num_threads(opt.threads);
-  std::printf("threads %d, platen velocity %g m/s, mass scaling %g, run to %g of the peak\n\n", omp_get_max_threads(),
-              opt.velocity, opt.mass_scaling, opt.post_peak);
+  if (!opt.write_meshes.empty()) {
+    for (real h : opt.sizes) fdem::write_msh(cylinder(h, opt), mesh_path(opt.write_meshes, h));
+    return 0;
+  }
+  std::printf("backend %s, threads %d, platen velocity %g m/s, mass scaling %g, run to %g of the peak",
+              fdem::backend_name(opt.backend), omp_get_max_threads(), opt.velocity, opt.mass_scaling, opt.post_peak);
+  if (opt.max_steps > 0) std::printf(" or %ld steps", opt.max_steps);
+  std::printf("\n\n");
   std::printf(
       "| element m | activation | tets | steps | wall s | ms/step | broad %% | narrow %% (friction in it) | builds | "
       "peak MPa | strain at peak | broken CE6 |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n");

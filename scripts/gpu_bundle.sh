@@ -2,7 +2,10 @@
 # Here, on the Debian machine (called by `gpu_check.sh --prepare`): build the GPU check's
 # programs with nvcc (sm_90 and PTX) into build-gpu/, and gather into deps/bundle/ what they need
 # to run on the GPU machine without building there or using any of its packages:
-#   bin/    fdem, test_cuda_backend, test_ranks, bench_device (stripped);
+#   bin/    fdem, test_cuda_backend, test_ranks, bench_device, bench_contact, and for the dry run
+#           test_backends (stripped); bench_device_fmad, the same built with FDEM_CUDA_FMAD=ON in
+#           build-gpu-fmad/; kernels.txt, the mangled names of bench_device's kernels (the
+#           profile selects kernels by them, and stripping drops them from the program);
 #   lib/    every shared library they load that is not the C library's own (glibc, libstdc++ and
 #           libgcc_s come with nvcc's host compiler there);
 #   mpi/    Debian's Open MPI (mpiexec, its libraries and plugins, PMIx), relocated there with
@@ -66,16 +69,26 @@ command -v nvcc > /dev/null || [[ -x /usr/local/cuda/bin/nvcc ]] || {
   echo "gpu_bundle.sh: no nvcc here. Fix: install the CUDA toolkit, or let gpu_check.sh build on the GPU machine" >&2
   exit 2
 }
-cmake -S . -B build-gpu -DCMAKE_BUILD_TYPE=Release -DFDEM_ENABLE_CUDA=ON -DFDEM_ENABLE_GMSH=OFF \
-  -DFDEM_ENABLE_PETSC=OFF -DCMAKE_PREFIX_PATH="$DEPS/usr" -DCMAKE_CUDA_ARCHITECTURES="90-real;90-virtual" > /dev/null
-cmake --build build-gpu -j "$(nproc)" --target fdem test_cuda_backend test_ranks bench_device > /dev/null
+configure() {  # configure DIR [CMAKE ARGS...]: one CUDA runtime (the shared one), sm_90
+  local dir=$1
+  shift
+  cmake -S . -B "$dir" -DCMAKE_BUILD_TYPE=Release -DFDEM_ENABLE_CUDA=ON -DFDEM_ENABLE_GMSH=OFF -DFDEM_ENABLE_PETSC=OFF \
+    -DCMAKE_PREFIX_PATH="$DEPS/usr" -DCMAKE_CUDA_ARCHITECTURES="90-real;90-virtual" -DCMAKE_CUDA_RUNTIME_LIBRARY=Shared \
+    "$@" > /dev/null
+}
+configure build-gpu
+cmake --build build-gpu -j "$(nproc)" --target fdem test_cuda_backend test_ranks test_backends bench_device \
+  bench_contact > /dev/null
+configure build-gpu-fmad -DFDEM_CUDA_FMAD=ON -DFDEM_BUILD_TESTS=OFF
+cmake --build build-gpu-fmad -j "$(nproc)" --target bench_device > /dev/null
 rm -rf "$B"
 mkdir -p "$B/bin" "$B/lib" "$B/mpi"
-progs=(build-gpu/fdem build-gpu/tests/test_cuda_backend build-gpu/tests/test_ranks build-gpu/bench/bench_device)
-for p in "${progs[@]}"; do
-  cp "$p" "$B/bin/"
-  strip --strip-unneeded "$B/bin/$(basename "$p")"
-done
+bash scripts/gpu_check.sh --kernels build-gpu/bench/bench_device > "$B/bin/kernels.txt"
+cp build-gpu-fmad/bench/bench_device "$B/bin/bench_device_fmad"
+progs=(build-gpu/fdem build-gpu/tests/test_cuda_backend build-gpu/tests/test_ranks build-gpu/tests/test_backends
+  build-gpu/bench/bench_device build-gpu/bench/bench_contact)
+for p in "${progs[@]}"; do cp "$p" "$B/bin/"; done
+for p in "$B"/bin/*; do [[ $p == *.txt ]] || strip --strip-unneeded "$p"; done
 
 # Debian's Open MPI, unpacked (never into /).
 tmp=$(mktemp -d)
@@ -88,7 +101,7 @@ MPI_LIBS=$M:$M/pmix2/lib
 
 # Every library the programs, mpiexec and the MPI plugins load, but the C library's own and those
 # already in the bundle.
-mapfile -t loaders < <(printf '%s\n' "$B"/bin/* "$B"/mpi/usr/bin/orterun "$B"/mpi/usr/bin/orted \
+mapfile -t loaders < <(find "$B/bin" -type f ! -name '*.txt'; printf '%s\n' "$B"/mpi/usr/bin/orterun "$B"/mpi/usr/bin/orted \
   "$M"/openmpi/lib/openmpi3/*.so "$M"/pmix2/lib/pmix/*.so)
 ((${#loaders[@]} > 5)) || { echo "gpu_bundle.sh: Open MPI's plugins are missing from deps/bundle/mpi" >&2; exit 1; }
 LD_LIBRARY_PATH=$MPI_LIBS ldd "${loaders[@]}" | awk '$2 == "=>" && $3 ~ /^\// {print $1, $3}' | sort -u |
