@@ -27,7 +27,9 @@ B=$DEPS/bundle
 system_lib() { [[ $1 =~ ^(linux-vdso|ld-linux|libc|libm|libdl|libpthread|librt|libutil|libresolv|libgcc_s|libstdc\+\+)[.-] ]]; }
 
 if [[ "${1:-}" == "--check" ]]; then
-  [[ -d $B/bin ]] || { [[ -f $DEPS/bundle.tar.xz ]] && tar -C "$DEPS" -xJf "$DEPS/bundle.tar.xz"; }
+  unpacked=0  # deps/ must stay small enough to carry (64 MiB): an unpacked bundle is removed again
+  [[ -d $B/bin ]] || { [[ -f $DEPS/bundle.tar.xz ]] && tar -C "$DEPS" -xJf "$DEPS/bundle.tar.xz" && unpacked=1; }
+  ((unpacked)) && trap 'rm -rf "$B"' EXIT
   [[ -d $B/bin ]] || { echo "gpu_bundle.sh: no deps/bundle. Fix: bash scripts/gpu_check.sh --prepare" >&2; exit 2; }
   mpi=$B/mpi/usr
   log=$(mktemp -d)

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# shellcheck disable=SC2317  # (the functions the sourced phases call)
 # The GPU machine's checks in one call of the device tool (at most 10 minutes a call, 15 minutes
 # of device time a session, the machine's start included). Nothing is compiled there: the
 # programs come in deps/, built here.
@@ -175,21 +176,26 @@ step() {
   fi
   ((rc == 0 || ${STEP_COUNTS:-1} == 0)) || FAILED+=("$name")
   pack_logs
-  return $rc
+  return "$rc"
 }
 skip() {  # skip NAME WHY
   say "$1: skipped, $2"
   SKIPPED+=("$1")
 }
-# A failed step whose log shows this machine refusing the tool: skipped, not failed.
-refused() {  # refused NAME REGEX WHY
-  grep -q -E "$2" "$LOGS/$1.log" 2> /dev/null || return 1
+# A failed step that is no fault of fdem's: skipped, not failed.
+not_failed() {  # not_failed NAME WHY
   local kept=() f
   for f in "${FAILED[@]}"; do [[ $f == "$1" ]] || kept+=("$f"); done
   FAILED=("${kept[@]}")
-  skip "$1" "$3 (see $1.log)"
+  skip "$1" "$2"
 }
-has_gpu() { nvidia-smi -L 2> /dev/null | grep -q GPU; }
+# A failed step whose log (or its .csv) shows this machine refusing the tool.
+refused() {  # refused NAME REGEX WHY
+  [[ " ${FAILED[*]} " == *" $1 "* ]] || return 1
+  grep -qsE "$2" "$LOGS/$1.log" "$LOGS/$1.csv" || return 1
+  not_failed "$1" "$3 (see $1.log)"
+}
+has_gpu() { [[ $(nvidia-smi -L 2> /dev/null) == *GPU* ]]; }
 # Where nvidia-smi lists a GPU, a test that skipped is a failure; EXPECTED names those that may.
 skips() {  # skips NAME [EXPECTED regex]
   has_gpu || return 0
@@ -201,15 +207,23 @@ skips() {  # skips NAME [EXPECTED regex]
     FAILED+=("$1")
   fi
 }
+# The machine's tools (nvidia-smi, ncu, compute-sanitizer, xz, python3) run with its own library
+# path, not the bundle's: TOOL_ENV before a tool, PROGRAM_ENV (set with the programs) after it.
+OWN_LD=${LD_LIBRARY_PATH:-}
+TOOL_ENV=(env "LD_LIBRARY_PATH=$OWN_LD") PROGRAM_ENV=()
 # xz's archives unpacked by xz, or by Python's lzma where xz is missing (and in the dry run).
 unxz() {  # unxz FILE: to standard output
   if ((!DRY)) && command -v xz > /dev/null; then
-    xz -dc "$1"
+    "${TOOL_ENV[@]}" xz -dc "$1"
   else
-    python3 -c 'import lzma, shutil, sys; shutil.copyfileobj(lzma.open(sys.argv[1]), sys.stdout.buffer)' "$1"
+    "${TOOL_ENV[@]}" python3 -c 'import lzma, shutil, sys; shutil.copyfileobj(lzma.open(sys.argv[1]), sys.stdout.buffer)' "$1"
   fi
 }
-programs || exit 1
+if ! programs; then
+  say "verdict: FAILED: the programs could not be set up (the line above says why)"
+  pack_logs
+  exit 2
+fi
 for p in build "${FIRST[@]}" "${SECOND[@]}"; do
   wanted "$p" && "phase_$p"
 done
@@ -217,4 +231,6 @@ rm -rf "$WORK"
 verdict
 rc=$?
 [[ $DRY == 1 && -z ${FDEM_GPU_LOGS:-} ]] && rm -rf "$LOGS"  # (packed in logs.tar.gz)
+# deps/ must stay small enough to carry (64 MiB): the dry run's unpacked bundle goes.
+[[ $DRY == 1 && ${FDEM_GPU_PROGRAMS:-} == bundle ]] && rm -rf "$DEPS/bundle"
 exit $rc
