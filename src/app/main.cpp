@@ -146,9 +146,11 @@ void define_run(CLI::App* run, CliOptions& o) {
 
 void define_check_and_partition(CLI::App* check, CLI::App* partition, CliOptions& o) {
   check->add_option("scene", o.scene_path, "Scene file (YAML)")->required();
-  check->add_option("--write-mesh", o.write_mesh,
-                    "Also write the scene's mesh (generated or read) to this gmsh .msh file (ASCII 2.2, coordinates "
-                    "in m, the same mesh bit for bit when read back): give it as mesh.file where fdem has no gmsh");
+  check->add_option(
+      "--write-mesh", o.write_mesh,
+      "Also write the scene's mesh (generated or read) to this gmsh .msh file (ASCII 2.2, coordinates "
+      "in m, the same mesh and groups bit for bit when read back): give it as mesh.file where fdem has no "
+      "gmsh");
   partition->add_option("scene", o.scene_path, "Scene file (YAML)")->required();
   partition->add_option("-n,--ranks", o.parts, "Number of MPI ranks")->required()->check(CLI::PositiveNumber);
   partition->add_option("-o,--output", o.output, "Folder for rank_<r>.fdp (default: <output.folder>/partition_<N>)");
@@ -197,7 +199,8 @@ void define_series_commands(const Commands& c, CliOptions& o) {
 Commands define_commands(CLI::App& app, CliOptions& o) {
   Commands c;
   c.run = app.add_subcommand("run", "Run a scene: writes monitors.csv, stress_strain.png and fields.xdmf/.h5");
-  c.check = app.add_subcommand("check", "Validate a scene, build its model and report counts and the time step");
+  c.check = app.add_subcommand(
+      "check", "Validate a scene, build its model and report the mesh's groups, counts and the time step");
   c.partition = app.add_subcommand(
       "partition",
       "Partition a scene's model for N MPI ranks (METIS) and write one rank file per rank, for fdem run "

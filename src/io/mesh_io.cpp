@@ -13,6 +13,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
+#include <functional>
 #include <mutex>
 #include <string_view>
 #include <system_error>
@@ -198,6 +199,9 @@ class GmshSession {
   int omp_threads_ = omp_get_max_threads();
 };
 
+Mesh gmsh_tets(const std::string& what, std::unordered_map<std::size_t, int>* vertex_of = nullptr,
+               std::unordered_map<std::size_t, int>* tet_of = nullptr);
+
 Mesh mesh_with_gmsh(const MeshSpec& s, const std::string& what) {
   namespace occ = gmsh::model::occ;
   const real h = s.element_size;
@@ -235,7 +239,13 @@ Mesh mesh_with_gmsh(const MeshSpec& s, const std::string& what) {
   }
   occ::synchronize();
   gmsh::model::mesh::generate(3);
+  return gmsh_tets(what);
+}
 
+/// The tets gmsh has meshed: its nodes that tets use, renumbered compactly in gmsh's order.
+/// node_of (optional) gets each gmsh node tag's vertex; tet_of each gmsh tet tag's index.
+Mesh gmsh_tets(const std::string& what, std::unordered_map<std::size_t, int>* vertex_of,
+               std::unordered_map<std::size_t, int>* tet_of) {
   std::vector<std::size_t> node_tags, tet_tags, tet_nodes;
   std::vector<double> xyz, param;
   gmsh::model::mesh::getNodes(node_tags, xyz, param, -1, -1, false, false);
@@ -258,14 +268,145 @@ Mesh mesh_with_gmsh(const MeshSpec& s, const std::string& what) {
     if (used[i] == 0) {
       used[i] = static_cast<int>(mesh.vertices.size());
       mesh.vertices.push_back({xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]});
+      if (vertex_of) vertex_of->emplace(node_tags[i], used[i]);
     }
   mesh.tets.resize(tet_tags.size());
-  for (std::size_t t = 0; t < tet_tags.size(); ++t)
+  for (std::size_t t = 0; t < tet_tags.size(); ++t) {
     for (int k = 0; k < 4; ++k) mesh.tets[t][k] = used[index.at(tet_nodes[4 * t + k])];
+    if (tet_of) tet_of->emplace(tet_tags[t], static_cast<int>(t));
+  }
+  return mesh;
+}
+
+/// The physical groups of dimension 3 and 2 of the meshed .geo, as the mesh's groups.
+void gmsh_groups(Mesh& mesh, const std::unordered_map<std::size_t, int>& vertex_of,
+                 const std::unordered_map<std::size_t, int>& tet_of) {
+  for (const int dim : {3, 2}) {
+    gmsh::vectorpair groups;
+    gmsh::model::getPhysicalGroups(groups, dim);
+    for (const auto& [d, tag] : groups) {
+      MeshGroup g;
+      g.dim = d, g.tag = tag;
+      gmsh::model::getPhysicalName(d, tag, g.name);
+      std::vector<int> entities;
+      gmsh::model::getEntitiesForPhysicalGroup(d, tag, entities);
+      for (const int e : entities) {
+        std::vector<std::size_t> tags, nodes;
+        gmsh::model::mesh::getElementsByType(d == 3 ? 4 : 2, tags, nodes, e);
+        for (std::size_t k = 0; k < tags.size(); ++k) {
+          if (d == 3) {
+            g.tets.push_back(tet_of.at(tags[k]));
+            continue;
+          }
+          std::array<int, 3> f{};
+          for (int i = 0; i < 3; ++i) {
+            const auto it = vertex_of.find(nodes[3 * k + i]);
+            if (it == vertex_of.end())
+              throw InputError(mesh.source + ": " + g.label() + " has a triangle off the volume mesh. Fix: embed the " +
+                               "surface in the volume (Surface{...} In Volume{...})");
+            f[i] = it->second;
+          }
+          g.faces.push_back(f);
+        }
+      }
+      std::sort(g.tets.begin(), g.tets.end());
+      mesh.groups.push_back(std::move(g));
+    }
+  }
+}
+
+/// A .geo file meshed by gmsh (its own kernel, built-in or OpenCASCADE), with element_size as
+/// the largest element when given, and its physical groups.
+Mesh mesh_geo(const MeshSpec& s) {
+  gmsh::option::setNumber("General.NumThreads", 1);
+  gmsh::option::setNumber("Mesh.ElementOrder", 1);
+  gmsh::open(s.file);
+  if (s.element_size > 0) {
+    gmsh::option::setNumber("Mesh.MeshSizeMax", s.element_size);
+    gmsh::option::setNumber("Mesh.MeshSizeMin", 0.5 * s.element_size);
+  }
+  std::string error;
+  gmsh::logger::getLastError(error);
+  if (error.empty()) {
+    gmsh::model::mesh::generate(3);
+    gmsh::logger::getLastError(error);
+  }
+  if (!error.empty())
+    throw InputError(s.file + ": gmsh could not mesh it: " + error + ". Fix: open it in gmsh and correct the geometry");
+  std::unordered_map<std::size_t, int> vertex_of, tet_of;
+  Mesh mesh = gmsh_tets(s.file, &vertex_of, &tet_of);
+  if (s.scale != 1)
+    for (Vec3& x : mesh.vertices) x = s.scale * x;
+  gmsh_groups(mesh, vertex_of, tet_of);
   return mesh;
 }
 
 #endif  // FDEM_HAVE_GMSH
+
+using Triangle = std::array<int, 3>;
+
+/// The faces of one tet only, as its tet orders them.
+std::vector<Triangle> boundary_faces(const Mesh& m) {
+  std::vector<std::pair<Triangle, Triangle>> all;  // (sorted, as the tet has it)
+  all.reserve(4 * m.tets.size());
+  for (const auto& q : m.tets)
+    for (int i = 0; i < 4; ++i) {
+      Triangle f{q[(i + 1) % 4], q[(i + 2) % 4], q[(i + 3) % 4]}, key = f;
+      std::sort(key.begin(), key.end());
+      all.push_back({key, f});
+    }
+  std::sort(all.begin(), all.end());
+  std::vector<Triangle> out;
+  for (std::size_t i = 0; i < all.size(); ++i) {
+    const bool twice =
+        (i > 0 && all[i - 1].first == all[i].first) || (i + 1 < all.size() && all[i + 1].first == all[i].first);
+    if (!twice) out.push_back(all[i].second);
+  }
+  return out;
+}
+
+/// A plane x[axis] = at that names the boundary faces on it.
+struct NamedPlane {
+  const char* name;
+  int axis;
+  real at;
+};
+
+/// The planes of a generated shape's flat faces (the lateral surface is the rest).
+std::vector<NamedPlane> shape_planes(const MeshSpec& s) {
+  if (s.shape == MeshShape::cylinder) return {{"top", 2, s.height}, {"bottom", 2, 0}};
+  if (s.shape == MeshShape::disc) return {{"ymin", 1, -s.height / 2}, {"ymax", 1, s.height / 2}};
+  return {{"xmin", 0, 0},        {"xmax", 0, s.size.x}, {"ymin", 1, 0},
+          {"ymax", 1, s.size.y}, {"zmin", 2, 0},        {"zmax", 2, s.size.z}};
+}
+
+/// The generated shape's surfaces as groups, tagged from 1 in this order: a cylinder's top,
+/// bottom and lateral; a disc's ymin, ymax and lateral; a box's xmin, xmax, ymin, ymax, zmin,
+/// zmax. A boundary face lies on a plane when its three vertices do, within 1e-9 of the size.
+void name_surfaces(Mesh& m, const MeshSpec& s) {
+  const std::vector<NamedPlane> planes = shape_planes(s);
+  const char* rest = s.shape == MeshShape::box ? nullptr : "lateral";
+  const real tol = 1e-9 * std::max({s.diameter, s.height, s.size.x, s.size.y, s.size.z});
+  std::vector<MeshGroup> groups(planes.size() + (rest ? 1 : 0));
+  for (std::size_t i = 0; i < groups.size(); ++i) {
+    groups[i].name = i < planes.size() ? planes[i].name : rest;
+    groups[i].dim = 2;
+    groups[i].tag = static_cast<int>(i + 1);
+  }
+  auto coord = [&](int v, int axis) {
+    return axis == 0 ? m.vertices[v].x : axis == 1 ? m.vertices[v].y : m.vertices[v].z;
+  };
+  for (const Triangle& f : boundary_faces(m)) {
+    std::size_t g = 0;
+    while (g < planes.size() && !std::all_of(f.begin(), f.end(), [&](int v) {
+             return std::fabs(coord(v, planes[g].axis) - planes[g].at) <= tol;
+           }))
+      ++g;
+    if (g == groups.size()) throw InputError(m.source + ": a boundary face lies on none of the box's faces");
+    groups[g].faces.push_back(f);
+  }
+  m.groups = std::move(groups);
+}
 
 }  // namespace
 
@@ -317,6 +458,7 @@ Mesh generate_mesh(const MeshSpec& s) {
   try {
     GmshSession session;
     mesh = mesh_with_gmsh(s, what);
+    name_surfaces(mesh, s);
   } catch (const InputError&) {
     throw;
   } catch (...) {
@@ -332,33 +474,112 @@ Mesh generate_mesh(const MeshSpec& s) {
 #endif
 }
 
+namespace {
+
+/// The $PhysicalNames section of the mesh's named groups ("" when none is named).
+std::string physical_names(const Mesh& mesh) {
+  std::string names;
+  std::size_t n = 0;
+  for (const MeshGroup& g : mesh.groups)
+    if (!g.name.empty()) names += std::to_string(g.dim) + ' ' + std::to_string(g.tag) + " \"" + g.name + "\"\n", ++n;
+  return n ? "$PhysicalNames\n" + std::to_string(n) + '\n' + names + "$EndPhysicalNames\n" : std::string();
+}
+
+/// v2.2 elements: each tet once in mesh order with its first volume group's tag (0: none), then
+/// once more for each further volume group it is in, then each surface group's triangles.
+std::string msh_elements(const Mesh& mesh, const std::function<void(std::string&, std::size_t)>& put) {
+  std::vector<int> first(mesh.tets.size(), 0);
+  std::vector<std::pair<int, int>> more;  // (tet, tag)
+  std::size_t triangles = 0;
+  for (const MeshGroup& g : mesh.groups) {
+    triangles += g.faces.size();
+    for (const int t : g.tets) {
+      if (first[t] == 0)
+        first[t] = g.tag;
+      else
+        more.push_back({t, g.tag});
+    }
+  }
+  std::string text = "$Elements\n" + std::to_string(mesh.tets.size() + more.size() + triangles) + '\n';
+  std::size_t tag = 0;
+  auto element = [&](int type, int physical, const int* v, int nv) {
+    put(text, ++tag);
+    text +=
+        ' ' + std::to_string(type) + " 2 " + std::to_string(physical) + ' ' + std::to_string(physical ? physical : 1);
+    for (int i = 0; i < nv; ++i) text += ' ', put(text, std::size_t(v[i]) + 1);
+    text += '\n';
+  };
+  for (std::size_t t = 0; t < mesh.tets.size(); ++t) element(4, first[t], mesh.tets[t].data(), 4);
+  for (const auto& [t, physical] : more) element(4, physical, mesh.tets[t].data(), 4);
+  for (const MeshGroup& g : mesh.groups)
+    for (const auto& f : g.faces) element(2, g.tag, f.data(), 3);
+  return text + "$EndElements\n";
+}
+
+}  // namespace
+
 void write_msh(const Mesh& mesh, const std::string& path) {
-  std::string text = "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n" + std::to_string(mesh.vertices.size()) + '\n';
+  std::string text = "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n" + physical_names(mesh) + "$Nodes\n" +
+                     std::to_string(mesh.vertices.size()) + '\n';
   text.reserve(text.size() + 64 * mesh.vertices.size() + 48 * mesh.tets.size() + 64);
   char buf[32];
-  auto put = [&](auto v) {  // shortest round-trip text of an integer or a double
+  auto put = [&](std::string& out, auto v) {  // shortest round-trip text of an integer or a double
     const auto r = std::to_chars(buf, buf + sizeof buf, v);
-    text.append(buf, r.ptr);
+    out.append(buf, r.ptr);
   };
   for (std::size_t i = 0; i < mesh.vertices.size(); ++i) {
     const Vec3& x = mesh.vertices[i];
-    put(i + 1);
-    for (const real c : {x.x, x.y, x.z}) text += ' ', put(c);
+    put(text, i + 1);
+    for (const real c : {x.x, x.y, x.z}) text += ' ', put(text, c);
     text += '\n';
   }
-  text += "$EndNodes\n$Elements\n" + std::to_string(mesh.tets.size()) + '\n';
-  for (std::size_t t = 0; t < mesh.tets.size(); ++t) {
-    put(t + 1);
-    text += " 4 2 1 1";  // a tetrahedron; physical and elementary tags 1
-    for (const int v : mesh.tets[t]) text += ' ', put(v + 1);
-    text += '\n';
-  }
-  text += "$EndElements\n";
+  text += "$EndNodes\n" + msh_elements(mesh, [&](std::string& out, std::size_t v) { put(out, v); });
   write_file_atomically(path, text);
 }
 
+std::string describe_groups(const Mesh& mesh) {
+  std::string out = mesh.groups.empty() ? "" : "mesh groups (scenes name them):\n";
+  for (const MeshGroup& g : mesh.groups) {
+    double size = 0;
+    for (const int t : g.tets) {
+      const auto& q = mesh.tets[t];
+      const Vec3 a = mesh.vertices[q[0]];
+      size += std::fabs(dot(mesh.vertices[q[1]] - a, cross(mesh.vertices[q[2]] - a, mesh.vertices[q[3]] - a))) / 6;
+    }
+    for (const auto& f : g.faces)
+      size += 0.5 * norm(cross(mesh.vertices[f[1]] - mesh.vertices[f[0]], mesh.vertices[f[2]] - mesh.vertices[f[0]]));
+    out += "  group " + g.label() + " (" + std::to_string(g.dim) + "D, tag " + std::to_string(g.tag) + "): " +
+           (g.dim == 3 ? std::to_string(g.tets.size()) + " tets, " + fmt(size) + " m^3"
+                       : std::to_string(g.faces.size()) + " triangle(s), " + fmt(size) + " m^2") +
+           '\n';
+  }
+  return out;
+}
+
+Mesh mesh_geo_file(const MeshSpec& s) {
+#ifdef FDEM_HAVE_GMSH
+  std::lock_guard<std::mutex> lock(g_gmsh_mutex);
+  Mesh mesh;
+  try {
+    GmshSession session;
+    mesh = mesh_geo(s);
+  } catch (const InputError&) {
+    throw;
+  } catch (...) {
+    throw InputError(s.file + ": gmsh could not mesh it: " + exception_text() +
+                     ". Fix: open it in gmsh and correct the geometry");
+  }
+  validate_mesh(mesh);
+  return mesh;
+#else
+  throw InputError(s.file +
+                   ": a .geo file needs gmsh to mesh it, and this fdem was built without gmsh. Fix: mesh it where "
+                   "gmsh is (fdem check --write-mesh writes the .msh, groups included) and give that .msh");
+#endif
+}
+
 Mesh load_mesh(const MeshSpec& spec) {
-  if (!spec.file.empty()) return read_msh(spec.file, spec.scale);
+  if (!spec.file.empty()) return spec.geo() ? mesh_geo_file(spec) : read_msh(spec.file, spec.scale);
   return generate_mesh(spec);
 }
 

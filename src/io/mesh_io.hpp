@@ -15,6 +15,10 @@ namespace fdem {
 /// and the rest renumbered 0..n-1 in the order they appear in the file. Coordinates are
 /// multiplied by `scale` (e.g. 1e-3 for a mesh drawn in millimetres). The result has passed
 /// validate_mesh; mesh.source is `path`.
+/// Physical groups of dimension 3 and 2 become mesh.groups: named by $PhysicalNames, their tets
+/// and their triangles (element type 2), each of which must be a face of a tet. In v4.1 an
+/// element's groups are its entity's ($Entities); in v2.2 its physical tag (the first tag),
+/// and a tet written once per group is one tet.
 Mesh read_msh(const std::string& path, real scale = 1);
 
 /// Generate a tetrahedral mesh with gmsh (OpenCASCADE kernel, Delaunay, optimised, single
@@ -36,12 +40,26 @@ Mesh generate_mesh(const MeshSpec& spec);
 /// Write a mesh as a gmsh .msh file, ASCII version 2.2: the vertices as nodes 1..n (coordinates
 /// in m, each in the shortest form that reads back to the same double) and the tets as elements
 /// 1..m of type 4 in mesh order, so read_msh(path) gives the same mesh bit for bit where every
-/// vertex is a tet's, as in every mesh load_mesh gives (read_msh drops the others). For running
-/// a generated mesh where gmsh is missing (mesh.file). Written whole or not at all
-/// (write_file_atomically); throws OutputError naming the file.
+/// vertex is a tet's, as in every mesh load_mesh gives (read_msh drops the others). The groups
+/// go with it: $PhysicalNames, each tet's first volume group as its physical tag (a copy for each
+/// further one, as gmsh writes v2.2), and the surfaces' triangles. For running a generated mesh
+/// where gmsh is missing (mesh.file). Written whole or not at all (write_file_atomically); throws
+/// OutputError naming the file.
 void write_msh(const Mesh& mesh, const std::string& path);
 
-/// spec.file non-empty: read_msh(spec.file, spec.scale); otherwise generate_mesh(spec).
+/// One line per group of the mesh, for fdem check: its label, dimension, tag, its tets and
+/// volume or its triangles and area (m^3, m^2). "" for a mesh without groups.
+std::string describe_groups(const Mesh& mesh);
+
+/// Mesh the gmsh geometry script spec.file (built-in or OpenCASCADE kernel, as the file says)
+/// in 3D, first order, with spec.element_size as the largest element where it is > 0 (the
+/// smallest half of it). The physical groups of dimension 3 and 2 become mesh.groups.
+/// Coordinates are multiplied by spec.scale. A file gmsh cannot mesh is an InputError with
+/// gmsh's message. Needs gmsh (InputError without it, naming the fix).
+Mesh mesh_geo_file(const MeshSpec& spec);
+
+/// spec.file non-empty: mesh_geo_file for a .geo file, else read_msh(spec.file, spec.scale);
+/// otherwise generate_mesh(spec).
 Mesh load_mesh(const MeshSpec& spec);
 
 /// Check a mesh; throws InputError naming mesh.source and the offending tet (1-based index

@@ -18,146 +18,20 @@
 #include "core/format.hpp"
 #include "io/mesh_detail.hpp"
 #include "io/mesh_io.hpp"
+#include "io/msh_groups.hpp"
+#include "io/msh_text.hpp"
 
 namespace fdem {
 using mesh_detail::kResave;
+using mesh_detail::PhysicalGroups;
 using mesh_detail::quote;
+using mesh_detail::RawFace;
+using mesh_detail::RawTet;
+using mesh_detail::Reader;
 namespace {
 
 // ---------------------------------------------------------------------------------------------
-// Line-oriented reader over the whole file text. Blank lines are skipped.
-
-class Reader {
- public:
-  Reader(const std::string& path, const std::string& text) : path_(path), text_(text) {}
-
-  /// Next non-blank line (without the line break and surrounding blanks); false at end of file.
-  bool next(std::string_view& line) {
-    while (pos_ < text_.size()) {
-      const std::size_t end = std::min(text_.find('\n', pos_), text_.size());
-      std::string_view l(text_.data() + pos_, end - pos_);
-      pos_ = end + 1;
-      ++line_no_;
-      const std::size_t a = l.find_first_not_of(" \t\r\v\f");
-      if (a == std::string_view::npos) continue;
-      const std::size_t b = l.find_last_not_of(" \t\r\v\f");
-      line = l.substr(a, b - a + 1);
-      return true;
-    }
-    line_no_ = last_line();
-    return false;
-  }
-
-  /// Next line, which must exist; `inside` says where we are for the end-of-file message.
-  std::string_view need(const std::string& inside) {
-    std::string_view l;
-    if (!next(l))
-      fail("the file ends " + inside + "; it is truncated",
-           "write the file again completely (or re-export it from gmsh)");
-    return l;
-  }
-
-  /// Split a line into whitespace-separated tokens (reusing `out`).
-  static void split(std::string_view l, std::vector<std::string_view>& out) {
-    out.clear();
-    std::size_t i = 0;
-    while (i < l.size()) {
-      while (i < l.size() && std::isspace(static_cast<unsigned char>(l[i]))) ++i;
-      std::size_t j = i;
-      while (j < l.size() && !std::isspace(static_cast<unsigned char>(l[j]))) ++j;
-      if (j > i) out.emplace_back(l.substr(i, j - i));
-      i = j;
-    }
-  }
-
-  [[noreturn]] void fail(const std::string& what, const std::string& fix) const { fail_at(line_no_, what, fix); }
-  [[noreturn]] void fail_at(long line, const std::string& what, const std::string& fix) const {
-    throw InputError(path_ + ":" + std::to_string(line) + ": " + what + "; " + fix);
-  }
-
-  /// Unsigned integer token (tags, counts, types).
-  std::uint64_t u64(std::string_view t, const char* what) const {
-    std::uint64_t v = 0;
-    const char* b = t.data();
-    const char* e = t.data() + t.size();
-    if (b != e && *b == '+') ++b;
-    const auto r = std::from_chars(b, e, v);
-    if (r.ec != std::errc() || r.ptr != e || b == e)
-      fail(std::string("expected ") + what + " (a non-negative integer), found " + quote(t),
-           "fix this line or re-export the mesh from gmsh");
-    return v;
-  }
-  /// Integer token that may be negative (entity tags in v4 blocks).
-  std::int64_t i64(std::string_view t, const char* what) const {
-    std::int64_t v = 0;
-    const char* b = t.data();
-    const char* e = t.data() + t.size();
-    if (b != e && *b == '+') ++b;
-    const auto r = std::from_chars(b, e, v);
-    if (r.ec != std::errc() || r.ptr != e || b == e)
-      fail(std::string("expected ") + what + " (an integer), found " + quote(t),
-           "fix this line or re-export the mesh from gmsh");
-    return v;
-  }
-  /// Finite floating-point token (coordinates).
-  double number(std::string_view t, const char* what) const {
-    double v = 0;
-    const char* b = t.data();
-    const char* e = t.data() + t.size();
-    if (b != e && *b == '+') ++b;
-    const auto r = std::from_chars(b, e, v);
-    if (r.ec == std::errc::result_out_of_range)
-      fail(std::string(what) + " " + quote(t) + " is out of the range of a double",
-           "fix the coordinates (are they in the intended unit?)");
-    if (r.ec != std::errc() || r.ptr != e || b == e)
-      fail(std::string("expected ") + what + " (a number), found " + quote(t),
-           "fix this line or re-export the mesh from gmsh");
-    if (!std::isfinite(v))
-      fail(std::string(what) + " is " + quote(t) + ", not a finite number",
-           "fix the node coordinates where the mesh was made");
-    return v;
-  }
-  /// A count from a section header: it cannot exceed the size of the file (each entry takes at
-  /// least two bytes), so absurd values are rejected before anything is allocated.
-  std::uint64_t count(std::string_view t, const char* what) const {
-    const std::uint64_t n = u64(t, what);
-    if (n > text_.size())
-      fail(std::string(what) + " is " + std::to_string(n) + ", more than a file of " + std::to_string(text_.size()) +
-               " bytes can hold",
-           "the count is corrupt; re-export the mesh from gmsh");
-    return n;
-  }
-  /// How many entries to reserve for a count: no more than the file could hold.
-  std::size_t reserve_for(std::uint64_t n, std::size_t min_bytes_per_entry) const {
-    return static_cast<std::size_t>(std::min<std::uint64_t>(n, text_.size() / min_bytes_per_entry + 1));
-  }
-
-  long line_no() const { return line_no_; }
-  const std::string& path() const { return path_; }
-
- private:
-  long last_line() const {
-    // Number of the last line of the file (for messages at end of file).
-    long n = 0;
-    for (char c : text_) n += (c == '\n');
-    if (!text_.empty() && text_.back() != '\n') ++n;
-    return std::max(n, 1L);
-  }
-
-  const std::string& path_;
-  const std::string& text_;
-  std::size_t pos_ = 0;
-  long line_no_ = 0;
-};
-
-// ---------------------------------------------------------------------------------------------
 // .msh parsing
-
-struct RawTet {
-  std::uint64_t node[4];
-  std::uint64_t tag;
-  long line;
-};
 
 /// Hash of node tags read from the file, keyed per process: with std::hash (the identity), tags
 /// that are multiples of the bucket count all share one bucket and each lookup scans every node
@@ -182,6 +56,8 @@ struct MshData {
   std::vector<long> node_lines;
   std::unordered_map<std::uint64_t, int, TagHash> node_index;  // tag -> index into coords
   std::vector<RawTet> tets;
+  std::vector<RawFace> faces;  // triangles, which become surface groups' faces
+  PhysicalGroups groups;
   std::uint64_t other_elements = 0;  // elements of types other than 4
   std::uint64_t other_volumes = 0;   // of them, volume elements (hexahedra, prisms, 10-node tets...)
   std::uint64_t first_volume_tag = 0, first_volume_type = 0;
@@ -252,26 +128,15 @@ void add_node(Reader& r, MshData& d, std::uint64_t tag, Vec3 x, long line) {
   d.node_lines.push_back(line);
 }
 
-/// Expect the line that closes a section whose entries have been read.
-void expect_end(Reader& r, const char* end, const std::string& section_what, long header_line) {
-  const std::string_view l = r.need("before " + std::string(end));
-  if (l != end)
-    r.fail(std::string("expected ") + end + " after the " + section_what + " announced on line " +
-               std::to_string(header_line) + ", found " + quote(l),
-           "the count on line " + std::to_string(header_line) +
-               " does not match the number of entries; correct it or re-export the mesh");
-}
-
-/// A data line inside a section with a known count; a '$' line here means the count is too big.
-std::string_view data_line(Reader& r, const char* section, std::uint64_t k, std::uint64_t n, const char* what,
-                           long header_line) {
-  const std::string_view l = r.need("inside " + std::string(section) + " (after " + std::to_string(k) + " of " +
-                                    std::to_string(n) + " " + what + ")");
-  if (l[0] == '$')
-    r.fail("found " + quote(l) + " after " + std::to_string(k) + " " + what + " but line " +
-               std::to_string(header_line) + " announced " + std::to_string(n),
-           "the count does not match the number of entries; correct it or re-export the mesh");
-  return l;
+/// A 3-node triangle whose node tags start at token `at`.
+RawFace triangle(const Reader& r, const std::vector<std::string_view>& tok, std::size_t at, std::uint64_t tag,
+                 std::int64_t entity) {
+  RawFace f{};
+  for (int i = 0; i < 3; ++i) f.node[i] = r.u64(tok[at + i], "a node tag");
+  f.tag = tag;
+  f.entity = entity;
+  f.line = r.line_no();
+  return f;
 }
 
 void nodes_v2(Reader& r, MshData& d) {
@@ -317,12 +182,14 @@ void elements_v2(Reader& r, MshData& d) {
                  " value(s) after the number of tags",
              "fix the number of tags (the third value) or re-export the mesh");
     const int nn = nodes_of_type(type);
+    const std::int64_t physical = ntags > 0 ? r.i64(tok[3], "the physical tag") : 0;
     if (type != 4) {
       other_element(r, d, tag, type);
       if (tok.size() != 3 + ntags + static_cast<std::uint64_t>(nn))
         r.fail("an element of type " + std::to_string(type) + " with " + std::to_string(ntags) + " tags needs " +
                    std::to_string(3 + ntags + nn) + " values, found " + std::to_string(tok.size()),
                "fix this line or re-export the mesh");
+      if (type == 2 && physical != 0) d.faces.push_back(triangle(r, tok, 3 + ntags, tag, physical));
       continue;
     }
     if (tok.size() != 3 + ntags + 4)
@@ -333,6 +200,7 @@ void elements_v2(Reader& r, MshData& d) {
     RawTet t{};
     for (int i = 0; i < 4; ++i) t.node[i] = r.u64(tok[3 + ntags + i], "a node tag");
     t.tag = tag;
+    t.entity = physical;
     t.line = r.line_no();
     d.tets.push_back(t);
   }
@@ -427,7 +295,7 @@ void elements_v4(Reader& r, MshData& d) {
                  std::to_string(tok.size()),
              "fix this line or re-export the mesh as version 4.1");
     r.u64(tok[0], "the entity dimension");
-    r.i64(tok[1], "the entity tag");
+    const std::int64_t entity = r.i64(tok[1], "the entity tag");
     const std::uint64_t type = r.u64(tok[2], "the element type");
     const std::uint64_t m = r.count(tok[3], "the number of elements in the block");
     total += m;
@@ -446,11 +314,14 @@ void elements_v4(Reader& r, MshData& d) {
                "the element count on line " + std::to_string(block_line) +
                    " may be wrong; correct it or re-export the mesh");
       if (type != 4) {
-        other_element(r, d, r.u64(tok[0], "an element tag"), type);
+        const std::uint64_t tag = r.u64(tok[0], "an element tag");
+        other_element(r, d, tag, type);
+        if (type == 2) d.faces.push_back(triangle(r, tok, 1, tag, entity));
         continue;
       }
       RawTet t{};
       t.tag = r.u64(tok[0], "an element tag");
+      t.entity = entity;
       for (int i = 0; i < 4; ++i) t.node[i] = r.u64(tok[1 + i], "a node tag");
       t.line = r.line_no();
       d.tets.push_back(t);
@@ -517,7 +388,8 @@ int read_format(Reader& r) {
   return major;
 }
 
-/// The sections after $MeshFormat: one $Nodes and one $Elements, others skipped.
+/// The sections after $MeshFormat: one $Nodes and one $Elements, the groups' $PhysicalNames and
+/// $Entities; others skipped.
 void read_sections(Reader& r, int major, MshData& d) {
   std::string_view l;
   bool have_nodes = false, have_elements = false;
@@ -533,6 +405,10 @@ void read_sections(Reader& r, int major, MshData& d) {
         major == 2 ? nodes_v2(r, d) : nodes_v4(r, d);
       else
         major == 2 ? elements_v2(r, d) : elements_v4(r, d);
+    } else if (l == "$PhysicalNames") {
+      mesh_detail::read_physical_names(r, d.groups);
+    } else if (l == "$Entities" && major == 4) {
+      mesh_detail::read_entities(r, d.groups);
     } else if (l.rfind("$End", 0) == 0) {
       r.fail("unexpected " + quote(l) + " without its opening section", "the file is damaged; re-export the mesh");
     } else {
@@ -569,6 +445,7 @@ struct ResolvedMesh {
   Mesh mesh;
   std::vector<std::uint64_t> vertex_tags, tet_tags;
   std::vector<long> tet_lines;
+  std::vector<int> vertex_of_node;  // per node read: its mesh vertex, -1 for a node no tet uses
 };
 ResolvedMesh resolve_nodes(Reader& r, const MshData& d, real scale) {
   std::vector<int> vidx(d.coords.size(), -1);
@@ -607,7 +484,23 @@ ResolvedMesh resolve_nodes(Reader& r, const MshData& d, real scale) {
     out.tet_tags[t] = d.tets[t].tag;
     out.tet_lines[t] = d.tets[t].line;
   }
+  out.vertex_of_node = std::move(vidx);
   return out;
+}
+
+/// The mesh vertex of the node a surface triangle names.
+int vertex_of(const Reader& r, const MshData& d, const ResolvedMesh& m, std::uint64_t node, long line) {
+  const auto it = d.node_index.find(node);
+  if (it == d.node_index.end())
+    r.fail_at(line, "a triangle refers to node " + std::to_string(node) + ", which is not in $Nodes",
+              "add the node or fix the element's node list");
+  const int v = m.vertex_of_node[it->second];
+  if (v < 0)
+    r.fail_at(line,
+              "a triangle of a surface group uses node " + std::to_string(node) +
+                  ", which belongs to no tetrahedron: the surface is not part of the volume mesh",
+              "embed the surface in the volume (gmsh: Surface{...} In Volume{...}) and mesh again");
+  return v;
 }
 
 }  // namespace
@@ -620,8 +513,11 @@ Mesh read_msh(const std::string& path, real scale) {
   Reader r(path, text);
   MshData d;
   const int major = read_format(r);
+  d.groups.entity_is_physical = major == 2;
   read_sections(r, major, d);
   check_only_tets(r, d);
+  const auto extra =
+      major == 2 ? mesh_detail::merge_repeated_tets(d.tets) : std::vector<std::pair<std::size_t, std::int64_t>>{};
   ResolvedMesh resolved = resolve_nodes(r, d, scale);
   mesh_detail::Labels L;
   L.prefix = path;
@@ -629,6 +525,9 @@ Mesh read_msh(const std::string& path, real scale) {
   L.tet_tags = &resolved.tet_tags;
   L.tet_lines = &resolved.tet_lines;
   mesh_detail::validate(resolved.mesh, L);
+  resolved.mesh.groups = mesh_detail::assemble_groups(
+      r, d.groups, d.tets, extra, d.faces,
+      [&](std::uint64_t node, long line) { return vertex_of(r, d, resolved, node, line); }, resolved.mesh);
   return std::move(resolved.mesh);
 }
 

@@ -321,7 +321,7 @@ class Reader {
       error(p, "has no value", "give exactly one of mesh.generate or mesh.file");
       return;
     }
-    if (!check_map(n, p, {"generate", "file", "scale"})) return;
+    if (!check_map(n, p, {"generate", "file", "scale", "element_size"})) return;
     const bool gen = bool(n["generate"]), file = bool(n["file"]);
     if (gen == file) {
       error(p, gen ? "both generate and file are given" : "neither generate nor file is given",
@@ -330,12 +330,15 @@ class Reader {
     }
     if (gen) {
       if (n["scale"]) error(p + ".scale", "only applies to mesh.file", "remove it; give generated sizes in m");
+      if (n["element_size"])
+        error(p + ".element_size", "belongs in mesh.generate, or with a .geo mesh.file", "move it into mesh.generate");
       generate(n["generate"], m);
       return;
     }
     number(n, p, "scale", positive(), m.scale);
     std::string f;
-    if (!text(n, p, "file", f, "give the path of a gmsh .msh file, relative to the scene file's folder")) return;
+    if (!text(n, p, "file", f, "give the path of a gmsh .msh or .geo file, relative to the scene file's folder"))
+      return;
     const fs::path resolved = fs::path(f).is_absolute() ? fs::path(f) : (fs::path(scene_dir) / f).lexically_normal();
     std::error_code ec;
     if (!fs::is_regular_file(resolved, ec))
@@ -344,6 +347,12 @@ class Reader {
                 (scene_dir.empty() ? std::string() : " (" + scene_dir + ")"));
     m.file = resolved.string();
     m.shape = MeshShape::file;
+    if (n["element_size"]) {
+      if (!m.geo())
+        error(p + ".element_size", "only applies to a .geo file, which fdem meshes; a .msh file is meshed already",
+              "remove it, or give the .geo file");
+      number(n, p, "element_size", positive(), m.element_size);
+    }
   }
 
   void generate(const YAML::Node& n, MeshSpec& m) {

@@ -112,6 +112,7 @@ Model build_scene_model(const Scene& scene, const std::string& write_mesh, std::
     // Name the scene too: the mesh message names the mesh file and the element.
     throw InputError(scene.file + ": mesh: " + e.what());
   }
+  log << describe_groups(mesh);
   if (!write_mesh.empty()) {
     try {
       write_msh(mesh, write_mesh);
@@ -120,7 +121,7 @@ Model build_scene_model(const Scene& scene, const std::string& write_mesh, std::
                         "). Fix: give --write-mesh a file in a folder that can be written, with space");
     }
     log << "mesh written: " << write_mesh << " (" << mesh.vertices.size() << " vertices, " << mesh.tets.size()
-        << " tets, gmsh .msh 2.2, m; give it as mesh.file)\n";
+        << " tets, " << mesh.groups.size() << " groups, gmsh .msh 2.2, m; give it as mesh.file)\n";
   }
   return model;
 }

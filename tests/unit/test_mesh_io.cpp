@@ -143,6 +143,96 @@ TEST(GenerateMesh, BoxVolumeExact) {
   }
 }
 
+double group_area(const Mesh& m, const MeshGroup& g) {
+  double a = 0;
+  for (const auto& f : g.faces)
+    a += 0.5 * norm(cross(m.vertices[f[1]] - m.vertices[f[0]], m.vertices[f[2]] - m.vertices[f[0]]));
+  return a;
+}
+
+TEST(GenerateMesh, ShapesNameTheirSurfaces) {
+  // A cylinder's top, bottom and lateral surface; a box's six faces. Each face of one tet only
+  // is in exactly one group: the areas add up to the boundary's, and each group's faces lie where
+  // its name says.
+  const MeshSpec c = cylinder_spec();
+  const Mesh m = generate_mesh(c);
+  ASSERT_EQ(m.groups.size(), 3u);
+  const double r = c.diameter / 2, h = c.height;
+  EXPECT_EQ(m.groups[0].label(), "surface 'top'");
+  EXPECT_EQ(m.groups[1].label(), "surface 'bottom'");
+  EXPECT_EQ(m.groups[2].label(), "surface 'lateral'");
+  for (const auto& f : m.groups[0].faces)
+    for (const int v : f) EXPECT_EQ(m.vertices[v].z, h);
+  for (const auto& f : m.groups[1].faces)
+    for (const int v : f) EXPECT_EQ(m.vertices[v].z, 0.0);
+  for (const auto& f : m.groups[2].faces)
+    for (const int v : f) EXPECT_NEAR(std::hypot(m.vertices[v].x, m.vertices[v].y), r, 1e-9);
+  EXPECT_NEAR(group_area(m, m.groups[0]), kPi * r * r, 0.02 * kPi * r * r);  // polygons inside the circle
+  EXPECT_NEAR(group_area(m, m.groups[1]), group_area(m, m.groups[0]), 1e-12);
+  EXPECT_NEAR(group_area(m, m.groups[2]), 2 * kPi * r * h, 0.01 * 2 * kPi * r * h);
+
+  MeshSpec b;
+  b.shape = MeshShape::box;
+  b.size = {0.02, 0.03, 0.05};
+  b.element_size = 0.008;
+  const Mesh box = generate_mesh(b);
+  const char* names[] = {"xmin", "xmax", "ymin", "ymax", "zmin", "zmax"};
+  ASSERT_EQ(box.groups.size(), 6u);
+  for (int i = 0; i < 6; ++i) {
+    const MeshGroup& g = box.groups[i];
+    EXPECT_EQ(g.name, names[i]);
+    EXPECT_EQ(g.tag, i + 1);
+    const int axis = i / 2;
+    const double side = (i % 2) ? b.size[axis] : 0.0;
+    for (const auto& f : g.faces)
+      for (const int v : f) EXPECT_EQ(box.vertices[v][axis], side) << g.name;
+    const double area = b.size[(axis + 1) % 3] * b.size[(axis + 2) % 3];
+    EXPECT_NEAR(group_area(box, g), area, 1e-12 * area) << g.name;
+  }
+}
+
+TEST(MeshGeo, AGeoFileIsMeshedWithItsPhysicalGroupsAndAFaultyOneGivesGmshsMessage) {
+  // Two halves of a 1 m cube as two volumes sharing z = 0.5, an OpenCASCADE script.
+  const auto dir = std::filesystem::temp_directory_path() / ("fdem_geo_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  std::ofstream(dir / "block.geo") << "SetFactory(\"OpenCASCADE\");\n"
+                                      "Box(1) = {0, 0, 0, 1, 1, 0.5};\nBox(2) = {0, 0, 0.5, 1, 1, 0.5};\n"
+                                      "BooleanFragments{ Volume{1}; Delete; }{ Volume{2}; Delete; }\n"
+                                      "Physical Volume(\"lower\") = {1};\nPhysical Volume(\"upper\") = {2};\n"
+                                      "Physical Surface(\"face\") = {5};\n";
+  std::ofstream(dir / "bad.geo") << "SetFactory(\"OpenCASCADE\");\nBox(1) = {0, 0, 0, 1, 1;\n";
+  MeshSpec s;
+  s.file = (dir / "block.geo").string();
+  s.element_size = 0.25;
+  ASSERT_TRUE(s.geo());
+  const Mesh m = load_mesh(s);
+  ASSERT_EQ(m.groups.size(), 3u);
+  EXPECT_EQ(m.groups[0].label(), "volume 'lower'");
+  EXPECT_EQ(m.groups[1].label(), "volume 'upper'");
+  EXPECT_EQ(m.groups[2].label(), "surface 'face'");
+  // The volumes split the tets, each half of the cube.
+  EXPECT_EQ(m.groups[0].tets.size() + m.groups[1].tets.size(), m.tets.size());
+  for (int i = 0; i < 2; ++i) {
+    double v = 0;
+    for (const int t : m.groups[i].tets) {
+      v += std::abs(tet_volume(m, t));
+      const auto& q = m.tets[t];
+      const double zc = (m.vertices[q[0]].z + m.vertices[q[1]].z + m.vertices[q[2]].z + m.vertices[q[3]].z) / 4;
+      EXPECT_EQ(zc < 0.5, i == 0);
+    }
+    EXPECT_NEAR(v, 0.5, 1e-12);
+  }
+  EXPECT_NEAR(group_area(m, m.groups[2]), 1.0, 1e-12);  // a face of the boxes
+  // element_size reaches gmsh: half the size, more than twice the tets.
+  s.element_size = 0.125;
+  EXPECT_GT(load_mesh(s).tets.size(), 2 * m.tets.size());
+  s.file = (dir / "bad.geo").string();
+  const std::string msg = message_of([&] { load_mesh(s); });
+  EXPECT_NE(msg.find("bad.geo: gmsh could not mesh it: "), std::string::npos) << msg;
+  EXPECT_NE(msg.find("syntax error"), std::string::npos) << msg;
+  std::filesystem::remove_all(dir);
+}
+
 TEST(GenerateMesh, DiscAxisYSpansZ0ToDiameter) {
   MeshSpec s;
   s.shape = MeshShape::disc;
@@ -346,6 +436,63 @@ TEST(WriteMsh, AFileThatCannotBeWrittenIsAnOutputErrorNamingIt) {
   EXPECT_FALSE(std::filesystem::exists(path + ".tmp"));
 }
 
+/// The groups of cube6_groups_v22.msh and _v41.msh: volumes lower (the first two tets), upper
+/// (the other four), all (every tet; v2.2 writes each tet twice), surfaces bottom (the two
+/// triangles at z = 0) and the unnamed 7 (one of them).
+void expect_cube_groups(const Mesh& m) {
+  ASSERT_EQ(m.tets.size(), 6u);
+  ASSERT_EQ(m.groups.size(), 5u);
+  const std::string labels[] = {"volume 'lower'", "volume 'upper'", "volume 'all'", "surface 'bottom'", "surface 7"};
+  for (int i = 0; i < 5; ++i) EXPECT_EQ(m.groups[i].label(), labels[i]);
+  EXPECT_EQ(m.groups[0].tets, (std::vector<int>{0, 1}));
+  EXPECT_EQ(m.groups[1].tets, (std::vector<int>{2, 3, 4, 5}));
+  EXPECT_EQ(m.groups[2].tets, (std::vector<int>{0, 1, 2, 3, 4, 5}));
+  EXPECT_EQ(m.groups[3].tag, 4);
+  ASSERT_EQ(m.groups[3].faces.size(), 2u);
+  ASSERT_EQ(m.groups[4].faces.size(), 1u);
+  double area = 0;
+  for (const auto& f : m.groups[3].faces) {
+    for (const int v : f) EXPECT_EQ(m.vertices[v].z, 0.0);
+    area += 0.5 * norm(cross(m.vertices[f[1]] - m.vertices[f[0]], m.vertices[f[2]] - m.vertices[f[0]]));
+  }
+  EXPECT_NEAR(area, 1.0, 1e-15);  // the cube's bottom, once
+  EXPECT_EQ(m.groups[4].faces[0], m.groups[3].faces[0]);
+  for (const MeshGroup& g : m.groups) EXPECT_EQ(g.dim == 3, g.faces.empty()) << g.label();
+}
+
+TEST(ReadMsh, PhysicalGroupsOfV22AndV41GiveTheSameVolumesAndSurfaces) {
+  const Mesh a = read_msh(kDir + "cube6_groups_v22.msh");
+  const Mesh b = read_msh(kDir + "cube6_groups_v41.msh");
+  expect_cube_groups(a);
+  expect_cube_groups(b);
+  EXPECT_TRUE(a.tets == b.tets);
+  // A file whose elements carry no group has none; an unnamed physical tag is a group.
+  EXPECT_EQ(read_msh(kDir + "cube6_v41.msh").groups.size(), 1u);
+  EXPECT_EQ(read_msh(kDir + "cube6_v41.msh").groups[0].label(), "volume 1");
+  EXPECT_EQ(read_msh(kDir + "cube6_v22.msh").groups[0].label(), "volume 'rock'");
+}
+
+TEST(WriteMsh, GroupsReadBackTheSame) {
+  const Mesh m = read_msh(kDir + "cube6_groups_v41.msh");
+  const std::string path = temp_msh("fdem_write_groups");
+  write_msh(m, path);
+  const Mesh back = read_msh(path);
+  std::filesystem::remove(path);
+  expect_same_bits(m, back);
+  expect_cube_groups(back);
+  for (std::size_t i = 0; i < m.groups.size(); ++i) {
+    EXPECT_EQ(back.groups[i].name, m.groups[i].name);
+    EXPECT_EQ(back.groups[i].tag, m.groups[i].tag);
+    EXPECT_EQ(back.groups[i].faces, m.groups[i].faces);
+  }
+  // A mesh without groups is written without them, and reads back without them.
+  Mesh plain = m;
+  plain.groups.clear();
+  write_msh(plain, path);
+  EXPECT_TRUE(read_msh(path).groups.empty());
+  std::filesystem::remove(path);
+}
+
 TEST(ReadMsh, BadFilesThrowInputErrorNamingTheFile) {
   const BadCase cases[] = {
       {"bad_truncated.msh", "truncated"},
@@ -381,6 +528,8 @@ TEST(ReadMsh, BadFilesThrowInputErrorNamingTheFile) {
       {"bad_tag_count_wraps.msh", ":31: the element announces 18446744073709551612 tags"},  // ntags wrapped
       {"bad_tag_count_misread.msh", "announces 18446744073709551613 tags but has only 1"},
       {"bad_does_not_exist.msh", "does not exist"},
+      {"bad_group_off_volume.msh", ":22: triangle (element tag 3) of surface 'top' is not a face of any tetrahedron"},
+      {"bad_group_same_name.msh", "two surface groups are named 'top'. Fix:"},
   };
   for (const BadCase& c : cases) {
     SCOPED_TRACE(c.file);
