@@ -92,12 +92,25 @@ void ContactSet::check_reach(const Model& m, const std::vector<Vec3>& x) const {
                        " has moved " + fmt(std::sqrt(dot(d, d)), 3) +
                        " m since the contact ghosts were last gathered, half the contact reach " + fmt(reach_, 3) +
                        " m or more: partners beyond the reach, which this rank does not hold, could have touched "
-                       "it. Fix: a larger reach (--contact-reach of fdem run or fdem partition, e.g. "
-                       "--contact-reach " +
-                       fmt(std::max(2 * reach_, 4 * std::sqrt(dot(d, d))), 3) +
-                       "; it must exceed twice the distance a node moves in a step), or fewer ranks");
+                       "it. " +
+                       reach_fix(reach_, std::sqrt(dot(d, d))));
     }
   }
+}
+
+real ContactSet::farthest_move(const Model& m, const std::vector<Vec3>& x) const {
+  real far2 = 0;
+  if (tet_owned_)
+    for (std::size_t t = 0; t < m.tet_nodes.size(); ++t)
+      if ((*tet_owned_)[t])
+        for (int n : m.tet_nodes[t]) far2 = std::max(far2, dot(x[n] - plan_x_[n], x[n] - plan_x_[n]));
+  return std::sqrt(far2);
+}
+
+std::string ContactSet::reach_fix(real reach, real moved) {
+  return "Fix: a larger reach (--contact-reach of fdem run or fdem partition, e.g. --contact-reach " +
+         fmt(std::max(2 * reach, 4 * moved), 3) + "; it must exceed twice the distance a node moves in a step), " +
+         "or fewer ranks";
 }
 
 void ContactSet::save(CheckpointOut& out) const {

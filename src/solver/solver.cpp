@@ -274,10 +274,14 @@ bool Solver::finish_step(const AdvanceSums& a) {
   energy_.add_step_works(dt, loads_.platens.force_top, speed);
   if (all.bad > 0 || all.lost > 0) sync_host();
   check_finite(long(all.bad));
-  if (all.lost > 0) {  // every rank stops: those with the node name it
+  if (all.lost > 0) {  // every rank stops, each with the fix; those with the node name it
+    real moved = contacts.farthest_move(model_, state.x);
+    MPI_Allreduce(MPI_IN_PLACE, &moved, 1, MPI_DOUBLE, MPI_MAX, layout_.comm);
     contacts.check_reach(model_, state.x);
-    throw RunError("tet-tet contact across ranks: a node on another rank has moved half the contact reach " +
-                   fmt(layout_.dd.reach, 3) + " m since the contact ghosts were last gathered (that rank names it)");
+    throw RunError("tet-tet contact across ranks: a node on another rank has moved " + fmt(moved, 3) +
+                   " m since the contact ghosts were last gathered, half the contact reach " +
+                   fmt(layout_.dd.reach, 3) + " m or more (that rank names its tet). " +
+                   ContactSet::reach_fix(layout_.dd.reach, moved));
   }
   // for the runaway check of every step (the loop is memory-bound: this is free)
   energy_.contact += all.w_con;

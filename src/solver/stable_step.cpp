@@ -61,22 +61,24 @@ StableStep stable_step_bound(const Model& m, const Scene& scene, const ElementLa
 
   StableStep st;
   st.dt = st.dt_tet = st.dt_ce6 = st.dt_platen = st.dt_contact = 1e300;
-  std::size_t lim = 0;
+  std::size_t lim = nn;  // none: a rank that owns no node (a tiny model on many ranks)
   for (std::size_t n = 0; n < nn; ++n) {
     if (!layout.own_node[n]) continue;  // a ghost's row lacks the elements beyond this rank
     const real dt = damped_stable_step(w2_tet[n] + g_ce6[n] + g_platen[n] + g_con[n], c_tet[n]);
-    if (dt < st.dt) st.dt = dt, lim = n;
+    if (lim == nn || dt < st.dt) st.dt = dt, lim = n;
     st.dt_tet = std::min(st.dt_tet, damped_stable_step(w2_tet[n], c_tet[n]));
     if (g_ce6[n] > 0) st.dt_ce6 = std::min(st.dt_ce6, 2 / std::sqrt(g_ce6[n]));
     if (g_platen[n] > 0) st.dt_platen = std::min(st.dt_platen, 2 / std::sqrt(g_platen[n]));
     if (g_con[n] > 0) st.dt_contact = std::min(st.dt_contact, 2 / std::sqrt(g_con[n]));
   }
-  const real w2 = w2_tet[lim] + g_ce6[lim] + g_platen[lim] + g_con[lim];
-  auto pct = [&](real part) { return std::to_string(int(std::lround(100 * part / w2))) + " %"; };
-  const long lim_id = layout.dd.distributed() ? layout.dd.node_global[lim] : long(lim);
-  st.limit = "node " + std::to_string(lim_id + 1) + " (its squared frequency: TET4 " + pct(w2_tet[lim]) +
-             ", CE6 penalty " + fmt(P, 3) + " Pa " + pct(g_ce6[lim]) + ", platen " + pct(g_platen[lim]) + ", contact " +
-             pct(g_con[lim]) + ")";
+  if (lim < nn) {
+    const real w2 = w2_tet[lim] + g_ce6[lim] + g_platen[lim] + g_con[lim];
+    auto pct = [&](real part) { return std::to_string(int(std::lround(100 * part / w2))) + " %"; };
+    const long lim_id = layout.dd.distributed() ? layout.dd.node_global[lim] : long(lim);
+    st.limit = "node " + std::to_string(lim_id + 1) + " (its squared frequency: TET4 " + pct(w2_tet[lim]) +
+               ", CE6 penalty " + fmt(P, 3) + " Pa " + pct(g_ce6[lim]) + ", platen " + pct(g_platen[lim]) +
+               ", contact " + pct(g_con[lim]) + ")";
+  }
   if (layout.dd.distributed()) {  // the smallest over the ranks, and the limit named by the rank that has it
     struct {
       double dt;
