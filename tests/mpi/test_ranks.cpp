@@ -11,6 +11,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <set>
 
@@ -112,6 +113,30 @@ std::vector<int> block_per_rank(const Model& m) {
   std::vector<int> part(m.tet_nodes.size());
   for (std::size_t t = 0; t < part.size(); ++t) part[t] = upper(m, int(t)) ? world_size() - 1 : 0;
   return part;
+}
+
+/// The rank of sector k of `ranks` equal sectors around the vertical line through `axis`, by
+/// the angle of each tet's centroid (the tets `only` selects; the others on rank 0).
+std::vector<int> sectors(const Model& m, Vec3 axis, const std::function<bool(int)>& only = {}) {
+  std::vector<int> part(m.tet_nodes.size(), 0);
+  for (std::size_t t = 0; t < part.size(); ++t) {
+    if (only && !only(int(t))) continue;
+    Vec3 c{0, 0, 0};
+    for (int n : m.tet_nodes[t]) c = c + 0.25 * m.X[n];
+    const double turn = (std::atan2(c.y - axis.y, c.x - axis.x) + M_PI) / (2 * M_PI);  // 0..1
+    part[t] = std::min(world_size() - 1, int(turn * world_size()));
+  }
+  return part;
+}
+
+/// The most ranks among a tet's own and its face neighbours' (through its CE6s), over the tets.
+int most_ranks_around_a_tet(const Model& m, const std::vector<int>& part) {
+  std::vector<std::set<int>> around(m.tet_nodes.size());
+  for (std::size_t t = 0; t < part.size(); ++t) around[t].insert(part[t]);
+  for (const auto& ct : m.ce6_tets) around[ct[0]].insert(part[ct[1]]), around[ct[1]].insert(part[ct[0]]);
+  std::size_t most = 0;
+  for (const auto& a : around) most = std::max(most, a.size());
+  return int(most);
 }
 
 }  // namespace
@@ -216,6 +241,47 @@ TEST(Ranks, FracturingBoxMatchesOneRank) {
   if (world_rank() == 0)
     std::printf("fracturing, %d rank(s): peak %.6g against %.6g MPa, broken %ld against %ld, %g on the boundary\n",
                 world_size(), peak_d / 1e6, peak_r / 1e6, md.broken, mr.broken, on_boundary);
+}
+
+TEST(Ranks, SectorsMeetingAtATetMergeItsActivationFlagsAsOneRank) {
+  // The fracturing box cut into equal sectors around its vertical axis, one a rank: at three
+  // ranks and more, tets on the axis have face neighbours on three ranks, and each of those
+  // ranks may raise the tet's activation flag. The ranks' flags are OR-ed: the active tets, the
+  // peak and the broken CE6s are the one-rank run's.
+  if (world_size() < 3) GTEST_SKIP() << "needs three ranks or more (mpi_ranks_3, mpi_ranks_4)";
+  const Scene scene = fracturing_scene();
+  const Model global = build_model(structured_box_mesh({0.01, 0.01, 0.02}, 3, 3, 6), scene);
+  const std::vector<int> part = sectors(global, {0.005, 0.005, 0});
+  const int around = most_ranks_around_a_tet(global, part);
+  ASSERT_GE(around, 3) << "no tet has neighbours on three ranks";
+  Solver ref(scene, global);
+  auto d = decomposed(scene, global, part);
+  double peak_r = 0, peak_d = 0, worst_active = 0;
+  Monitors mr, md;
+  for (int i = 1; i <= 3000; ++i) {
+    ref.step();
+    d->step();
+    if (i % 50) continue;
+    mr = ref.measure();
+    md = d->measure();
+    peak_r = std::max(peak_r, mr.axial_stress);
+    peak_d = std::max(peak_d, md.axial_stress);
+    if (md.broken == mr.broken)  // the same CE6s broken: the same tets active
+      worst_active = std::max(worst_active, std::fabs(double(md.active_tets - mr.active_tets)));
+  }
+  ASSERT_GT(mr.broken, 20) << "the box fractured";
+  EXPECT_GT(mr.active_tets, 0);
+  EXPECT_EQ(worst_active, 0) << "active tets differ from one rank's at the same broken count";
+  // Through fracture the ranks' sums, added in another order, differ by round-off, and a CE6
+  // near its strength may break a step apart: the fracturing tolerances (at 4 ranks:
+  // 112 broken against 109).
+  EXPECT_LT(std::fabs(peak_d - peak_r), 0.01 * peak_r);
+  EXPECT_LE(std::fabs(double(md.broken - mr.broken)), 0.05 * mr.broken);
+  if (world_rank() == 0)
+    std::printf(
+        "sectors, %d rank(s): a tet's neighbours on up to %d ranks; peak %.6g against %.6g MPa, broken %ld "
+        "against %ld, active %ld against %ld\n",
+        world_size(), around, peak_d / 1e6, peak_r / 1e6, md.broken, mr.broken, md.active_tets, mr.active_tets);
 }
 
 class RanksDevice : public ::testing::TestWithParam<const char*> {};
@@ -326,13 +392,13 @@ TEST(Ranks, GpuAwareMpiSettingIsReadAndCheckedAtTheStart) {
   unsetenv("FDEM_GPU_AWARE_MPI");
 }
 
-TEST(Ranks, ContactPairAcrossRanksGivesOneRankForces) {
-  // Two continuous blocks, one on the other (offset sideways), the upper one moving down at
-  // 0.5 m/s: block A on rank 0, block B on the last rank. Contact is the only force between
-  // them, so every force across the interface comes from pairs split over two ranks.
+/// Two continuous blocks, one on the other (offset sideways), the upper one moving down at
+/// 0.5 m/s, cut over the ranks by `cut`: contact forces across ranks give the one-rank run's.
+void contact_across_ranks(const std::function<std::vector<int>(const Model&)>& cut, const char* what) {
+  SCOPED_TRACE(what);
   const Scene scene = two_blocks_scene();
   const Model global = build_model(two_blocks(), scene);
-  const std::vector<int> part = block_per_rank(global);
+  const std::vector<int> part = cut(global);
   Solver ref(scene, global);
   auto d = decomposed(scene, global, part);
   for (Solver* s : {&ref, d.get()})
@@ -368,9 +434,31 @@ TEST(Ranks, ContactPairAcrossRanksGivesOneRankForces) {
   EXPECT_LT(std::fabs(md.contact - mr.contact), 1e-10 * std::fabs(mr.contact));
   if (world_rank() == 0)
     std::printf(
-        "contact, %d rank(s): %g candidate pairs across ranks, %ld touching; forces %.2e, displacements "
+        "contact (%s), %d rank(s): %g candidate pairs across ranks, %ld touching; forces %.2e, displacements "
         "%.2e (relative)\n",
-        world_size(), across, touching, worst_f, worst_x);
+        what, world_size(), across, touching, worst_f, worst_x);
+}
+
+TEST(Ranks, ContactPairAcrossRanksGivesOneRankForces) {
+  // Block A on rank 0, block B on the last rank. Contact is the only force between them, so
+  // every force across the interface comes from pairs split over two ranks.
+  contact_across_ranks(block_per_rank, "a block a rank");
+}
+
+TEST(Ranks, AFragmentOverThreeRanksTouchesAsOnOneRank) {
+  // The upper block cut in sectors around its axis, one a rank, the lower block on rank 0: at
+  // three ranks and more one fragment spans three ranks, and its pairs with the lower block
+  // are split over them.
+  contact_across_ranks(
+      [](const Model& m) {
+        const std::vector<int> part = sectors(m, {0.006, 0.0055, 0}, [&](int t) { return upper(m, t); });
+        std::set<int> upper_ranks;
+        for (std::size_t t = 0; t < part.size(); ++t)
+          if (upper(m, int(t))) upper_ranks.insert(part[t]);
+        EXPECT_EQ(int(upper_ranks.size()), world_size()) << "the upper block spans every rank";
+        return part;
+      },
+      "a fragment over the ranks");
 }
 
 /// The two-block fall of the test below, stepped on one rank (ref) and decomposed (d): the
