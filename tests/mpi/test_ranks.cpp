@@ -139,6 +139,27 @@ int most_ranks_around_a_tet(const Model& m, const std::vector<int>& part) {
   return int(most);
 }
 
+/// A run on one rank and on several side by side, 3000 steps with a monitor row every 50:
+/// the last rows, the peaks, and `row` called at each row.
+struct SideBySide {
+  Monitors mr, md;
+  double peak_r = 0, peak_d = 0;
+};
+SideBySide run_side_by_side(Solver& ref, Solver& d,
+                            const std::function<void(const Monitors&, const Monitors&)>& row = {}) {
+  SideBySide r;
+  for (int i = 1; i <= 3000; ++i) {
+    ref.step();
+    d.step();
+    if (i % 50) continue;
+    r.mr = ref.measure();
+    r.md = d.measure();
+    r.peak_r = std::max(r.peak_r, r.mr.axial_stress);
+    r.peak_d = std::max(r.peak_d, r.md.axial_stress);
+    if (row) row(r.mr, r.md);
+  }
+  return r;
+}
 }  // namespace
 
 class RanksElastic : public ::testing::TestWithParam<const char*> {};
@@ -202,17 +223,9 @@ TEST(Ranks, FracturingBoxMatchesOneRank) {
   Scene full = scene;
   full.contact.activation = Activation::full;
   const double received_full = received(*decomposed(full, global)), received_start = received(*d);
-  double peak_r = 0, peak_d = 0;
-  Monitors mr, md;
-  for (int i = 1; i <= 3000; ++i) {
-    ref.step();
-    d->step();
-    if (i % 50) continue;
-    mr = ref.measure();
-    md = d->measure();
-    peak_r = std::max(peak_r, mr.axial_stress);
-    peak_d = std::max(peak_d, md.axial_stress);
-  }
+  const SideBySide run = run_side_by_side(ref, *d);
+  const Monitors &mr = run.mr, &md = run.md;
+  const double peak_r = run.peak_r, peak_d = run.peak_d;
   ASSERT_GT(mr.broken, 20) << "the box fractured";
   EXPECT_LT(std::fabs(peak_d - peak_r), 0.005 * peak_r);
   EXPECT_LE(std::fabs(double(md.broken - mr.broken)), 0.02 * mr.broken);
@@ -256,19 +269,13 @@ TEST(Ranks, SectorsMeetingAtATetMergeItsActivationFlagsAsOneRank) {
   ASSERT_GE(around, 3) << "no tet has neighbours on three ranks";
   Solver ref(scene, global);
   auto d = decomposed(scene, global, part);
-  double peak_r = 0, peak_d = 0, worst_active = 0;
-  Monitors mr, md;
-  for (int i = 1; i <= 3000; ++i) {
-    ref.step();
-    d->step();
-    if (i % 50) continue;
-    mr = ref.measure();
-    md = d->measure();
-    peak_r = std::max(peak_r, mr.axial_stress);
-    peak_d = std::max(peak_d, md.axial_stress);
+  double worst_active = 0;
+  const SideBySide run = run_side_by_side(ref, *d, [&](const Monitors& mr, const Monitors& md) {
     if (md.broken == mr.broken)  // the same CE6s broken: the same tets active
       worst_active = std::max(worst_active, std::fabs(double(md.active_tets - mr.active_tets)));
-  }
+  });
+  const Monitors &mr = run.mr, &md = run.md;
+  const double peak_r = run.peak_r, peak_d = run.peak_d;
   ASSERT_GT(mr.broken, 20) << "the box fractured";
   EXPECT_GT(mr.active_tets, 0);
   EXPECT_EQ(worst_active, 0) << "active tets differ from one rank's at the same broken count";
