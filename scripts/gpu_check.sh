@@ -219,6 +219,9 @@ unxz() {  # unxz FILE: to standard output
     "${TOOL_ENV[@]}" python3 -c 'import lzma, shutil, sys; shutil.copyfileobj(lzma.open(sys.argv[1]), sys.stdout.buffer)' "$1"
   fi
 }
+# deps/ must stay small enough to carry (64 MiB), and each call unpacks the bundle anew: the
+# unpacked bundle goes when the call ends, however it ends.
+trap 'rm -rf "$DEPS/bundle"' EXIT
 if ! programs; then
   say "verdict: FAILED: the programs could not be set up (the line above says why)"
   pack_logs
@@ -231,6 +234,4 @@ rm -rf "$WORK"
 verdict
 rc=$?
 [[ $DRY == 1 && -z ${FDEM_GPU_LOGS:-} ]] && rm -rf "$LOGS"  # (packed in logs.tar.gz)
-# deps/ must stay small enough to carry (64 MiB): the dry run's unpacked bundle goes.
-[[ $DRY == 1 && ${FDEM_GPU_PROGRAMS:-} == bundle ]] && rm -rf "$DEPS/bundle"
 exit $rc

@@ -125,14 +125,15 @@ phase_facts() {
   fi
 }
 
-# The first test that failed in step NAME's log, or the one left running by a crash or a timeout.
-# Only one: after a sticky CUDA error every later test fails, and memcheck is slow.
-failed_test() {
-  awk '/^\[ RUN      \]/ { running = $4 }
-    /^\[ +(OK|FAILED) +\]/ { name = $4; sub(/,$/, "", name)
+# The first test that failed in step NAME's log or, where the step failed (exit RC) with none
+# failed, the one a crash or a timeout left running. Only one: after a sticky CUDA error every
+# later test fails, and memcheck is slow.
+failed_test() {  # failed_test NAME RC
+  awk -v rc="$2" '/^\[ RUN      \]/ { running = $4 }
+    /^\[ +(OK|FAILED|SKIPPED) +\]/ { name = $4; sub(/,$/, "", name)
       if ($2 == "FAILED" && first == "" && name == running) first = name
       running = "" }
-    END { print first != "" ? first : running }' "$LOGS/$1.log" 2> /dev/null
+    END { print first != "" ? first : (rc != 0 ? running : "") }' "$LOGS/$1.log" 2> /dev/null
 }
 memcheck_command() {  # sets MEMCHECK (the dry run: none, no GPU here); false when there is none
   MEMCHECK=()
@@ -145,10 +146,11 @@ SANITIZER_REFUSED='Device not supported|error 999'
 phase_tests() {
   need tests "$TESTS/$GPU_TESTS" || return
   step tests 150 "$TESTS/$GPU_TESTS" --gtest_filter="$TESTS_FILTER" --gtest_output="xml:$LOGS/tests.xml"
+  local rc=$?
   # A GPU that nvidia-smi lists but the tests skipped (a driver older than the runtime) fails.
   skips tests
   local again
-  again=$(failed_test tests)
+  again=$(failed_test tests "$rc")
   if [[ -z $again ]] && ((DRY)); then  # here nothing fails: the first test takes the path
     again=$(grep -o '^\[ RUN      \] [^ ]*' "$LOGS/tests.log" | head -1 | awk '{print $4}')
     say "tests: dry run, $again is run again as a failing test would be"
