@@ -1,6 +1,7 @@
 #pragma once
 // What mesh input's two sources share: the .msh reader (io/msh_reader.cpp) and the rest
 // (io/mesh_io.cpp: validation, generation, writing). Not part of the library's interface.
+#include <array>
 #include <cstdint>
 #include <string>
 #include <string_view>
@@ -49,5 +50,20 @@ struct Labels {
 
 /// validate_mesh with the labels of a file mesh (element tags, node tags, lines).
 void validate(const Mesh& m, const Labels& L);
+
+/// Six times the signed volume of the tet (a, b, c, d).
+double orient(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d);
+
+/// A face of a tet: its vertices sorted (the key) and as the tet orders them.
+struct TetFace {
+  std::array<int, 3> key, face;
+  bool operator<(const TetFace& o) const { return key < o.key; }
+};
+/// Every face of every tet, sorted by key: a face two tets share appears twice, in a row.
+std::vector<TetFace> sorted_tet_faces(const Mesh& m);
+
+/// Two groups of one dimension with one name could not be told apart by a scene: an
+/// InputError naming `source` and the fix.
+void check_group_names(const std::string& source, const std::vector<MeshGroup>& groups);
 
 }  // namespace fdem::mesh_detail

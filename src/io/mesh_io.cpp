@@ -15,6 +15,7 @@
 #include <cstdlib>
 #include <functional>
 #include <mutex>
+#include <set>
 #include <string_view>
 #include <system_error>
 #include <unordered_map>
@@ -48,11 +49,31 @@ const char* const kResave =
 // ---------------------------------------------------------------------------------------------
 // Validation
 
-namespace {
 double orient(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
-  return dot(b - a, cross(c - a, d - a));  // 6 x signed volume
+  return dot(b - a, cross(c - a, d - a));
 }
-}  // namespace
+
+std::vector<TetFace> sorted_tet_faces(const Mesh& m) {
+  std::vector<TetFace> all;
+  all.reserve(4 * m.tets.size());
+  for (const auto& q : m.tets)
+    for (int i = 0; i < 4; ++i) {
+      TetFace f{{}, {q[(i + 1) % 4], q[(i + 2) % 4], q[(i + 3) % 4]}};
+      f.key = f.face;
+      std::sort(f.key.begin(), f.key.end());
+      all.push_back(f);
+    }
+  std::sort(all.begin(), all.end());
+  return all;
+}
+
+void check_group_names(const std::string& source, const std::vector<MeshGroup>& groups) {
+  std::set<std::pair<int, std::string>> seen;
+  for (const MeshGroup& g : groups)
+    if (!g.name.empty() && !seen.insert({g.dim, g.name}).second)
+      throw InputError(source + ": two " + (g.dim == 3 ? "volume" : "surface") + " groups are named '" + g.name +
+                       "'. Fix: give each physical group of a dimension its own name (in the .geo) and mesh again");
+}
 
 void validate(const Mesh& m, const Labels& L) {
   const std::size_t nv = m.vertices.size();
@@ -199,8 +220,41 @@ class GmshSession {
   int omp_threads_ = omp_get_max_threads();
 };
 
+/// The tets gmsh has meshed: its nodes that tets use, renumbered compactly in gmsh's order.
+/// vertex_of (optional) gets each gmsh node tag's vertex; tet_of each gmsh tet tag's index.
 Mesh gmsh_tets(const std::string& what, std::unordered_map<std::size_t, int>* vertex_of = nullptr,
-               std::unordered_map<std::size_t, int>* tet_of = nullptr);
+               std::unordered_map<std::size_t, int>* tet_of = nullptr) {
+  std::vector<std::size_t> node_tags, tet_tags, tet_nodes;
+  std::vector<double> xyz, param;
+  gmsh::model::mesh::getNodes(node_tags, xyz, param, -1, -1, false, false);
+  gmsh::model::mesh::getElementsByType(4, tet_tags, tet_nodes);
+  if (tet_tags.empty()) throw InputError(what + ": gmsh produced no tetrahedra; check the dimensions and element_size");
+
+  // Compact renumbering in gmsh's node order, keeping only nodes used by tetrahedra.
+  std::unordered_map<std::size_t, int> index;
+  index.reserve(node_tags.size());
+  for (std::size_t i = 0; i < node_tags.size(); ++i) index.emplace(node_tags[i], static_cast<int>(i));
+  std::vector<int> used(node_tags.size(), -1);
+  for (std::size_t tag : tet_nodes) {
+    const auto it = index.find(tag);
+    if (it == index.end()) throw InputError(what + ": gmsh returned a tetrahedron with an unknown node");
+    used[it->second] = 0;
+  }
+  Mesh mesh;
+  mesh.source = what;
+  for (std::size_t i = 0; i < node_tags.size(); ++i)
+    if (used[i] == 0) {
+      used[i] = static_cast<int>(mesh.vertices.size());
+      mesh.vertices.push_back({xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]});
+      if (vertex_of) vertex_of->emplace(node_tags[i], used[i]);
+    }
+  mesh.tets.resize(tet_tags.size());
+  for (std::size_t t = 0; t < tet_tags.size(); ++t) {
+    for (int k = 0; k < 4; ++k) mesh.tets[t][k] = used[index.at(tet_nodes[4 * t + k])];
+    if (tet_of) tet_of->emplace(tet_tags[t], static_cast<int>(t));
+  }
+  return mesh;
+}
 
 Mesh mesh_with_gmsh(const MeshSpec& s, const std::string& what) {
   namespace occ = gmsh::model::occ;
@@ -242,42 +296,6 @@ Mesh mesh_with_gmsh(const MeshSpec& s, const std::string& what) {
   return gmsh_tets(what);
 }
 
-/// The tets gmsh has meshed: its nodes that tets use, renumbered compactly in gmsh's order.
-/// node_of (optional) gets each gmsh node tag's vertex; tet_of each gmsh tet tag's index.
-Mesh gmsh_tets(const std::string& what, std::unordered_map<std::size_t, int>* vertex_of,
-               std::unordered_map<std::size_t, int>* tet_of) {
-  std::vector<std::size_t> node_tags, tet_tags, tet_nodes;
-  std::vector<double> xyz, param;
-  gmsh::model::mesh::getNodes(node_tags, xyz, param, -1, -1, false, false);
-  gmsh::model::mesh::getElementsByType(4, tet_tags, tet_nodes);
-  if (tet_tags.empty()) throw InputError(what + ": gmsh produced no tetrahedra; check the dimensions and element_size");
-
-  // Compact renumbering in gmsh's node order, keeping only nodes used by tetrahedra.
-  std::unordered_map<std::size_t, int> index;
-  index.reserve(node_tags.size());
-  for (std::size_t i = 0; i < node_tags.size(); ++i) index.emplace(node_tags[i], static_cast<int>(i));
-  std::vector<int> used(node_tags.size(), -1);
-  for (std::size_t tag : tet_nodes) {
-    const auto it = index.find(tag);
-    if (it == index.end()) throw InputError(what + ": gmsh returned a tetrahedron with an unknown node");
-    used[it->second] = 0;
-  }
-  Mesh mesh;
-  mesh.source = what;
-  for (std::size_t i = 0; i < node_tags.size(); ++i)
-    if (used[i] == 0) {
-      used[i] = static_cast<int>(mesh.vertices.size());
-      mesh.vertices.push_back({xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]});
-      if (vertex_of) vertex_of->emplace(node_tags[i], used[i]);
-    }
-  mesh.tets.resize(tet_tags.size());
-  for (std::size_t t = 0; t < tet_tags.size(); ++t) {
-    for (int k = 0; k < 4; ++k) mesh.tets[t][k] = used[index.at(tet_nodes[4 * t + k])];
-    if (tet_of) tet_of->emplace(tet_tags[t], static_cast<int>(t));
-  }
-  return mesh;
-}
-
 /// The physical groups of dimension 3 and 2 of the meshed .geo, as the mesh's groups.
 void gmsh_groups(Mesh& mesh, const std::unordered_map<std::size_t, int>& vertex_of,
                  const std::unordered_map<std::size_t, int>& tet_of) {
@@ -313,6 +331,7 @@ void gmsh_groups(Mesh& mesh, const std::unordered_map<std::size_t, int>& vertex_
       mesh.groups.push_back(std::move(g));
     }
   }
+  mesh_detail::check_group_names(mesh.source, mesh.groups);
 }
 
 /// A .geo file meshed by gmsh (its own kernel, built-in or OpenCASCADE), with element_size as
@@ -347,20 +366,11 @@ using Triangle = std::array<int, 3>;
 
 /// The faces of one tet only, as its tet orders them.
 std::vector<Triangle> boundary_faces(const Mesh& m) {
-  std::vector<std::pair<Triangle, Triangle>> all;  // (sorted, as the tet has it)
-  all.reserve(4 * m.tets.size());
-  for (const auto& q : m.tets)
-    for (int i = 0; i < 4; ++i) {
-      Triangle f{q[(i + 1) % 4], q[(i + 2) % 4], q[(i + 3) % 4]}, key = f;
-      std::sort(key.begin(), key.end());
-      all.push_back({key, f});
-    }
-  std::sort(all.begin(), all.end());
+  const std::vector<mesh_detail::TetFace> all = mesh_detail::sorted_tet_faces(m);
   std::vector<Triangle> out;
   for (std::size_t i = 0; i < all.size(); ++i) {
-    const bool twice =
-        (i > 0 && all[i - 1].first == all[i].first) || (i + 1 < all.size() && all[i + 1].first == all[i].first);
-    if (!twice) out.push_back(all[i].second);
+    const bool twice = (i > 0 && all[i - 1].key == all[i].key) || (i + 1 < all.size() && all[i + 1].key == all[i].key);
+    if (!twice) out.push_back(all[i].face);
   }
   return out;
 }
@@ -543,8 +553,9 @@ std::string describe_groups(const Mesh& mesh) {
     double size = 0;
     for (const int t : g.tets) {
       const auto& q = mesh.tets[t];
-      const Vec3 a = mesh.vertices[q[0]];
-      size += std::fabs(dot(mesh.vertices[q[1]] - a, cross(mesh.vertices[q[2]] - a, mesh.vertices[q[3]] - a))) / 6;
+      size += std::fabs(mesh_detail::orient(mesh.vertices[q[0]], mesh.vertices[q[1]], mesh.vertices[q[2]],
+                                            mesh.vertices[q[3]])) /
+              6;
     }
     for (const auto& f : g.faces)
       size += 0.5 * norm(cross(mesh.vertices[f[1]] - mesh.vertices[f[0]], mesh.vertices[f[2]] - mesh.vertices[f[0]]));

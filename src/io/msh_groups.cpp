@@ -2,9 +2,6 @@
 #include "io/msh_groups.hpp"
 
 #include <algorithm>
-#include <array>
-#include <set>
-#include <unordered_set>
 
 namespace fdem::mesh_detail {
 
@@ -103,39 +100,6 @@ std::vector<std::pair<std::size_t, std::int64_t>> merge_repeated_tets(std::vecto
   return extra;
 }
 
-namespace {
-
-using Triangle = std::array<int, 3>;
-struct TriangleHash {
-  std::size_t operator()(const Triangle& f) const {
-    return (std::size_t(f[0]) * 73856093u) ^ (std::size_t(f[1]) * 19349663u) ^ (std::size_t(f[2]) * 83492791u);
-  }
-};
-Triangle sorted(Triangle f) {
-  std::sort(f.begin(), f.end());
-  return f;
-}
-
-/// Every face of the mesh's tets, vertices sorted.
-std::unordered_set<Triangle, TriangleHash> tet_faces(const Mesh& mesh) {
-  std::unordered_set<Triangle, TriangleHash> faces;
-  faces.reserve(2 * mesh.tets.size() + 8);
-  for (const auto& q : mesh.tets)
-    for (int i = 0; i < 4; ++i) faces.insert(sorted({q[(i + 1) % 4], q[(i + 2) % 4], q[(i + 3) % 4]}));
-  return faces;
-}
-
-/// Two groups of one dimension with one name could not be told apart by a scene.
-void check_names(const Reader& r, const std::vector<MeshGroup>& groups) {
-  std::set<std::pair<int, std::string>> seen;
-  for (const MeshGroup& g : groups)
-    if (!g.name.empty() && !seen.insert({g.dim, g.name}).second)
-      throw InputError(r.path() + ": two " + (g.dim == 3 ? "volume" : "surface") + " groups are named '" + g.name +
-                       "'. Fix: give each physical group of a dimension its own name (in the .geo) and mesh again");
-}
-
-}  // namespace
-
 std::vector<MeshGroup> assemble_groups(const Reader& r, const PhysicalGroups& g, const std::vector<RawTet>& tets,
                                        const std::vector<std::pair<std::size_t, std::int64_t>>& extra,
                                        const std::vector<RawFace>& faces,
@@ -152,18 +116,20 @@ std::vector<MeshGroup> assemble_groups(const Reader& r, const PhysicalGroups& g,
     for (const int p : g.physicals(3, tets[t].entity)) group(3, p).tets.push_back(static_cast<int>(t));
   for (const auto& [t, e] : extra)
     for (const int p : g.physicals(3, e)) group(3, p).tets.push_back(static_cast<int>(t));
-  std::unordered_set<Triangle, TriangleHash> of_tets;
+  std::vector<TetFace> of_tets;  // (made at the first surface triangle)
   for (const RawFace& f : faces) {
     const std::vector<int> phys = g.physicals(2, f.entity);
     if (phys.empty()) continue;
-    if (of_tets.empty()) of_tets = tet_faces(mesh);
-    const Triangle v{vertex_of(f.node[0], f.line), vertex_of(f.node[1], f.line), vertex_of(f.node[2], f.line)};
-    if (!of_tets.count(sorted(v)))
+    if (of_tets.empty()) of_tets = sorted_tet_faces(mesh);
+    TetFace v{{}, {vertex_of(f.node[0], f.line), vertex_of(f.node[1], f.line), vertex_of(f.node[2], f.line)}};
+    v.key = v.face;
+    std::sort(v.key.begin(), v.key.end());
+    if (!std::binary_search(of_tets.begin(), of_tets.end(), v))
       r.fail_at(f.line,
                 "triangle (element tag " + std::to_string(f.tag) + ") of " + group(2, phys[0]).label() +
                     " is not a face of any tetrahedron: the surface does not conform to the volume mesh",
                 "embed the surface in the volume (gmsh: Surface{...} In Volume{...}) and mesh again");
-    for (const int p : phys) group(2, p).faces.push_back(v);
+    for (const int p : phys) group(2, p).faces.push_back(v.face);
   }
   std::vector<MeshGroup> out;
   for (auto& [key, m] : by_key) {
@@ -171,7 +137,7 @@ std::vector<MeshGroup> assemble_groups(const Reader& r, const PhysicalGroups& g,
     m.tets.erase(std::unique(m.tets.begin(), m.tets.end()), m.tets.end());
     out.push_back(std::move(m));
   }
-  check_names(r, out);
+  check_group_names(r.path(), out);
   return out;
 }
 

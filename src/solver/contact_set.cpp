@@ -77,34 +77,31 @@ long ContactSet::activate_ce6(const Model& m, int c) {
 }
 
 void ContactSet::check_reach(const Model& m, const std::vector<Vec3>& x) const {
-  if (!tet_owned_) return;
   // A rank holds the tets within reach_ of its own at plan_x_: a tet it lacks can touch one of
   // its own only after some node has moved reach_/2 from there. The contact ghosts are gathered
   // again once a node has moved a quarter of the reach (Solver::step); a node that moved half
   // the reach in the steps since outran that.
-  const real lim2 = 0.25 * reach_ * reach_;
-  for (std::size_t t = 0; t < m.tet_nodes.size(); ++t) {
-    if (!(*tet_owned_)[t]) continue;
-    for (int n : m.tet_nodes[t]) {
-      const Vec3 d = x[n] - plan_x_[n];
-      if (dot(d, d) >= lim2)
-        throw RunError("tet-tet contact across ranks: a node of tet #" + std::to_string(m.tet_input[t] + 1) +
-                       " has moved " + fmt(std::sqrt(dot(d, d)), 3) +
-                       " m since the contact ghosts were last gathered, half the contact reach " + fmt(reach_, 3) +
-                       " m or more: partners beyond the reach, which this rank does not hold, could have touched "
-                       "it. " +
-                       reach_fix(reach_, std::sqrt(dot(d, d))));
-    }
-  }
+  const FarthestMove far = farthest_move(m, x);
+  if (far.tet >= 0 && far.moved >= 0.5 * reach_)
+    throw RunError("tet-tet contact across ranks: a node of tet #" + std::to_string(m.tet_input[far.tet] + 1) +
+                   " has moved " + fmt(far.moved, 3) +
+                   " m since the contact ghosts were last gathered, half the contact reach " + fmt(reach_, 3) +
+                   " m or more: partners beyond the reach, which this rank does not hold, could have touched it. " +
+                   reach_fix(reach_, far.moved));
 }
 
-real ContactSet::farthest_move(const Model& m, const std::vector<Vec3>& x) const {
+ContactSet::FarthestMove ContactSet::farthest_move(const Model& m, const std::vector<Vec3>& x) const {
+  FarthestMove far;
   real far2 = 0;
   if (tet_owned_)
     for (std::size_t t = 0; t < m.tet_nodes.size(); ++t)
       if ((*tet_owned_)[t])
-        for (int n : m.tet_nodes[t]) far2 = std::max(far2, dot(x[n] - plan_x_[n], x[n] - plan_x_[n]));
-  return std::sqrt(far2);
+        for (int n : m.tet_nodes[t]) {
+          const real d2 = dot(x[n] - plan_x_[n], x[n] - plan_x_[n]);
+          if (far.tet < 0 || d2 > far2) far2 = d2, far.tet = int(t);
+        }
+  far.moved = std::sqrt(far2);
+  return far;
 }
 
 std::string ContactSet::reach_fix(real reach, real moved) {

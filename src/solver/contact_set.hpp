@@ -54,8 +54,13 @@ class ContactSet {
   /// tet has moved half the contact reach from plan_x (a partner this rank lacks could have
   /// touched it).
   void check_reach(const Model& m, const std::vector<Vec3>& x) const;
-  /// The farthest a node of an owned tet has moved from plan_x (m; 0 on one rank).
-  real farthest_move(const Model& m, const std::vector<Vec3>& x) const;
+  /// The farthest a node of an owned tet has moved from plan_x (m), and that tet (-1: none,
+  /// as on one rank).
+  struct FarthestMove {
+    real moved = 0;
+    int tet = -1;
+  };
+  FarthestMove farthest_move(const Model& m, const std::vector<Vec3>& x) const;
   /// The fix for a node that moved `moved` (m) with contact reach `reach`: a larger reach.
   static std::string reach_fix(real reach, real moved);
   /// The node positions the reach counts from (empty on one rank); set_plan(x) after a growth.

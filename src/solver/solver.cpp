@@ -12,6 +12,7 @@
 #include "io/checkpoint.hpp"
 #include "model/laws.hpp"
 #include "partition/grow.hpp"
+#include "partition/halo.hpp"
 #include "physics/integrate.hpp"
 #include "physics/platen.hpp"
 #include "physics/tet4.hpp"
@@ -275,8 +276,7 @@ bool Solver::finish_step(const AdvanceSums& a) {
   if (all.bad > 0 || all.lost > 0) sync_host();
   check_finite(long(all.bad));
   if (all.lost > 0) {  // every rank stops, each with the fix; those with the node name it
-    real moved = contacts.farthest_move(model_, state.x);
-    MPI_Allreduce(MPI_IN_PLACE, &moved, 1, MPI_DOUBLE, MPI_MAX, layout_.comm);
+    const real moved = max_over_ranks(layout_.comm, contacts.farthest_move(model_, state.x).moved);
     contacts.check_reach(model_, state.x);
     throw RunError("tet-tet contact across ranks: a node on another rank has moved " + fmt(moved, 3) +
                    " m since the contact ghosts were last gathered, half the contact reach " +
