@@ -87,9 +87,10 @@ inline std::unique_ptr<Solver> backend_gravity_solver(const std::string& backend
   return solver;
 }
 
-/// True when two node arrays hold the same bits.
-inline bool same_bits(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
-  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(Vec3)) == 0;
+/// True when two arrays (of nodes, or of plain structs without padding) hold the same bits.
+template <class T>
+bool same_bits(const std::vector<T>& a, const std::vector<T>& b) {
+  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0;
 }
 
 /// Largest |a - b| / max(|a|, |b|, floor) over the components of two node arrays.

@@ -78,11 +78,11 @@ class ReferenceStepper {
   std::vector<Vec3> platen_anchor;
   real top_offset = 0, time = 0;
   long steps = 0;
-  // Contact: activation flags, the candidate pairs (a < b), their friction springs, and how
-  // often the list was built.
+  // Contact: activation flags, the candidate pairs (a < b), their histories (friction spring,
+  // overlap zero), and how often the list was built.
   std::vector<std::uint8_t> active;
   std::vector<ContactPair> pairs;
-  std::vector<Vec3> spring;
+  std::vector<PairHistory> history;
   long rebuilds = 0;
   // Platen reactions on the rock along +z (N) and touching contact pairs, of the last evaluation.
   real force_top = 0, force_bottom = 0;
@@ -203,7 +203,7 @@ class ReferenceStepper {
   }
 
   /// Pairs of active tets whose boxes (grown by half the buffer) overlap, without those that
-  /// share a node unless a CE6 joins them; springs kept for the pairs that stay.
+  /// share a node unless a CE6 joins them; histories kept for the pairs that stay.
   void build_pairs() {
     std::vector<int> ids;
     std::vector<Aabb> boxes(m_.tet_nodes.size());
@@ -229,14 +229,14 @@ class ReferenceStepper {
       if (joint < 0 && share) continue;  // one continuous body
       next.push_back({p[0], p[1], joint});
     }
-    std::vector<Vec3> next_spring(next.size(), Vec3{0, 0, 0});
+    std::vector<PairHistory> next_history(next.size(), new_pair_history());
     auto less = [](const ContactPair& p, const ContactPair& q) { return p.a != q.a ? p.a < q.a : p.b < q.b; };
     for (std::size_t i = 0; i < next.size(); ++i) {  // (both lists sorted by (a, b))
       const auto it = std::lower_bound(pairs.begin(), pairs.end(), next[i], less);
-      if (it != pairs.end() && it->a == next[i].a && it->b == next[i].b) next_spring[i] = spring[it - pairs.begin()];
+      if (it != pairs.end() && it->a == next[i].a && it->b == next[i].b) next_history[i] = history[it - pairs.begin()];
     }
     pairs = next;
-    spring = next_spring;
+    history = next_history;
     watch_.clear();
     watch_x_.clear();
     std::vector<char> seen(x.size(), 0);
@@ -264,15 +264,20 @@ class ReferenceStepper {
       }
       // A pair joined by a CE6 touches once the CE6 broke in an earlier evaluation.
       const bool held = p.joint >= 0 && (!ce6_broken(ce6[p.joint]) || broke_[p.joint]);
-      const ContactEval e = held ? ContactEval{} : contact_tet_pair(xa, xb, s_.material.contact_penalty, fa, fb);
-      if (held || !(e.weight > 0)) {
-        spring[k] = Vec3{0, 0, 0};
+      PairHistory& h = history[k];
+      const ContactEval e =
+          held ? ContactEval{}
+               : contact_tet_pair(s_.contact.law, xa, xb, s_.material.contact_penalty, fa, fb, h.overlap_zero);
+      if (held) {
+        h = new_pair_history();  // its first evaluation after the break sets its zero
+      } else if (h.overlap_zero = next_overlap_zero(h.overlap_zero, e); !(e.weight > 0)) {
+        h.spring = Vec3{0, 0, 0};
       } else {
         ++touching;
         Vec3 ga[4], gb[4];
         for (int i = 0; i < 4; ++i) ga[i] = gb[i] = Vec3{0, 0, 0};
         const real k_t = contact_tangential_stiffness(xa, xb, s_.material.contact_penalty);
-        contact_friction(xa, xb, va, vb, e, s_.material.friction_rock, k_t, dt_, spring[k], ga, gb);
+        contact_friction(xa, xb, va, vb, e, s_.material.friction_rock, k_t, dt_, h.spring, ga, gb);
         for (int i = 0; i < 4; ++i) fa[i] += ga[i], fb[i] += gb[i];
       }
       for (int i = 0; i < 4; ++i) {

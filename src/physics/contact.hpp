@@ -1,9 +1,20 @@
 #pragma once
-// Tet-tet contact: Munjiza's distributed potential force with Coulomb friction.
+// Tet-tet contact: two normal laws, the conservative overlap-volume law (the default) and
+// Munjiza's distributed potential force, with one Coulomb friction law for both.
 //
-// Potential. Each tet is split into four sub-tets (face k + centroid C). In sub-tet k the
-// potential is linear, 0 on face k and 1 at C: phi(p) = s_k(p) / s_k(C) with s_k the signed
-// distance from face k's plane (positive inside). phi is continuous over the tet.
+// Overlap-volume law. The pair's contact energy is a function of the volume V of the
+// intersection of the two tets:  W = (2P/3) V^2 (1/V_a + 1/V_b),  V_a, V_b the tets' own
+// volumes. The nodal forces are its exact gradient, f = -dW/dx, so no closed path of
+// overlaps returns more work than it took. dV/dx comes from the intersection's boundary: the
+// part of a face of a inside b moves with a's nodes, so dV/dx_(a,i) = int_{dA inside b}
+// lambda_i n_a dS (lambda_i the node's weight in the face, n_a outward), and the same with
+// the roles swapped. lambda_i is linear, so each clipped polygon needs only its area and
+// centroid. V itself is (1/3) int p.n dS over the same polygons. The factor 2/3 makes two
+// faces pressed together as stiff as under Munjiza's law: 8 P A / h for equal tets.
+//
+// Munjiza's law (contact.law: munjiza). Each tet is split into four sub-tets (face k + centroid
+// C). In sub-tet k the potential is linear, 0 on face k and 1 at C: phi(p) = s_k(p) / s_k(C)
+// with s_k the signed distance from face k's plane (positive inside). phi is continuous.
 //
 // Force. On tet a from tet b:  F_a = P int_{a cap b} (grad phi_a - grad phi_b) dV.
 // By the divergence theorem, summed over all sub-tet pairs the internal sub-tet faces cancel
@@ -21,22 +32,43 @@
 //
 // Friction. A tangential elastic predictor per pair: the spring u (global vector, kept in
 // the tangent plane of the current normal) grows with the relative tangential velocity at
-// the contact point (the force-weighted centre of the normal pressure); the trial force
+// the contact point (the centre of the normal pressure); the trial force
 // -k_t u is returned to mu N when it exceeds it (sliding), and u is kept per pair across
 // candidate-list rebuilds. k_t = P (V_min)^(1/3): the normal stiffness scale of the pair.
 #include <cmath>
 
+#include "core/choice.hpp"
 #include "core/portable_math.hpp"
 #include "core/vec.hpp"
 #include "physics/tet4.hpp"
 
 namespace fdem {
 
-struct ContactEval {
-  Vec3 normal;  // net normal contact force on tet a, N (b receives -normal)
-  Vec3 point;   // centre of the normal pressure (weighted by |dF|), m; valid if weight > 0
-  real weight;  // integral of |dF|, N (0 when the tets do not overlap)
+/// The normal law of tet-tet contact (contact.law in a scene).
+enum class ContactLaw { volume, munjiza };
+template <>
+struct ChoiceNames<ContactLaw> {
+  static constexpr std::array<const char*, 2> words{"volume", "munjiza"};
 };
+
+struct ContactEval {
+  Vec3 normal;   // net normal contact force on tet a, N (b receives -normal)
+  Vec3 point;    // centre of the normal pressure, m; valid if weight > 0
+  real weight;   // integral of |dF|, N (0 when the tets do not overlap)
+  real energy;   // J, the pair's contact energy W (the volume law; 0 under Munjiza's)
+  real overlap;  // m^3, the volume of the tets' intersection (the volume law; 0 under Munjiza's)
+};
+
+/// What a candidate pair keeps from one evaluation to the next (and across rebuilds).
+struct PairHistory {
+  Vec3 spring;        // m, the friction spring (contact_friction)
+  real overlap_zero;  // m^3, the overlap at which the volume law's energy is zero; < 0: not yet evaluated
+};
+
+/// A pair's history before its first evaluation.
+FDEM_HD_INLINE PairHistory new_pair_history() {
+  return PairHistory{{0, 0, 0}, -1};
+}
 
 namespace contact_detail {
 
@@ -98,7 +130,9 @@ FDEM_HD void tet_edge(int e, int& i, int& j, int& k, int& l) {
   l = E[e][3];
 }
 
-FDEM_HD_INLINE Planes tet_planes(const Vec3 (&b)[4]) {
+/// The four face planes alone (n, o and h; the edge planes are left unset). |n[k]| is twice
+/// face k's area, so n[k] / 6 is the derivative of the tet's volume with respect to node k.
+FDEM_HD_INLINE Planes tet_face_planes(const Vec3 (&b)[4]) {
   Planes P;
   P.C = centroid4(b);
   for (int k = 0; k < 4; ++k) {
@@ -109,6 +143,11 @@ FDEM_HD_INLINE Planes tet_planes(const Vec3 (&b)[4]) {
     P.o[k] = p0;
     P.h[k] = dot(nrm, P.C - p0);
   }
+  return P;
+}
+
+FDEM_HD_INLINE Planes tet_planes(const Vec3 (&b)[4]) {
+  Planes P = tet_face_planes(b);
   // Edge plane through b_i, b_j and C, oriented toward b_l: sub-tet k (face opposite k holds
   // i, j, l) lies on its positive side, sub-tet l (face holds i, j, k) on its negative side.
   for (int e = 0; e < 6; ++e) {
@@ -131,6 +170,25 @@ FDEM_HD_INLINE bool separated_by(const Planes& pb, const Vec3 (&a)[4]) {
   return false;
 }
 
+/// Triangle (q0, q1, q2) clipped to tet b (its face planes pb), ping-pong between buf[0] and
+/// buf[1]: the index of the buffer that holds the part inside b, or -1 where none is (the
+/// triangle wholly on or beyond one of b's planes, a cheap rejection first, or clipped away).
+FDEM_HD int clip_to_tet(Vec3 q0, Vec3 q1, Vec3 q2, const Planes& pb, Poly* buf) {
+  for (int k = 0; k < 4; ++k)
+    if (dot(pb.n[k], q0 - pb.o[k]) <= 0 && dot(pb.n[k], q1 - pb.o[k]) <= 0 && dot(pb.n[k], q2 - pb.o[k]) <= 0)
+      return -1;
+  int cur = 0;
+  buf[0].n = 3;
+  buf[0].p[0] = q0;
+  buf[0].p[1] = q1;
+  buf[0].p[2] = q2;
+  for (int k = 0; k < 4 && buf[cur].n >= 3; ++k) {
+    clip(buf[cur], pb.n[k], pb.o[k], buf[1 - cur]);
+    cur = 1 - cur;
+  }
+  return buf[cur].n >= 3 ? cur : -1;
+}
+
 /// Faces of tet `a` inside tet `b`: adds the point forces to fa (a's nodes) and fb (b's
 /// nodes) and their sums to `e`. `sign` is +1 when `a` is the pair's first tet, -1 when the
 /// roles are swapped (e.normal is always the force on the pair's first tet).
@@ -143,27 +201,13 @@ FDEM_HD void faces_inside(const Vec3 (&a)[4], const Vec3 (&b)[4], const Planes& 
   for (int f = 0; f < 4; ++f) {  // face of a opposite node f
     const int i0 = (f + 1) % 4, i1 = (f + 2) % 4, i2 = (f + 3) % 4;
     const Vec3 q0 = a[i0], q1 = a[i1], q2 = a[i2];
-    // Cheap rejection: the whole face on or beyond one of b's face planes.
-    bool outside = false;
-    for (int k = 0; k < 4 && !outside; ++k)
-      outside = dot(pb.n[k], q0 - pb.o[k]) <= 0 && dot(pb.n[k], q1 - pb.o[k]) <= 0 && dot(pb.n[k], q2 - pb.o[k]) <= 0;
-    if (outside) continue;
     const Vec3 na = cross(q1 - q0, q2 - q0);  // for barycentric weights: keep its sign
     const real na2 = dot(na, na);
     if (!(na2 > 0)) continue;
+    const int cur = clip_to_tet(q0, q1, q2, pb, buf);
+    if (cur < 0) continue;
     const real inv_na2 = real(1) / na2;
     const Vec3 nhat = (dot(na, a[f] - q0) > 0 ? real(-1) : real(1)) / std::sqrt(na2) * na;  // outward
-    // Clip the face against b (ping-pong between two buffers).
-    int cur = 0;
-    buf[0].n = 3;
-    buf[0].p[0] = q0;
-    buf[0].p[1] = q1;
-    buf[0].p[2] = q2;
-    for (int k = 0; k < 4 && buf[cur].n >= 3; ++k) {
-      clip(buf[cur], pb.n[k], pb.o[k], buf[1 - cur]);
-      cur = 1 - cur;
-    }
-    if (buf[cur].n < 3) continue;
     const Poly& inside = buf[cur];
     Poly* const spare[2] = {&buf[1 - cur], &buf[2]};
     // Split among b's sub-tets: sub-tet k is cut out by the edge planes of face k's edges.
@@ -214,19 +258,10 @@ FDEM_HD void faces_inside(const Vec3 (&a)[4], const Vec3 (&b)[4], const Planes& 
 
 }  // namespace contact_detail
 
-/// Normal contact forces between tets a and b (current positions), penalty P (Pa).
-/// fa and fb are overwritten. Symmetric: swapping a and b swaps fa and fb.
-FDEM_HD_INLINE ContactEval contact_tet_pair(const Vec3 (&a)[4], const Vec3 (&b)[4], real P, Vec3 (&fa)[4],
-                                            Vec3 (&fb)[4]) {
-  using namespace contact_detail;
-  ContactEval e{{0, 0, 0}, {0, 0, 0}, 0};
-  for (int i = 0; i < 4; ++i) fa[i] = fb[i] = Vec3{0, 0, 0};
-  const Mat3 Ea = Mat3::from_columns(a[1] - a[0], a[2] - a[0], a[3] - a[0]);
-  const Mat3 Eb = Mat3::from_columns(b[1] - b[0], b[2] - b[0], b[3] - b[0]);
-  const real da = det(Ea), db = det(Eb);
-  if (!(da != 0) || !(db != 0)) return e;  // degenerate: no potential defined
-  // Cheap rejection first: the AABBs, then the eight face planes (most candidate pairs in a
-  // fractured body touch at most along a face, edge or vertex).
+namespace contact_detail {
+
+/// True where the boxes of a and b overlap (with volume): the first, cheapest rejection.
+FDEM_HD_INLINE bool boxes_overlap(const Vec3 (&a)[4], const Vec3 (&b)[4]) {
   for (int d = 0; d < 3; ++d) {
     real alo = a[0][d], ahi = a[0][d], blo = b[0][d], bhi = b[0][d];
     for (int i = 1; i < 4; ++i) {
@@ -236,14 +271,140 @@ FDEM_HD_INLINE ContactEval contact_tet_pair(const Vec3 (&a)[4], const Vec3 (&b)[
       blo = bi < blo ? bi : blo;
       bhi = bi > bhi ? bi : bhi;
     }
-    if (alo >= bhi || blo >= ahi) return e;
+    if (alo >= bhi || blo >= ahi) return false;
   }
+  return true;
+}
+
+/// The boundary of the intersection of two tets, as far as it is summed: the intersection's
+/// volume and its derivative with respect to the nodes of each tet.
+struct Overlap {
+  real volume;        // m^3, (1/3) int p.n dS (p relative to the pair's origin)
+  Vec3 grad_a[4];     // m^2, dV/dx of a's nodes
+  Vec3 grad_b[4];     // m^2, dV/dx of b's nodes
+  Vec3 first_moment;  // m^3, int p dS over the boundary
+  real area;          // m^2, the boundary's area
+};
+
+/// Adds the faces of tet `a` inside tet `b` (its face planes pb) to the overlap: their part of
+/// V, and dV/dx of a's nodes to `grad`. On a clipped polygon the node weights are linear, so
+/// int lambda_i dS is the area times lambda_i at the polygon's centroid.
+FDEM_HD void add_faces_inside(const Vec3 (&a)[4], const Planes& pb, Vec3 (&grad)[4], Overlap& ov) {
+  Poly buf[2];
+  for (int f = 0; f < 4; ++f) {  // face of a opposite node f
+    const int i0 = (f + 1) % 4, i1 = (f + 2) % 4, i2 = (f + 3) % 4;
+    const Vec3 q0 = a[i0], q1 = a[i1], q2 = a[i2];
+    const Vec3 na = cross(q1 - q0, q2 - q0);  // along the face's own orientation (q0, q1, q2)
+    const real na2 = dot(na, na);
+    if (!(na2 > 0)) continue;
+    const int cur = clip_to_tet(q0, q1, q2, pb, buf);
+    if (cur < 0) continue;
+    const Poly& q = buf[cur];
+    // Area (twice, along na, times |na|) and first moment of the polygon's fan.
+    real area2 = 0;
+    Vec3 moment{0, 0, 0};
+    for (int t = 1; t + 1 < q.n; ++t) {
+      const real at = dot(cross(q.p[t] - q.p[0], q.p[t + 1] - q.p[0]), na);
+      area2 += at;
+      moment += (at / 3) * (q.p[0] + q.p[t] + q.p[t + 1]);
+    }
+    if (!(area2 > 0)) continue;
+    const Vec3 c = (real(1) / area2) * moment;  // the polygon's centroid
+    const real inv_na = real(1) / std::sqrt(na2);
+    const real area = real(0.5) * area2 * inv_na;
+    const Vec3 nhat = (dot(na, a[f] - q0) > 0 ? -inv_na : inv_na) * na;  // outward
+    const real l0 = dot(cross(q1 - c, q2 - c), na) / na2;
+    const real l1 = dot(cross(q2 - c, q0 - c), na) / na2;
+    grad[i0] += (area * l0) * nhat;
+    grad[i1] += (area * l1) * nhat;
+    grad[i2] += (area * (1 - l0 - l1)) * nhat;
+    ov.volume += area * dot(nhat, q0) / 3;
+    ov.first_moment += area * c;
+    ov.area += area;
+  }
+}
+
+}  // namespace contact_detail
+
+/// The overlap-volume law: normal contact forces between tets a and b (current positions),
+/// penalty P (Pa), the exact gradient of W = (2P/3) (V - V_0)^2 (1/V_a + 1/V_b) for V > V_0,
+/// else 0. V_0 = `overlap_zero` (m^3) is the overlap a pair started with (the caller keeps it:
+/// PairHistory); < 0 takes the overlap now, as at a pair's first evaluation. fa and fb are
+/// overwritten. Symmetric: swapping a and b swaps fa and fb.
+FDEM_HD_INLINE ContactEval contact_volume_pair(const Vec3 (&a_in)[4], const Vec3 (&b_in)[4], real P, Vec3 (&fa)[4],
+                                               Vec3 (&fb)[4], real overlap_zero = 0) {
+  using namespace contact_detail;
+  ContactEval e{{0, 0, 0}, {0, 0, 0}, 0, 0, 0};
+  for (int i = 0; i < 4; ++i) fa[i] = fb[i] = Vec3{0, 0, 0};
+  if (!boxes_overlap(a_in, b_in)) return e;
+  // Positions from a's first node: V sums products of positions, so far from the origin its
+  // terms would cancel to round-off.
+  const Vec3 o = a_in[0];
+  Vec3 a[4], b[4];
+  for (int i = 0; i < 4; ++i) a[i] = a_in[i] - o, b[i] = b_in[i] - o;
+  const Planes pa = tet_face_planes(a), pb = tet_face_planes(b);
+  // The tets' volumes: h_0 = |n_0| H_0 / 4 with |n_0| twice a face's area, H_0 its height.
+  const real va = real(2) / 3 * pa.h[0], vb = real(2) / 3 * pb.h[0];
+  if (!(va > 0) || !(vb > 0)) return e;  // degenerate
+  if (separated_by(pb, a) || separated_by(pa, b)) return e;
+  Overlap ov{0, {}, {}, {0, 0, 0}, 0};
+  for (int i = 0; i < 4; ++i) ov.grad_a[i] = ov.grad_b[i] = Vec3{0, 0, 0};
+  add_faces_inside(a, pb, ov.grad_a, ov);
+  add_faces_inside(b, pa, ov.grad_b, ov);
+  const real V = ov.volume;
+  if (!(V > 0) || !(ov.area > 0)) return e;
+  e.overlap = V;
+  const real u = V - (overlap_zero < 0 ? V : overlap_zero);  // the overlap beyond the pair's zero
+  if (!(u > 0)) return e;
+  const real k = real(2) / 3 * P * (1 / va + 1 / vb);  // W = k u^2
+  const real dW = 2 * k * u;                           // dW/dV, Pa
+  // dW/dV_a = -(2P/3) u^2 / V_a^2, and dV_a/dx_k = n_k / 6.
+  const real ka = real(2) / 3 * P * u * u / (va * va) / 6, kb = real(2) / 3 * P * u * u / (vb * vb) / 6;
+  for (int i = 0; i < 4; ++i) {
+    fa[i] = -dW * ov.grad_a[i] + ka * pa.n[i];
+    fb[i] = -dW * ov.grad_b[i] + kb * pb.n[i];
+    e.normal += fa[i];
+  }
+  e.point = o + (real(1) / ov.area) * ov.first_moment;
+  e.weight = dW * ov.area;
+  e.energy = k * u * u;
+  return e;
+}
+
+/// Munjiza's law: normal contact forces between tets a and b (current positions), penalty P
+/// (Pa). fa and fb are overwritten. Symmetric: swapping a and b swaps fa and fb.
+FDEM_HD_INLINE ContactEval contact_munjiza_pair(const Vec3 (&a)[4], const Vec3 (&b)[4], real P, Vec3 (&fa)[4],
+                                                Vec3 (&fb)[4]) {
+  using namespace contact_detail;
+  ContactEval e{{0, 0, 0}, {0, 0, 0}, 0, 0, 0};
+  for (int i = 0; i < 4; ++i) fa[i] = fb[i] = Vec3{0, 0, 0};
+  const Mat3 Ea = Mat3::from_columns(a[1] - a[0], a[2] - a[0], a[3] - a[0]);
+  const Mat3 Eb = Mat3::from_columns(b[1] - b[0], b[2] - b[0], b[3] - b[0]);
+  const real da = det(Ea), db = det(Eb);
+  if (!(da != 0) || !(db != 0)) return e;  // degenerate: no potential defined
+  // Cheap rejection first: the boxes, then the eight face planes (most candidate pairs in a
+  // fractured body touch at most along a face, edge or vertex).
+  if (!boxes_overlap(a, b)) return e;
   const Planes pa = tet_planes(a), pb = tet_planes(b);
   if (separated_by(pb, a) || separated_by(pa, b)) return e;
   faces_inside(a, b, pb, inverse(Eb), P, fa, fb, 1, e);
   faces_inside(b, a, pa, inverse(Ea), P, fb, fa, -1, e);
   if (e.weight > 0) e.point = (real(1) / e.weight) * e.point;
   return e;
+}
+
+/// The normal contact forces of a pair under `law` (see above); overlap_zero: the volume law's.
+FDEM_HD_INLINE ContactEval contact_tet_pair(ContactLaw law, const Vec3 (&a)[4], const Vec3 (&b)[4], real P,
+                                            Vec3 (&fa)[4], Vec3 (&fb)[4], real overlap_zero = 0) {
+  return law == ContactLaw::volume ? contact_volume_pair(a, b, P, fa, fb, overlap_zero)
+                                   : contact_munjiza_pair(a, b, P, fa, fb);
+}
+
+/// The pair's overlap zero after an evaluation e: the overlap it first met with, then never
+/// more than the overlap since. It moves only where the energy is zero, so the energy stays
+/// a function of the positions along the way: no work comes of it.
+FDEM_HD_INLINE real next_overlap_zero(real overlap_zero, const ContactEval& e) {
+  return overlap_zero < 0 || e.overlap < overlap_zero ? e.overlap : overlap_zero;
 }
 
 /// Stiffness of a pair's friction spring, N/m: P (V_min)^(1/3), the normal stiffness scale

@@ -498,8 +498,9 @@ class Reader {
 
   void contact(const YAML::Node& n, ContactSettings& c) {
     const std::string p = "contact";
-    if (!check_map(n, p, {"activation", "buffer"})) return;
+    if (!check_map(n, p, {"activation", "law", "buffer"})) return;
     choice(n, p, "activation", c.activation);
+    choice(n, p, "law", c.law);
     number(n, p, "buffer", closed(0, 1e3), c.buffer);
   }
 

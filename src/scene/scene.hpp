@@ -7,6 +7,7 @@
 #include "core/backend.hpp"
 #include "core/choice.hpp"
 #include "core/vec.hpp"
+#include "physics/contact.hpp"
 
 namespace fdem {
 
@@ -125,6 +126,9 @@ struct ContactSettings {
   /// (all tets sharing a vertex of its face) as it breaks; "full": every tet from step 0;
   /// "none": no tet-tet contact (broken CE6 faces then keep their own overlap penalty and friction).
   Activation activation = Activation::adaptive;
+  /// The normal law: "volume" (conservative, from the overlap volume) or "munjiza" (the
+  /// distributed potential force, which can put energy in: docs/physics.md).
+  ContactLaw law = ContactLaw::volume;
   real buffer = 0;  // m, box inflation of the broad phase; 0 = automatic (0.1 x mean edge length)
   bool enabled() const { return activation != Activation::none; }
 };

@@ -72,19 +72,19 @@ class CandidateBuild {
     return st;
   }
 
-  /// The friction springs of the new pairs: each pair's old spring where it was a pair before
-  /// (both lists in the same order), else zero.
-  void carry_springs(const CandidateInputs& in, const DeviceArray<ContactPair>& old_pairs,
-                     const DeviceArray<Vec3>& old_springs, const DeviceArray<ContactPair>& pairs,
-                     DeviceArray<Vec3>& springs) {
+  /// The histories of the new pairs: each pair's old history where it was a pair before
+  /// (both lists in the same order), else that of a new pair.
+  void carry_history(const CandidateInputs& in, const DeviceArray<ContactPair>& old_pairs,
+                     const DeviceArray<PairHistory>& old_history, const DeviceArray<ContactPair>& pairs,
+                     DeviceArray<PairHistory>& history) {
     const GlobalTetId gid{in.tet_global};
     const long npairs = long(pairs.size());
-    springs.resize(npairs);
+    history.resize(npairs);
     const ContactPair* oldp = old_pairs.data();
-    const Vec3* olds = old_springs.data();
+    const PairHistory* olds = old_history.data();
     const long nold = long(old_pairs.size());
     const ContactPair* np = pairs.data();
-    Vec3* ns = springs.data();
+    PairHistory* ns = history.data();
     Exec::forall(int(npairs), [=] FDEM_LAMBDA(int i) {
       long lo = 0, hi = nold;
       while (lo < hi) {
@@ -96,7 +96,7 @@ class CandidateBuild {
         else
           hi = mid;
       }
-      ns[i] = lo < nold && oldp[lo].a == np[i].a && oldp[lo].b == np[i].b ? olds[lo] : Vec3{0, 0, 0};
+      ns[i] = lo < nold && oldp[lo].a == np[i].a && oldp[lo].b == np[i].b ? olds[lo] : new_pair_history();
     });
   }
 

@@ -52,7 +52,7 @@ class ContactPasses : SumSlots {
     auto set = [&](auto&... a) { (a.set_backend(b), ...); };
     set(node_vertex_, vt_ptr_, vt_tets_, tet_ce6_, ce6_tets_, tet_global_, watch_nodes_, gather_node_, gather_ptr_,
         gather_slot_, gather_of_);
-    set(plan_x_, watch_x_, spring_, next_spring_, pair_force_, contact_sum_, active_, pairs_, next_pairs_, eval_);
+    set(plan_x_, watch_x_, history_, next_history_, pair_force_, contact_sum_, active_, pairs_, next_pairs_, eval_);
     candidates_.set_backend(b);
   }
 
@@ -74,7 +74,7 @@ class ContactPasses : SumSlots {
     if (held_) gather_of_.upload(std::vector<int>(m.X.size(), -1));
   }
 
-  /// Contact's state: flags, pairs, springs, forces and indices; the gather list followed anew.
+  /// Contact's state: flags, pairs, their histories, forces and indices; the gather list followed anew.
   void upload_state(const ContactSet& c) {
     fdem::place(b_, active_, c.active);
     // Every node out of the old gather list (on the cpu backend the list this loop borrowed may
@@ -84,7 +84,7 @@ class ContactPasses : SumSlots {
       Exec::forall(int(gather_of_.size()), [=] FDEM_LAMBDA(int n) { of[n] = -1; });
     }
     contact_arrays(c, [&](auto& d, const auto& h) { fdem::place(b_, d, h); });
-    springs_in_place(c);
+    history_in_place(c);
     pairs_on_host_ = true;
     if (held_) follow_gather(true);
   }
@@ -92,7 +92,7 @@ class ContactPasses : SumSlots {
   void download_state(ContactSet& c) {
     active_.download(c.active);
     c.recount_active();
-    spring_.download(c.spring);
+    history_.download(c.history);
     eval_.download(c.eval);
     pair_force_.download(c.pair_force);
     if (pairs_on_host_) return;  // else built on the device since the last copy
@@ -160,7 +160,7 @@ class ContactPasses : SumSlots {
 
   /// The candidate list (the passes of contact/broad_phase.cpp's find_box_pairs, which
   /// test_broad_phase holds to a brute-force search), with the filters (a joining CE6, shared
-  /// nodes), springs carried over by (a, b), the gather index and the watch list. Only counts
+  /// nodes), histories carried over by (a, b), the gather index and the watch list. Only counts
   /// come back to the host. `own_node`: null on one rank.
   void rebuild(ContactSet& cs, int tets, int nodes, const Vec3* x, const int* tet_nodes, const std::uint8_t* own_node,
                DeviceTimes& t) {
@@ -172,10 +172,10 @@ class ContactPasses : SumSlots {
     in.own_node = own_node;
     in.tet_ce6 = tet_ce6_.data(), in.ce6_tets = ce6_tets_.data(), in.buffer = cs.buffer();
     const BroadPhaseStats st = candidates_.find_pairs(in, next_pairs_);
-    candidates_.carry_springs(in, pairs_, spring_, next_pairs_, next_spring_);
+    candidates_.carry_history(in, pairs_, history_, next_pairs_, next_history_);
     const long grown_before = pairs_.times_grown() + pair_force_.times_grown();
     std::swap(pairs_, next_pairs_);
-    std::swap(spring_, next_spring_);
+    std::swap(history_, next_history_);
     eval_.resize(st.pairs);
     pair_force_.resize(8 * st.pairs);
     t.pair_growth += pairs_.times_grown() + pair_force_.times_grown() - grown_before;
@@ -193,22 +193,25 @@ class ContactPasses : SumSlots {
   }
 
   /// One launch over the candidate list: the narrow phase, friction, the pair's forces written
-  /// once, and their power with the velocities now (its sums to kTouching to kConPower). The
-  /// springs are read from spring_ and written to next_spring_, which become the state at
-  /// springs_settled(): a pass run ahead of a rebuild leaves the springs it carries over as
+  /// once, their contact energy and their power with the velocities now (its sums to kTouching
+  /// to kConPower). The
+  /// histories are read from history_ and written to next_history_, which become the state at
+  /// history_settled(): a pass run ahead of a rebuild leaves the histories it carries over as
   /// they were.
   void pairs(const ContactSet& cs, const PairInputs& in, real* sums) {
     const int np = int(pairs_.size());
-    next_spring_.resize(np);
+    next_history_.resize(np);
     const ContactPair* pairs = pairs_.data();
     ContactEval* ev = eval_.data();
     Vec3* pf = pair_force_.data();
-    const Vec3* spring_in = spring_.data();
-    Vec3* spring_out = next_spring_.data();
+    const PairHistory* history_in = history_.data();
+    PairHistory* history_out = next_history_.data();
     const real P = cs.penalty(), mu_rock = cs.friction();
-    static_assert(kConDiss == kTouching + 1 && kConStored == kTouching + 2 && kConPower == kTouching + 3,
+    const ContactLaw law = cs.law();
+    static_assert(kConDiss == kTouching + 1 && kConStored == kTouching + 2 && kConEnergy == kTouching + 3 &&
+                      kConPower == kTouching + 4,
                   "the contact pass's sums");
-    Exec::template sum_to<4>(
+    Exec::template sum_to<5>(
         np,
         [=] FDEM_LAMBDA(int k, real* acc) {
           const ContactPair cp = pairs[k];
@@ -220,45 +223,46 @@ class ContactPasses : SumSlots {
           bool pushes = false;  // some force not zero: only then has the pair a power
           if (js >= 0 && (!ce6_broken(in.damage[js]) || (in.fresh && in.fresh[js]))) {
             for (int i = 0; i < 4; ++i) fa[i] = fb[i] = Vec3{0, 0, 0};
-            ev[k] = ContactEval{{0, 0, 0}, {0, 0, 0}, 0};
-            spring_out[k] = Vec3{0, 0, 0};
+            ev[k] = ContactEval{{0, 0, 0}, {0, 0, 0}, 0, 0, 0};
+            history_out[k] = new_pair_history();  // its first evaluation after the break sets its zero
           } else {
             Vec3 xa[4], xb[4];
             for (int i = 0; i < 4; ++i) xa[i] = in.x[na[i]], xb[i] = in.x[nb[i]];
-            const ContactEval e = contact_tet_pair(xa, xb, P, fa, fb);
+            PairHistory h = history_in[k];
+            const ContactEval e = contact_tet_pair(law, xa, xb, P, fa, fb, h.overlap_zero);
             ev[k] = e;
+            h.overlap_zero = next_overlap_zero(h.overlap_zero, e);
             for (int i = 0; i < 4; ++i) pushes = pushes || !is_zero(fa[i]) || !is_zero(fb[i]);
             if (!(e.weight > 0)) {
-              spring_out[k] = Vec3{0, 0, 0};
+              h.spring = Vec3{0, 0, 0};
             } else {
               pushes = true;
-              if (in.own_tet[cp.a]) acc[0] += 1;
+              if (in.own_tet[cp.a]) acc[0] += 1, acc[3] += e.energy;
               Vec3 va[4], vb[4], ga[4], gb[4];
               for (int i = 0; i < 4; ++i) {
                 va[i] = in.v[na[i]], vb[i] = in.v[nb[i]];
                 ga[i] = gb[i] = Vec3{0, 0, 0};
               }
               const real k_t = contact_tangential_stiffness(xa, xb, P);
-              Vec3 spring = spring_in[k];
-              const real d = contact_friction(xa, xb, va, vb, e, mu_rock, k_t, in.dt, spring, ga, gb);
-              spring_out[k] = spring;
+              const real d = contact_friction(xa, xb, va, vb, e, mu_rock, k_t, in.dt, h.spring, ga, gb);
               if (in.own_tet[cp.a]) {
                 acc[1] += d;
-                acc[2] += 0.5 * k_t * dot(spring, spring);
+                acc[2] += 0.5 * k_t * dot(h.spring, h.spring);
               }
               for (int i = 0; i < 4; ++i) fa[i] += ga[i], fb[i] += gb[i];
             }
+            history_out[k] = h;
           }
           Vec3* fp = pf + 8 * k;
           for (int i = 0; i < 4; ++i) fp[i] = fa[i], fp[4 + i] = fb[i];
           // (A pair without force adds -0 to the power, which leaves every sum as it is.)
-          if (pushes) device_pass::subtract_pair_power(fa, fb, na, nb, in.v, in.own_node, acc[3]);
+          if (pushes) device_pass::subtract_pair_power(fa, fb, na, nb, in.v, in.own_node, acc[4]);
         },
         sums + kTouching);
   }
 
-  /// The springs of the pairs' last pass are now the state.
-  void springs_settled() { std::swap(spring_, next_spring_); }
+  /// The histories of the pairs' last pass are now the state.
+  void history_settled() { std::swap(history_, next_history_); }
 
   /// The sum of the pair forces at gather node k.
   struct Gather {
@@ -336,36 +340,36 @@ class ContactPasses : SumSlots {
   /// Several ranks: the positions the contact ghosts were gathered at.
   const Vec3* plan_x() const { return plan_x_.data(); }
 
-  /// Bytes a step's pairs read and write: the pair, its evaluation written, its spring read and
+  /// Bytes a step's pairs read and write: the pair, its evaluation written, its history read and
   /// written, 8 node ids and the 8 nodes' x and v, 8 forces written (narrow phase and friction
   /// in one pass); the gather reads the forces; the new velocities' power reads the ids, forces
   /// and v again.
   double bytes_per_step() const {
     const double vec = sizeof(Vec3);
-    return double(pairs_.size()) * (sizeof(ContactPair) + sizeof(ContactEval) + 2 * vec + 2 * 8 * sizeof(int) +
-                                    16 * vec + 8 * vec + 8 * vec + 16 * vec);
+    return double(pairs_.size()) * (sizeof(ContactPair) + sizeof(ContactEval) + 2 * sizeof(PairHistory) +
+                                    2 * 8 * sizeof(int) + 16 * vec + 8 * vec + 8 * vec + 16 * vec);
   }
 
  private:
   /// f(the loop's array, the ContactSet's vector) for each contact array both hold.
   template <class Set, class F>
   void contact_arrays(Set& c, F&& f) {
-    f(pairs_, c.pairs), f(spring_, c.spring), f(eval_, c.eval), f(pair_force_, c.pair_force);
+    f(pairs_, c.pairs), f(history_, c.history), f(eval_, c.eval), f(pair_force_, c.pair_force);
     f(gather_node_, c.gather_node), f(gather_ptr_, c.gather_ptr), f(gather_slot_, c.gather_slot);
     f(watch_nodes_, c.watch_nodes), f(watch_x_, c.watch_x);
   }
 
-  /// Cpu backend: the pairs' pass updates each pair's spring where it reads it (next_spring_
-  /// is spring_), which is safe because a pair reads and writes only its own. Not where the
+  /// Cpu backend: the pairs' pass updates each pair's history where it reads it (next_history_
+  /// is history_), which is safe because a pair reads and writes only its own. Not where the
   /// fused pass integrates: that schedule may run the pairs twice in one evaluation, so it keeps
-  /// the springs from before the first run apart, in a next_spring_ of the loop's own (one that
+  /// the histories from before the first run apart, in a next_history_ of the loop's own (one that
   /// still borrows a vector lets go: the vector may have moved).
-  void springs_in_place(const ContactSet& c) {
+  void history_in_place(const ContactSet& c) {
     if (b_ != Backend::cpu) return;
     if (held_)
-      next_spring_.release();
+      next_history_.release();
     else
-      fdem::place(b_, next_spring_, c.spring);
+      fdem::place(b_, next_history_, c.history);
   }
 
   /// Cpu backend, after a rebuild made the contact arrays in the loop's own memory: they move
@@ -376,18 +380,18 @@ class ContactPasses : SumSlots {
       if (d.data() != h.data()) h.assign(d.data(), d.data() + d.size());
       d.borrow(h);
     });
-    springs_in_place(c);
+    history_in_place(c);
     pairs_on_host_ = true;
   }
 
   /// Cpu backend, before a rebuild: the arrays it makes anew let go of the ContactSet's vectors
-  /// (the old pairs and springs stay borrowed: the rebuild reads them to carry the springs over).
+  /// (the old pairs and histories stay borrowed: the rebuild reads them to carry them over).
   /// Those vectors are not read again before the new arrays move in (in_place): freed now, so
   /// that the old and the new are not held together.
   void apart_for_rebuild(ContactSet& c) {
     if (b_ != Backend::cpu) return;
     auto release = [](auto&... a) { (a.release(), ...); };
-    release(next_spring_, eval_, pair_force_, gather_node_, gather_ptr_, gather_slot_, watch_nodes_, watch_x_);
+    release(next_history_, eval_, pair_force_, gather_node_, gather_ptr_, gather_slot_, watch_nodes_, watch_x_);
     auto free_all = [](auto&... h) { ((std::remove_reference_t<decltype(h)>{}.swap(h)), ...); };
     free_all(c.eval, c.pair_force, c.gather_node, c.gather_ptr, c.gather_slot, c.watch_nodes, c.watch_x);
   }
@@ -402,7 +406,8 @@ class ContactPasses : SumSlots {
   DeviceArray<Vec3> plan_x_;
   DeviceArray<std::uint8_t> active_;
   DeviceArray<ContactPair> pairs_, next_pairs_;
-  DeviceArray<Vec3> spring_, next_spring_, pair_force_;
+  DeviceArray<PairHistory> history_, next_history_;
+  DeviceArray<Vec3> pair_force_;
   DeviceArray<ContactEval> eval_;
   DeviceArray<int> gather_node_, gather_ptr_, gather_slot_, watch_nodes_;
   DeviceArray<Vec3> watch_x_;

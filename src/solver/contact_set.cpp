@@ -13,6 +13,7 @@ ContactSet::ContactSet(const Model& m, const Scene& s) {
   enabled_ = s.contact.enabled();
   if (!enabled_) return;
   penalty_ = s.material.contact_penalty;
+  law_ = s.contact.law;
   mu_ = s.material.friction_rock;
   buffer_ = s.contact.buffer > 0 ? s.contact.buffer : 0.1 * m.mean_edge;
   const int nt = int(m.tet_nodes.size());
@@ -126,7 +127,7 @@ void ContactSet::save(CheckpointOut& out) const {
   out.put(gather_node);
   out.put(gather_ptr);
   out.put(gather_slot);
-  out.put(spring);
+  out.put(history);
   out.put(times);
   out.put(plan_x_);
 }
@@ -153,10 +154,10 @@ void ContactSet::load(CheckpointIn& in, const std::vector<std::uint8_t>* appende
   in.get(gather_node);
   in.get(gather_ptr);
   in.get(gather_slot);
-  in.get(spring);
+  in.get(history);
   in.get(times);
   in.get(plan_x_);
-  if (spring.size() != pairs.size() || eval.size() != pairs.size()) in.mismatch("inconsistent contact pair arrays");
+  if (history.size() != pairs.size() || eval.size() != pairs.size()) in.mismatch("inconsistent contact pair arrays");
   if (appended) {
     // The new tets are candidates only after a build; the caller sets the new plan positions.
     active_count_ = std::count(active.begin(), active.end(), 1);

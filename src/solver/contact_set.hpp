@@ -37,6 +37,7 @@ class ContactSet {
 
   bool enabled() const { return enabled_; }
   real penalty() const { return penalty_; }  // Pa, material.contact_penalty
+  ContactLaw law() const { return law_; }    // contact.law
   real friction() const { return mu_; }      // Coulomb coefficient, material.friction_rock
   real buffer() const { return buffer_; }    // m, the broad phase's box inflation
   /// Flags the vicinity of CE6 `c` (every tet sharing a vertex of its face). Returns the
@@ -78,7 +79,7 @@ class ContactSet {
   void recount_active();
   long pair_count() const { return long(pairs.size()); }
 
-  /// Everything that changes during a run (flags, pairs, springs, the last forces and the
+  /// Everything that changes during a run (flags, pairs, their histories, the last forces and the
   /// broad phase's watch list), so a restarted run continues bit for bit.
   /// With `appended`, the state of a set whose model has these tets' flags appended (the
   /// contact ghosts grew): the saved flags are extended with them and the pairs rebuilt at the
@@ -91,7 +92,7 @@ class ContactSet {
   std::vector<std::uint8_t> active;  // per tet: 1 where it is a contact candidate
   bool rebuild_due = true;           // activation changed since the last build
   std::vector<ContactPair> pairs;    // the candidate list
-  std::vector<Vec3> spring;          // per pair, its friction spring
+  std::vector<PairHistory> history;  // per pair, its friction spring and overlap zero
   std::vector<ContactEval> eval;     // per pair, its normal evaluation
   std::vector<Vec3> pair_force;      // per pair, 8 nodal forces (a's 4 nodes, then b's), N
   // Gather index: node gather_node[k] receives pair_force[slot] for slots
@@ -110,6 +111,7 @@ class ContactSet {
 
   bool enabled_ = false;
   real penalty_ = 0, mu_ = 0, buffer_ = 0;
+  ContactLaw law_ = ContactLaw::volume;
   long active_count_ = 0;
   std::vector<int> vertex_tet_ptr_, vertex_tets_;
   std::vector<std::array<int, 4>> tet_ce6_;

@@ -63,13 +63,14 @@ void poison_host_state(const LoopParts& s, bool scalars_waiting, bool integrates
   if (s.contacts.enabled()) {
     ContactSet& c = s.contacts;
     std::fill(c.active.begin(), c.active.end(), 0xAA);
-    std::fill(c.spring.begin(), c.spring.end(), bad);
+    std::fill(c.history.begin(), c.history.end(), PairHistory{bad, nan});
     std::fill(c.pair_force.begin(), c.pair_force.end(), bad);
-    std::fill(c.eval.begin(), c.eval.end(), ContactEval{bad, bad, nan});
+    std::fill(c.eval.begin(), c.eval.end(), ContactEval{bad, bad, nan, nan, nan});
   }
   // The last evaluation's scalars not yet settled: read before settle() they are NaN.
   if (!scalars_waiting) return;
-  s.loads.platens.force_top = s.loads.platens.force_bottom = s.energy.p_contact = s.energy.contact_spring = nan;
+  s.loads.platens.force_top = s.loads.platens.force_bottom = s.energy.p_contact = s.energy.contact_spring =
+      s.energy.contact_stored = nan;
   s.energy.p_viscous = s.energy.p_cohesive = s.energy.p_friction = nan;
   if (integrates) s.loads.gravity.power = nan;  // (with the elements' sums there)
   if (s.loads.confinement.enabled) s.loads.confinement.pressure = s.loads.confinement.power = nan;

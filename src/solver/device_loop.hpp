@@ -49,7 +49,7 @@ struct AdvanceSums {
   // (Solver::finish_step hands them back summed: DeviceLoop::take_reduced). n_more is 0 on one
   // rank.
   int n_more = 0;
-  std::array<real, 10> more{};
+  std::array<real, 11> more{};
 };
 
 /// One rank's sums for a monitor row; Solver::measure sums them over the ranks.
@@ -85,7 +85,7 @@ struct StepSums {
     for (real* p : {&bad, &ke, &w_con, &w_pre, &w_grav, &far, &lost}) f(*p);
   }
   int n_more = 0;  // a device loop's values summed after them (AdvanceSums::more)
-  std::array<real, 10> more{};
+  std::array<real, 11> more{};
 };
 
 /// The run's bookkeeping that a step's passes call back into (the Solver).

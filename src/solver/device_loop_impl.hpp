@@ -432,7 +432,7 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     clock_.lap(t_.broad);
     if (rebuild && ahead) clear_sums(kTouching, kConPower + 1);  // the pairs' sums queued ahead go
     if (rebuild || !ahead) contact_pairs(s, true);
-    contact_.springs_settled();
+    contact_.history_settled();
     // The run's report reads the contact set's clocks (friction: in the narrow phase's pass).
     cs.times.broad = t_.broad;
     cs.times.narrow = t_.narrow + t_.contact_sum;
@@ -547,6 +547,7 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     s.energy.p_contact = b.contact_power;
     s.energy.contact_slip += b.contact_slip;
     s.energy.contact_spring = b.contact_spring;
+    s.energy.contact_stored = b.contact_energy;
     s.contacts.touching = long(b.touching);
     s.loads.platens.force_top = b.platen_top;
     s.loads.platens.force_bottom = b.platen_bottom;

@@ -13,7 +13,8 @@ namespace {
 template <class Ledger, class F>
 void each_saved(Ledger& e, F&& f) {
   for (auto* r : {&e.external, &e.cohesive, &e.friction, &e.viscous, &e.platen_friction, &e.contact, &e.contact_slip,
-                  &e.initial_kinetic, &e.contact_spring, &e.p_cohesive, &e.p_friction, &e.p_viscous, &e.p_contact})
+                  &e.initial_kinetic, &e.contact_spring, &e.contact_stored, &e.p_cohesive, &e.p_friction, &e.p_viscous,
+                  &e.p_contact})
     f(*r);
 }
 }  // namespace
@@ -45,8 +46,12 @@ std::string instability_advice(const Scene& scene, const StableStep& stable, rea
   else if (scene.contact.enabled() && touching > 0 && e.contact < -0.01 * std::max(std::fabs(e.input()), e.floor))
     cause = "tet-tet contact has put " + fmt(-e.contact, 3) + " J in (" + std::to_string(touching) +
             " pairs touching, penalty " + fmt(mat.contact_penalty, 3) + " Pa = " + fmt(mat.contact_penalty / E, 3) +
-            " E): the potential contact force is not exactly conservative, and overlapping fragments can feed "
-            "energy in whatever the time step (docs/stability.md)";
+            " E)" +
+            (scene.contact.law == ContactLaw::munjiza
+                 ? ": Munjiza's contact force is not conservative, and overlapping fragments can feed energy in "
+                   "whatever the time step; contact.law: volume is conservative (docs/physics.md)"
+                 : ": the contact law is conservative, so the time step is too long for the touching pairs' "
+                   "stiffness (docs/stability.md)");
   else if (p_ce6 > 1000 * E)
     cause = "the cohesive penalty " + fmt(p_ce6, 3) + " Pa (" + fmt(p_ce6 / E, 3) + " E)";
   else

@@ -28,6 +28,7 @@ struct EnergyLedger {
   real contact_slip = 0;     // of that, the friction work dissipated by sliding
   real initial_kinetic = 0;  // velocities set before the first step
   real contact_spring = 0;   // J, the contact friction springs' energy now
+  real contact_stored = 0;   // J, the pairs' contact energy now (the volume law's W)
   // The last force evaluation's powers, W (contact's with the velocities of that evaluation).
   real p_cohesive = 0, p_friction = 0, p_viscous = 0, p_contact = 0;
   real floor = 0;  // J, the scale below which the balance's error is measured against it

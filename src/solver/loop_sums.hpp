@@ -30,6 +30,7 @@ struct ForceSums {
   real touching = 0;        // contact pairs that touch
   real contact_slip = 0;    // J, friction dissipated by contact
   real contact_spring = 0;  // J, stored in the friction springs
+  real contact_energy = 0;  // J, the pairs' contact energy (the volume law)
   real contact_power = 0;   // W
   real platen_top = 0;      // N, z reactions
   real platen_bottom = 0;
@@ -44,7 +45,8 @@ struct ForceSums {
     using S = SumSlots;
     ForceSums s;
     s.tets_added = b[S::kAdded], s.touching = b[S::kTouching], s.contact_slip = b[S::kConDiss];
-    s.contact_spring = b[S::kConStored], s.contact_power = b[S::kConPower], s.platen_top = b[S::kTop];
+    s.contact_spring = b[S::kConStored], s.contact_energy = b[S::kConEnergy], s.contact_power = b[S::kConPower],
+    s.platen_top = b[S::kTop];
     s.platen_bottom = b[S::kBottom], s.platen_friction = b[S::kPlatenFric], s.pressure_power = b[S::kPressurePower];
     s.gravity_power = b[S::kGravity], s.viscous_power = b[S::kVisc], s.inverted = b[S::kInverted];
     s.cohesive_power = b[S::kCoh], s.friction_power = b[S::kFric];

@@ -19,6 +19,7 @@ struct Monitors {
   real kinetic = 0, strain = 0, cohesive_stored = 0, cohesive_dissipated = 0, friction = 0, viscous = 0;
   real platen_stored = 0, platen_friction = 0, external_work = 0;
   real contact = 0, contact_friction = 0;                 // J, work into tet-tet contact (normal) and its friction
+  real contact_stored = 0;                                // J, the contact energy held now (the volume law's W)
   long active_tets = 0, contact_pairs = 0, contacts = 0;  // activated tets, candidate pairs, touching pairs
   real confining_pressure = 0;                            // Pa, applied on the lateral surface
   // Pa, -(s_xx + s_yy)/2 with the viscous part, averaged over the tets of the middle third of the height
@@ -42,7 +43,7 @@ constexpr MonitorColumn real_column(const char* name, real Monitors::*f) {
 }
 
 /// The columns of monitors.csv, in file order.
-inline constexpr std::array<MonitorColumn, 31> kMonitorColumns{
+inline constexpr std::array<MonitorColumn, 32> kMonitorColumns{
     count_column("step", &Monitors::step),
     real_column("time_s", &Monitors::time),
     real_column("axial_strain", &Monitors::axial_strain),
@@ -68,6 +69,7 @@ inline constexpr std::array<MonitorColumn, 31> kMonitorColumns{
     real_column("energy_error", &Monitors::energy_error),
     real_column("contact_J", &Monitors::contact),
     real_column("contact_friction_J", &Monitors::contact_friction),
+    real_column("contact_stored_J", &Monitors::contact_stored),
     count_column("active_tets", &Monitors::active_tets),
     count_column("contact_pairs", &Monitors::contact_pairs),
     count_column("contacts", &Monitors::contacts),

@@ -336,6 +336,7 @@ Monitors Solver::measure() {
   r.external_work = energy_.external;
   r.contact_friction = energy_.contact_slip + energy_.contact_spring;
   r.contact = energy_.contact - r.contact_friction;
+  r.contact_stored = energy_.contact_stored;
   r.active_tets = long(sums.active_tets);
   r.contact_pairs = long(sums.contact_pairs);
   r.contacts = contacts.touching;
@@ -451,8 +452,8 @@ std::uint64_t physics_fingerprint(const Scene& s, const Model& m, real dt) {
                          s.solver.damping_scale,
                          dt};
   h = fnv1a64(values, sizeof values, h);
-  const std::string words =
-      std::string(name_of(a.softening)) + "|" + name_of(s.confinement.path) + "|" + name_of(s.contact.activation);
+  const std::string words = std::string(name_of(a.softening)) + "|" + name_of(s.confinement.path) + "|" +
+                            name_of(s.contact.activation) + "|" + name_of(s.contact.law);
   return fnv1a64(words.data(), words.size(), h);
 }
 

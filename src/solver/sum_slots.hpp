@@ -14,9 +14,10 @@ struct SumSlots {
   enum Slot : int {
     kAdded,     // activation: tets it added to the candidates
     kMoved,     // the broad phase's watch: nodes that moved half the buffer
-    kTouching,  // contact: touching pairs, slip dissipated, spring energy, power
+    kTouching,  // contact: touching pairs, slip dissipated, spring energy, contact energy, power
     kConDiss,
     kConStored,
+    kConEnergy,
     kConPower,
     kTop,  // platens: the two reactions and the friction dissipated
     kBottom,
@@ -36,14 +37,14 @@ struct SumSlots {
     kConPowerNew,  // the last forces' powers with the new velocities
     kPressurePowerNew,
     kWatched,       // the broad phase's watch where the fused pass steps (with the new powers)
-    kSums = 24,     // (kWatched + 1 at most)
+    kSums = 25,     // (kWatched + 1 at most)
     kPrev = kSums,  // [kPrev, kPrev + kBad): the last evaluation's [0, kBad), kept for its step
     kAll = kPrev + kBad
   };
   static_assert(kWatched < kSums, "an integration's slots end before kPrev");
   /// The sums that the whole model sums over the ranks (the others are each rank's own).
-  static constexpr std::array<int, 9> kWhole = {kTop,  kBottom,  kPlatenFric, kVisc,    kCoh,
-                                                kFric, kConDiss, kConStored,  kTouching};
+  static constexpr std::array<int, 10> kWhole = {kTop,  kBottom,  kPlatenFric, kVisc,      kCoh,
+                                                 kFric, kConDiss, kConStored,  kConEnergy, kTouching};
 };
 
 }  // namespace fdem

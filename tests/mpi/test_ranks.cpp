@@ -613,7 +613,9 @@ TEST(Ranks, FragmentsTravellingBeyondTheReachGatherTheirContactGhosts) {
       EXPECT_GT(ce6_added, 0) << backend;
       EXPECT_GT(g.tets, 0) << backend;
       // (A rank that owns no tet, the middle ones of three or more, has nothing to gather for.)
-      if (held_at_start > 0) EXPECT_GT(long(d.model().tet_nodes.size()), held_at_start) << backend;
+      if (held_at_start > 0) {
+        EXPECT_GT(long(d.model().tet_nodes.size()), held_at_start) << backend;
+      }
       // Every tet whose box comes within half the reach of an own tet's box now is held: the
       // ghosts were gathered within the reach where the nodes were, less than a quarter of the
       // reach ago.

@@ -94,7 +94,7 @@ class Reference : public ::testing::TestWithParam<Leg> {
     return broken;
   }
 
-  /// Activation flags, candidate pairs, friction springs and the builds of the list.
+  /// Activation flags, candidate pairs, their histories and the builds of the list.
   static void expect_same_contact(const Solver& s, const ReferenceStepper& r) {
     EXPECT_EQ(s.contacts.active, r.active);
     ASSERT_EQ(s.contacts.pairs.size(), r.pairs.size());
@@ -102,7 +102,7 @@ class Reference : public ::testing::TestWithParam<Leg> {
       const ContactPair &p = s.contacts.pairs[k], &q = r.pairs[k];
       ASSERT_TRUE(p.a == q.a && p.b == q.b && p.joint == q.joint) << "pair " << k;
     }
-    EXPECT_TRUE(same_bits(s.contacts.spring, r.spring));
+    EXPECT_TRUE(same_bits(s.contacts.history, r.history));
     EXPECT_EQ(s.contacts.times.rebuilds, r.rebuilds);
   }
 
@@ -195,7 +195,7 @@ TEST_P(Reference, TwoBlocksCollideAndSlide) {
   for (int i = 0; i < 2000; ++i) {
     solver.step(), ref.step();
     touched += ref.touching;
-    for (const Vec3& u : ref.spring) spring = std::max(spring, norm(u));
+    for (const PairHistory& h : ref.history) spring = std::max(spring, norm(h.spring));
   }
   expect_same_nodes(solver, ref);
   expect_same_contact(solver, ref);

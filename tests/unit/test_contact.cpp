@@ -1,7 +1,9 @@
-// contact_tet_pair and contact_friction (physics/contact.hpp): the potential contact force
-// between two TET4s against its definition P int (grad phi_a - grad phi_b) dV (checked by an
-// independent Monte Carlo volume integral), its symmetry, balance and torque, and the
-// Coulomb friction law of a pair.
+// contact_tet_pair and contact_friction (physics/contact.hpp). Both normal laws: symmetry,
+// balance, torque, rigid motions, and zero when apart. The overlap-volume law against its
+// energy (the exact volume of a tet and its translate, and finite differences of W), and a
+// closed loop of deforming tets that returns no work, which Munjiza's law fails. Munjiza's
+// law against its definition P int (grad phi_a - grad phi_b) dV (an independent Monte Carlo
+// volume integral). The Coulomb friction law of a pair.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -82,13 +84,26 @@ Vec3 volume_integral(const Tet& a, const Tet& b, int samples) {
 
 }  // namespace
 
-TEST(ContactTetPair, ForceGrowsWithOverlapIsBalancedAndVanishesApart) {
+namespace fdem {
+/// A law's word in the test names.
+void PrintTo(ContactLaw law, std::ostream* os) {
+  *os << name_of(law);
+}
+}  // namespace fdem
+
+/// The tests every normal law passes, run for each.
+class EachLaw : public ::testing::TestWithParam<ContactLaw> {};
+INSTANTIATE_TEST_SUITE_P(ContactLaws, EachLaw, ::testing::Values(ContactLaw::volume, ContactLaw::munjiza),
+                         [](const auto& info) { return std::string(name_of(info.param)); });
+
+TEST_P(EachLaw, ForceGrowsWithOverlapIsBalancedAndVanishesApart) {
+  const ContactLaw law = GetParam();
   Tet a, b, fa, fb;
   base_tet(a);
   real last = 0;
   for (real depth : {1e-7, 1e-6, 1e-5, 5e-5, 1e-4}) {
     mirrored_tet(b, {0.05e-3, 0.02e-3, depth});  // b pushed up into a through the shared face
-    const ContactEval e = contact_tet_pair(a, b, P, fa, fb);
+    const ContactEval e = contact_tet_pair(law, a, b, P, fa, fb);
     const Vec3 Fa = sum(fa), Fb = sum(fb);
     EXPECT_GT(e.normal.z, last) << "depth " << depth;  // a is pushed up (+z), more with depth
     last = e.normal.z;
@@ -101,7 +116,7 @@ TEST(ContactTetPair, ForceGrowsWithOverlapIsBalancedAndVanishesApart) {
   // Separated by a small gap, or just touching: exactly no force.
   for (real gap : {0.0, 1e-9, 1e-4}) {
     mirrored_tet(b, {0.05e-3, 0.02e-3, -gap});
-    const ContactEval e = contact_tet_pair(a, b, P, fa, fb);
+    const ContactEval e = contact_tet_pair(law, a, b, P, fa, fb);
     EXPECT_EQ(e.weight, 0);
     for (int i = 0; i < 4; ++i) {
       EXPECT_EQ(norm(fa[i]), 0);
@@ -110,7 +125,7 @@ TEST(ContactTetPair, ForceGrowsWithOverlapIsBalancedAndVanishesApart) {
   }
 }
 
-TEST(ContactTetPair, EqualsTheVolumeIntegralOfThePotentialGradients) {
+TEST(MunjizaLaw, EqualsTheVolumeIntegralOfThePotentialGradients) {
   // Independent check of the surface-integral evaluation: a Monte Carlo integral over the
   // overlap of P (grad phi_a - grad phi_b), 2 million samples (statistical error ~0.3 %).
   Tet a, b, fa, fb;
@@ -118,20 +133,21 @@ TEST(ContactTetPair, EqualsTheVolumeIntegralOfThePotentialGradients) {
   const Mat3 R = rotation({0.36, 0.48, 0.8}, 0.7);
   const Vec3 c{0.5e-3, 0.3e-3, 0.3e-3};
   for (int i = 0; i < 4; ++i) b[i] = R * (a[i] - c) + Vec3{0.75e-3, 0.45e-3, 0.4e-3};  // deep, skew overlap
-  const ContactEval e = contact_tet_pair(a, b, P, fa, fb);
+  const ContactEval e = contact_munjiza_pair(a, b, P, fa, fb);
   const Vec3 ref = volume_integral(a, b, 2000000);
   ASSERT_GT(norm(ref), 0);
   EXPECT_LT(norm(e.normal - ref), 0.01 * norm(ref))
       << e.normal.x << " " << e.normal.y << " " << e.normal.z << " vs " << ref.x << " " << ref.y << " " << ref.z;
 }
 
-TEST(ContactTetPair, SwappingContactorAndTargetSwapsTheForces) {
+TEST_P(EachLaw, SwappingContactorAndTargetSwapsTheForces) {
+  const ContactLaw law = GetParam();
   Tet a, b, fa, fb, ga, gb;
   base_tet(a);
   const Mat3 R = rotation({0, 0.6, 0.8}, 1.1);
   for (int i = 0; i < 4; ++i) b[i] = R * a[i] + Vec3{0.3e-3, 0.2e-3, 0.1e-3};
-  const ContactEval e1 = contact_tet_pair(a, b, P, fa, fb);
-  const ContactEval e2 = contact_tet_pair(b, a, P, gb, ga);
+  const ContactEval e1 = contact_tet_pair(law, a, b, P, fa, fb);
+  const ContactEval e2 = contact_tet_pair(law, b, a, P, gb, ga);
   const real s = scale_of(fa);
   ASSERT_GT(s, 0);
   for (int i = 0; i < 4; ++i)
@@ -142,12 +158,13 @@ TEST(ContactTetPair, SwappingContactorAndTargetSwapsTheForces) {
   for (int d = 0; d < 3; ++d) EXPECT_NEAR(e1.normal[d], -e2.normal[d], 1e-12 * s);
 }
 
-TEST(ContactTetPair, NoNetTorqueAndRotatesWithTheBodies) {
+TEST_P(EachLaw, NoNetTorqueAndRotatesWithTheBodies) {
+  const ContactLaw law = GetParam();
   Tet a, b, fa, fb;
   base_tet(a);
   const Mat3 R = rotation({0.6, 0, 0.8}, 2.0);
   for (int i = 0; i < 4; ++i) b[i] = R * a[i] + Vec3{0.2e-3, 0.5e-3, 0.2e-3};
-  contact_tet_pair(a, b, P, fa, fb);
+  contact_tet_pair(law, a, b, P, fa, fb);
   const real s = scale_of(fa);
   ASSERT_GT(s, 0);
   Vec3 torque{0, 0, 0};
@@ -158,7 +175,7 @@ TEST(ContactTetPair, NoNetTorqueAndRotatesWithTheBodies) {
   const Mat3 Q = rotation({0.48, 0.6, 0.64}, -0.9);
   Tet qa, qb, ga, gb;
   for (int i = 0; i < 4; ++i) qa[i] = Q * a[i] + Vec3{5, -3, 2}, qb[i] = Q * b[i] + Vec3{5, -3, 2};
-  contact_tet_pair(qa, qb, P, ga, gb);
+  contact_tet_pair(law, qa, qb, P, ga, gb);
   for (int i = 0; i < 4; ++i)
     for (int d = 0; d < 3; ++d) {
       EXPECT_NEAR(ga[i][d], (Q * fa[i])[d], 1e-8 * s);
@@ -166,11 +183,12 @@ TEST(ContactTetPair, NoNetTorqueAndRotatesWithTheBodies) {
     }
 }
 
-TEST(ContactFriction, SticksElasticallyThenSlidesAtMuN) {
+TEST_P(EachLaw, FrictionSticksElasticallyThenSlidesAtMuN) {
+  const ContactLaw law = GetParam();
   Tet a, b, fa, fb, va, vb;
   base_tet(a);
   mirrored_tet(b, {0.05e-3, 0.02e-3, 2e-5});
-  const ContactEval e = contact_tet_pair(a, b, P, fa, fb);
+  const ContactEval e = contact_tet_pair(law, a, b, P, fa, fb);
   const real N = norm(e.normal);
   ASSERT_GT(N, 0);
   const real mu = 0.5, kt = 1e7, dt = 1e-8;
@@ -211,7 +229,116 @@ TEST(ContactFriction, SticksElasticallyThenSlidesAtMuN) {
   // Out of contact the spring is forgotten.
   Tet c;
   mirrored_tet(c, {0.05e-3, 0.02e-3, -1e-5});
-  const ContactEval apart = contact_tet_pair(a, c, P, ga, gb);
+  const ContactEval apart = contact_tet_pair(law, a, c, P, ga, gb);
   EXPECT_EQ(contact_friction(a, c, va, vb, apart, mu, kt, dt, u, ga, gb), 0);
   EXPECT_EQ(norm(u), 0);
+}
+
+namespace {
+
+/// The volume of a tet, m^3.
+real volume_of(const Tet& x) {
+  return std::fabs(det(Mat3::from_columns(x[1] - x[0], x[2] - x[0], x[3] - x[0]))) / 6;
+}
+
+/// The overlap law's energy for an overlap volume V: (2P/3) V^2 (1/V_a + 1/V_b).
+real volume_law_energy(real V, const Tet& a, const Tet& b) {
+  return 2.0 / 3 * P * V * V * (1 / volume_of(a) + 1 / volume_of(b));
+}
+
+/// A deformed copy of base_tet: each node moved by up to `amount` (m), reproducibly.
+void deformed_tet(Tet& t, unsigned seed, real amount) {
+  base_tet(t);
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<real> u(-amount, amount);
+  for (auto& p : t) p += Vec3{u(rng), u(rng), u(rng)};
+}
+
+}  // namespace
+
+TEST(VolumeLaw, EnergyIsThatOfTheExactOverlapOfATetAndItsTranslate) {
+  // A tet and its translate by s overlap in a copy of the tet scaled by 1 - sum_i max(0, d_i),
+  // d_i the change of node i's barycentric weight along s: an exact overlap volume.
+  Tet a, b, fa, fb;
+  base_tet(a);
+  const Mat3 Einv = inverse(Mat3::from_columns(a[1] - a[0], a[2] - a[0], a[3] - a[0]));
+  for (const Vec3 s : {Vec3{0.1e-3, 0.05e-3, 0.02e-3}, Vec3{-0.2e-3, 0.1e-3, 0.15e-3}, Vec3{0, 0, -0.3e-3}}) {
+    for (int i = 0; i < 4; ++i) b[i] = a[i] + s;
+    const Vec3 l = Einv * s;
+    const real d[4] = {-l.x - l.y - l.z, l.x, l.y, l.z};
+    real shrink = 1;
+    for (real di : d) shrink -= std::fmax(di, 0);
+    ASSERT_GT(shrink, 0.2);
+    const real V = volume_of(a) * shrink * shrink * shrink;
+    const ContactEval e = contact_volume_pair(a, b, P, fa, fb);
+    EXPECT_NEAR(e.energy, volume_law_energy(V, a, b), 1e-9 * e.energy) << "shift " << s.x << " " << s.y << " " << s.z;
+    // The normal force on a points away from b (against the shift).
+    EXPECT_LT(dot(e.normal, s), 0);
+  }
+}
+
+TEST(VolumeLaw, ForcesAreTheExactGradientOfTheEnergy) {
+  // Central differences of W in every coordinate of every node, deformed and rotated tets.
+  for (unsigned seed = 1; seed <= 6; ++seed) {
+    Tet a, b, fa, fb, ga, gb;
+    deformed_tet(a, seed, 0.1e-3);
+    deformed_tet(b, 100 + seed, 0.1e-3);
+    const Mat3 R = rotation({0.36, 0.48, 0.8}, 0.3 * seed);
+    for (auto& p : b) p = R * p + Vec3{0.3e-3, 0.2e-3, 0.1e-3 * seed - 0.3e-3};
+    const ContactEval e = contact_volume_pair(a, b, P, fa, fb);
+    ASSERT_GT(e.energy, 0) << "seed " << seed;
+    const real s = scale_of(fa) + scale_of(fb);
+    const real h = 1e-9;  // m
+    for (int t = 0; t < 2; ++t)
+      for (int i = 0; i < 4; ++i)
+        for (int d = 0; d < 3; ++d) {
+          Tet pa, pb, ma, mb;
+          copy(a, pa), copy(b, pb), copy(a, ma), copy(b, mb);
+          (t == 0 ? pa : pb)[i][d] += h;
+          (t == 0 ? ma : mb)[i][d] -= h;
+          const real dW = contact_volume_pair(pa, pb, P, ga, gb).energy - contact_volume_pair(ma, mb, P, ga, gb).energy;
+          const real f = (t == 0 ? fa : fb)[i][d];
+          EXPECT_NEAR(f, -dW / (2 * h), 1e-6 * s) << "seed " << seed << " tet " << t << " node " << i << " axis " << d;
+        }
+  }
+}
+
+namespace {
+
+/// The net work of the contact forces on a closed loop where a node of each tet circles out of
+/// phase (one node of a in the xy plane, one of b in the yz plane, amplitude r, m), over
+/// the sum of |f| |dx| along the loop: 0 for a conservative law.
+real closed_loop_work(ContactLaw law, int steps, real r) {
+  Tet a0, b0;
+  base_tet(a0);
+  mirrored_tet(b0, {0.05e-3, 0.02e-3, 1e-4});  // b pushed 0.1 mm into a through the shared face
+  auto place = [&](real th, Tet& a, Tet& b) {
+    copy(a0, a), copy(b0, b);
+    a[0] += r * Vec3{std::cos(th) - 1, std::sin(th), 0};
+    b[1] += r * Vec3{0, std::sin(th + 1.0), std::cos(th + 1.0) - std::cos(1.0)};
+  };
+  real work = 0, scale = 0;
+  const real two_pi = 2 * std::acos(real(-1));
+  for (int k = 0; k < steps; ++k) {
+    Tet a1, b1, a2, b2, am, bm, fa, fb;
+    place(two_pi * k / steps, a1, b1);
+    place(two_pi * (k + 1) / steps, a2, b2);
+    place(two_pi * (k + 0.5) / steps, am, bm);  // forces at the midpoint: a second-order rule
+    contact_tet_pair(law, am, bm, P, fa, fb);
+    const Vec3 da = a2[0] - a1[0], db = b2[1] - b1[1];
+    work += dot(fa[0], da) + dot(fb[1], db);
+    scale += norm(fa[0]) * norm(da) + norm(fb[1]) * norm(db);
+  }
+  return work / scale;
+}
+
+}  // namespace
+
+TEST(VolumeLaw, AClosedLoopOfDeformingTetsReturnsNoWork) {
+  // Munjiza's law returns about 1 % of |F| x path per cycle here (docs/physics.md): the test
+  // fails on it, and passes on the overlap-volume law to the quadrature's error.
+  const real volume = closed_loop_work(ContactLaw::volume, 4000, 50e-6);
+  const real munjiza = closed_loop_work(ContactLaw::munjiza, 4000, 50e-6);
+  EXPECT_LT(std::fabs(volume), 1e-6) << "volume law: net work / (|F| x path) " << volume;
+  EXPECT_GT(std::fabs(munjiza), 1e-3) << "Munjiza's law: net work / (|F| x path) " << munjiza;
 }
