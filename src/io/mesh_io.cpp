@@ -360,8 +360,6 @@ Mesh mesh_geo(const MeshSpec& s) {
   return mesh;
 }
 
-#endif  // FDEM_HAVE_GMSH
-
 using Triangle = std::array<int, 3>;
 
 /// The faces of one tet only, as its tet orders them.
@@ -417,6 +415,8 @@ void name_surfaces(Mesh& m, const MeshSpec& s) {
   }
   m.groups = std::move(groups);
 }
+
+#endif  // FDEM_HAVE_GMSH (the generated shapes' surfaces: only gmsh generates)
 
 }  // namespace
 
