@@ -316,6 +316,8 @@ INSTANTIATE_TEST_SUITE_P(
                  "contact.activation: 'everywhere' is not recognised; allowed: adaptive | full | none"},
         BadScene{"negative_buffer.yaml", "contact.buffer: -0.001 is out of range"},
         BadScene{"contact_typo.yaml", "contact.activaton: unknown key"},
+        BadScene{"bad_contact_law.yaml", "contact.law: 'penalty' is not recognised; allowed: volume | munjiza"},
+        BadScene{"element_size_with_msh.yaml", "mesh.element_size: only applies to a .geo file"},
         BadScene{"gravity_two.yaml", "gravity: expected a list of three numbers"},
         BadScene{"confinement_no_pressure.yaml", "confinement.pressure: missing"},
         BadScene{"confinement_bad_path.yaml", "confinement.path: 'rising' is not recognised"},
