@@ -347,8 +347,7 @@ FDEM_HD_INLINE ContactEval contact_volume_pair(const Vec3 (&a_in)[4], const Vec3
   const real va = real(2) / 3 * pa.h[0], vb = real(2) / 3 * pb.h[0];
   if (!(va > 0) || !(vb > 0)) return e;  // degenerate
   if (separated_by(pb, a) || separated_by(pa, b)) return e;
-  Overlap ov{0, {}, {}, {0, 0, 0}, 0};
-  for (int i = 0; i < 4; ++i) ov.grad_a[i] = ov.grad_b[i] = Vec3{0, 0, 0};
+  Overlap ov{0, {}, {}, {0, 0, 0}, 0};  // (the gradients' {} are zeros)
   add_faces_inside(a, pb, ov.grad_a, ov);
   add_faces_inside(b, pa, ov.grad_b, ov);
   const real V = ov.volume;

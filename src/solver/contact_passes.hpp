@@ -194,10 +194,9 @@ class ContactPasses : SumSlots {
 
   /// One launch over the candidate list: the narrow phase, friction, the pair's forces written
   /// once, their contact energy and their power with the velocities now (its sums to kTouching
-  /// to kConPower). The
-  /// histories are read from history_ and written to next_history_, which become the state at
-  /// history_settled(): a pass run ahead of a rebuild leaves the histories it carries over as
-  /// they were.
+  /// to kConPower). The histories are read from history_ and written to next_history_, which
+  /// become the state at history_settled(): a pass run ahead of a rebuild leaves the histories
+  /// it carries over as they were.
   void pairs(const ContactSet& cs, const PairInputs& in, real* sums) {
     const int np = int(pairs_.size());
     next_history_.resize(np);

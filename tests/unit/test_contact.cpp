@@ -236,14 +236,9 @@ TEST_P(EachLaw, FrictionSticksElasticallyThenSlidesAtMuN) {
 
 namespace {
 
-/// The volume of a tet, m^3.
-real volume_of(const Tet& x) {
-  return std::fabs(det(Mat3::from_columns(x[1] - x[0], x[2] - x[0], x[3] - x[0]))) / 6;
-}
-
 /// The overlap law's energy for an overlap volume V: (2P/3) V^2 (1/V_a + 1/V_b).
 real volume_law_energy(real V, const Tet& a, const Tet& b) {
-  return 2.0 / 3 * P * V * V * (1 / volume_of(a) + 1 / volume_of(b));
+  return 2.0 / 3 * P * V * V * (1 / std::fabs(tet4_volume(a)) + 1 / std::fabs(tet4_volume(b)));
 }
 
 /// A deformed copy of base_tet: each node moved by up to `amount` (m), reproducibly.
@@ -269,7 +264,7 @@ TEST(VolumeLaw, EnergyIsThatOfTheExactOverlapOfATetAndItsTranslate) {
     real shrink = 1;
     for (real di : d) shrink -= std::fmax(di, 0);
     ASSERT_GT(shrink, 0.2);
-    const real V = volume_of(a) * shrink * shrink * shrink;
+    const real V = std::fabs(tet4_volume(a)) * shrink * shrink * shrink;
     const ContactEval e = contact_volume_pair(a, b, P, fa, fb);
     EXPECT_NEAR(e.energy, volume_law_energy(V, a, b), 1e-9 * e.energy) << "shift " << s.x << " " << s.y << " " << s.z;
     // The normal force on a points away from b (against the shift).
