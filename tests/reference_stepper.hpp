@@ -78,8 +78,9 @@ class ReferenceStepper {
   std::vector<Vec3> platen_anchor;
   real top_offset = 0, time = 0;
   long steps = 0;
-  // Contact: activation flags, the candidate pairs (a < b), their histories (friction spring,
-  // overlap zero), and how often the list was built.
+  // Contact: the tets' flags (bit 0 a candidate, bit 1 + i the CE6 on face i opened), the
+  // candidate pairs (a < b), their histories (friction spring, overlap zero), and how often the
+  // list was built.
   std::vector<std::uint8_t> active;
   std::vector<ContactPair> pairs;
   std::vector<PairHistory> history;
@@ -107,10 +108,11 @@ class ReferenceStepper {
       if (!ce6_carries_force(ce6p_, ce6[c])) continue;
       Vec3 xe[6], ve[6], fe[6];
       for (int j = 0; j < 6; ++j) xe[j] = x[m_.ce6_nodes[c][j]], ve[j] = v[m_.ce6_nodes[c][j]];
-      const bool was_broken = ce6_broken(ce6[c]);
+      const bool was_broken = ce6_broken(ce6[c]), was_sound = ce6_max_damage(ce6[c]) == 0;
       cohesive6_forces(ce6p_, xe, ve, m_.ce6_h[c], ce6[c], fe);
       for (int j = 0; j < 6; ++j) f[m_.ce6_nodes[c][j]] += fe[j];
-      if (!was_broken && ce6_broken(ce6[c])) broke_[c] = 1;
+      if (!was_broken && ce6_broken(ce6[c])) broke_[c] |= 1;        // it broke
+      if (was_sound && ce6_max_damage(ce6[c]) > 0) broke_[c] |= 2;  // its damage started
     }
     if (s_.contact.enabled()) contact_forces();
     activate_around_breaks();
@@ -177,20 +179,67 @@ class ReferenceStepper {
     VertexTets vt(m_);
     vertex_ptr_ = vt.ptr;
     vertex_tets_ = vt.tets;
+    vertex_ce6_.assign(vertex_ptr_.size() - 1, {});
+    for (int c = 0; c < int(m_.ce6_nodes.size()); ++c)
+      for (int j = 0; j < 3; ++j) vertex_ce6_[m_.node_vertex[m_.ce6_nodes[c][j]]].push_back(c);
+    opened_.assign(m_.ce6_nodes.size(), 0);
   }
 
   /// The tets sharing a vertex with the face of each CE6 broken in this evaluation become
-  /// candidates, for the next evaluation's contact.
+  /// candidates, and a CE6 broken or damaged in it welds no more (its tets' faces flagged), for
+  /// the next evaluation's contact.
   void activate_around_breaks() {
     for (std::size_t c = 0; c < broke_.size(); ++c) {
-      if (!broke_[c]) continue;
+      const int events = broke_[c];
+      if (!events) continue;
       broke_[c] = 0;
-      for (int j = 0; j < 3 && s_.contact.enabled(); ++j) {
+      if (!s_.contact.enabled()) continue;
+      for (int j = 0; j < 3 && (events & 1); ++j) {
         const int vtx = m_.node_vertex[m_.ce6_nodes[c][j]];
         for (int k = vertex_ptr_[vtx]; k < vertex_ptr_[vtx + 1]; ++k)
-          if (!active[vertex_tets_[k]]) active[vertex_tets_[k]] = 1, dirty_ = true;
+          if (!(active[vertex_tets_[k]] & 1)) active[vertex_tets_[k]] |= 1, dirty_ = true;
       }
+      dirty_ = dirty_ || !opened_[c];  // (a break after the damage changes no weld)
+      opened_[c] = 1;
+      for (int t : m_.ce6_tets[c])
+        for (int i = 0; i < 4; ++i) {  // the face opposite the corner off the CE6
+          bool on = false;
+          for (int j = 0; j < 3; ++j)
+            on = on || m_.node_vertex[m_.ce6_nodes[c][j]] == m_.node_vertex[m_.tet_nodes[t][i]];
+          if (!on) active[t] |= std::uint8_t(2 << i);
+        }
     }
+  }
+
+  /// Nodes na and nb at mesh vertex u are joined by undamaged CE6s, through the node pairs they
+  /// hold at u (a search over nodes; stars of more than 64 tets weld nothing).
+  bool welded(int u, int na, int nb) const {
+    if (na == nb) return true;
+    if (vertex_ptr_[u + 1] - vertex_ptr_[u] > 64) return false;
+    std::vector<int> reached{na};
+    for (std::size_t k = 0; k < reached.size(); ++k)
+      for (int c : vertex_ce6_[u]) {
+        if (opened_[c]) continue;
+        for (int j = 0; j < 3; ++j) {
+          if (m_.node_vertex[m_.ce6_nodes[c][j]] != u) continue;
+          const int p = m_.ce6_nodes[c][j], q = m_.ce6_nodes[c][j + 3];
+          const int next = p == reached[k] ? q : q == reached[k] ? p : -1;
+          if (next >= 0 && std::find(reached.begin(), reached.end(), next) == reached.end()) reached.push_back(next);
+        }
+      }
+    return std::find(reached.begin(), reached.end(), nb) != reached.end();
+  }
+
+  /// Tets a and b share a mesh vertex and are welded at every one they share.
+  bool bonded(int a, int b) const {
+    bool shares = false;
+    for (int na : m_.tet_nodes[a])
+      for (int nb : m_.tet_nodes[b])
+        if (m_.node_vertex[na] == m_.node_vertex[nb]) {
+          shares = true;
+          if (!welded(m_.node_vertex[na], na, nb)) return false;
+        }
+    return shares;
   }
 
   /// True when a node of the tets listed at the last build has moved half the buffer since.
@@ -202,13 +251,13 @@ class ReferenceStepper {
     return false;
   }
 
-  /// Pairs of active tets whose boxes (grown by half the buffer) overlap, without those that
-  /// share a node unless a CE6 joins them; histories kept for the pairs that stay.
+  /// Pairs of active tets whose boxes (grown by half the buffer) overlap, without bonded
+  /// neighbours unless a CE6 joins them; histories kept for the pairs that stay.
   void build_pairs() {
     std::vector<int> ids;
     std::vector<Aabb> boxes(m_.tet_nodes.size());
     for (std::size_t t = 0; t < active.size(); ++t) {
-      if (!active[t]) continue;
+      if (!(active[t] & 1)) continue;
       ids.push_back(int(t));
       Aabb b{x[m_.tet_nodes[t][0]], x[m_.tet_nodes[t][0]]};
       for (int n : m_.tet_nodes[t])
@@ -223,10 +272,7 @@ class ReferenceStepper {
       int joint = -1;
       for (int c : tet_ce6_[p[0]])
         if (m_.ce6_tets[c][0] == p[1] || m_.ce6_tets[c][1] == p[1]) joint = c;
-      bool share = false;
-      for (int a : m_.tet_nodes[p[0]])
-        for (int b : m_.tet_nodes[p[1]]) share = share || a == b;
-      if (joint < 0 && share) continue;  // one continuous body
+      if (joint < 0 && bonded(p[0], p[1])) continue;  // welded by intact CE6s or shared nodes
       next.push_back({p[0], p[1], joint});
     }
     std::vector<PairHistory> next_history(next.size(), new_pair_history());
@@ -263,7 +309,7 @@ class ReferenceStepper {
         fa[i] = fb[i] = Vec3{0, 0, 0};
       }
       // A pair joined by a CE6 touches once the CE6 broke in an earlier evaluation.
-      const bool held = p.joint >= 0 && (!ce6_broken(ce6[p.joint]) || broke_[p.joint]);
+      const bool held = p.joint >= 0 && (!ce6_broken(ce6[p.joint]) || (broke_[p.joint] & 1));
       PairHistory& h = history[k];
       const ContactEval e =
           held ? ContactEval{}
@@ -296,10 +342,13 @@ class ReferenceStepper {
   Ce6Params ce6p_{};
   std::vector<Fixed> fixed_;
   std::vector<std::array<int, 3>> lateral_faces_;
-  std::vector<std::uint8_t> broke_;  // CE6s broken in this evaluation (their faces still held)
-  bool dirty_ = true;                // the candidate list is to be built
+  std::vector<std::uint8_t>
+      broke_;          // CE6s broken (bit 0; their faces still held) or first damaged (bit 1) in this evaluation
+  bool dirty_ = true;  // the candidate list is to be built
   std::vector<int> vertex_ptr_, vertex_tets_, watch_;
-  std::vector<std::vector<int>> tet_ce6_;  // the CE6s on each tet's faces
+  std::vector<std::vector<int>> tet_ce6_;     // the CE6s on each tet's faces
+  std::vector<std::vector<int>> vertex_ce6_;  // the CE6s with a vertex of their face at each mesh vertex
+  std::vector<char> opened_;                  // per CE6: damaged or broken, and its faces flagged
   std::vector<Vec3> watch_x_;
 };
 

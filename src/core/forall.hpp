@@ -177,6 +177,18 @@ FDEM_HD bool raise_flag(std::uint8_t* p) {
   return __atomic_fetch_or(p, std::uint8_t(1), __ATOMIC_RELAXED) == 0;
 #endif
 }
+/// Sets `bits` in the byte *p as one atomic operation, as raise_flag does; returns whether one of
+/// them was not set before (a byte holding several flags: TetFlag).
+FDEM_HD bool raise_bits(std::uint8_t* p, std::uint8_t bits) {
+#if defined(__CUDA_ARCH__)
+  const unsigned long long a = reinterpret_cast<unsigned long long>(p);
+  const unsigned shift = 8u * unsigned(a & 3u);
+  const unsigned old = atomicOr(reinterpret_cast<unsigned*>(a & ~3ull), unsigned(bits) << shift);
+  return (old >> shift & bits) != bits;
+#else
+  return (__atomic_fetch_or(p, bits, __ATOMIC_RELAXED) & bits) != bits;
+#endif
+}
 /// The same for a flag held in a long (the scans' input).
 FDEM_HD bool raise_flag(long* p) {
   static_assert(sizeof(long) == sizeof(unsigned long long), "a long of 8 bytes");

@@ -23,9 +23,9 @@ namespace fdem {
 // 2: CE6 state stores its mode beside the damage. 3: CE6 ids are colour order (model/build.cpp),
 // so a model built now numbers its CE6s, their states and broken_ce6.csv's ids anew. 4: each
 // part of the state writes its own section (Solver::save_state). 5: the ledger keeps the
-// contact energy, and each contact pair its overlap zero. Rank files stay at 3: their content
-// did not change.
-constexpr std::uint32_t kCheckpointVersion = 5;
+// contact energy, and each contact pair its overlap zero. 6: a tet's contact flags hold its
+// opened faces too (contact/bonded.hpp). Rank files stay at 3: their content did not change.
+constexpr std::uint32_t kCheckpointVersion = 6;
 constexpr std::uint32_t kRankFileVersion = 3;
 
 /// Collects values for a checkpoint payload.

@@ -4,6 +4,7 @@
 #include <cstdlib>
 #include <string>
 
+#include "contact/bonded.hpp"
 #include "core/error.hpp"
 #if defined(OPEN_MPI) && __has_include(<mpi-ext.h>)
 #include <mpi-ext.h>  // Open MPI's extensions: MPIX_CUDA_AWARE_SUPPORT
@@ -88,7 +89,7 @@ void Halo::follow_flags(const std::uint8_t* sent, const std::uint8_t* received) 
     const auto& shared = nbs[i].shared_tets;
     long active = 0;
     for (std::size_t j = 0; j < shared.size(); ++j)
-      active += sent[flag_off_[i] + j] == 1 || received[flag_off_[i] + j] == 1;
+      active += ((sent[flag_off_[i] + j] | received[flag_off_[i] + j]) & TetFlag::kCandidate) != 0;
     if (active == active_shared_[i]) continue;  // flags only rise: the same count is the same set
     active_shared_[i] = active;
     if (grown_.empty()) grown_.assign(nbs.size(), 0);
@@ -98,7 +99,7 @@ void Halo::follow_flags(const std::uint8_t* sent, const std::uint8_t* received) 
     // ghosts appended by a growth, partition/grow.hpp), once each.
     std::vector<int> s = nbs[i].send_nodes, r = nbs[i].recv_nodes;
     for (std::size_t j = 0; j < shared.size(); ++j) {
-      if (sent[flag_off_[i] + j] != 1 && received[flag_off_[i] + j] != 1) continue;
+      if (!((sent[flag_off_[i] + j] | received[flag_off_[i] + j]) & TetFlag::kCandidate)) continue;
       for (int c = 0; c < 4; ++c) {
         const int n = (*tet_nodes_)[shared[j]][c];
         if (mine_[i][j] >> c & 1) s.push_back(n);

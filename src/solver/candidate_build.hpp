@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdint>
 
+#include "contact/bonded.hpp"
 #include "contact/broad_phase.hpp"
 #include "contact/grid.hpp"
 #include "core/device_memory.hpp"
@@ -24,11 +25,11 @@ struct CandidateInputs {
   int tets = 0, nodes = 0;
   const Vec3* x = nullptr;                 // node positions now
   const int* tet_nodes = nullptr;          // 4 per tet
-  const std::uint8_t* active = nullptr;    // per tet, 1 where it is a candidate
+  const std::uint8_t* flags = nullptr;     // per tet, TetFlag bits: kCandidate where it is a candidate
   const long* tet_global = nullptr;        // per tet its global id; null: the local id (one rank)
   const std::uint8_t* own_node = nullptr;  // per node, 1 where this rank owns it; null: every node
-  const int* tet_ce6 = nullptr;            // 4 per tet: the CE6 on each face, -1 none
-  const int* ce6_tets = nullptr;           // 2 per CE6: its tets
+  int vertices = 0;                        // mesh vertices held
+  BondInputs bond;                         // the bonded-neighbour rule's inputs (contact/bonded.hpp)
   real buffer = 0;                         // m, the boxes' inflation
 };
 
@@ -49,13 +50,13 @@ class CandidateBuild {
   void set_backend(Backend b) {
     auto set = [&](auto&... a) { (a.set_backend(b), ...); };
     set(flags_, offsets_, counts_, entry_offsets_, head_, head_offsets_, cell_start_, cell_counts_, cell_offsets_);
-    set(ids_, boxes_, entries_, node_slots_);
+    set(vertex_flags_, vertex_offsets_, ids_, vertex_list_, welds_, boxes_, entries_, node_slots_);
   }
 
   /// The candidate pairs among the active tets, into `pairs`: tets a and b whose boxes, inflated
-  /// by half the buffer each, overlap; a < b by global id, sorted by (a, b) global ids. Pairs
-  /// sharing a node are left out unless a CE6 joins them (`joint`); on several ranks, so are
-  /// pairs acting on no owned node.
+  /// by half the buffer each, overlap; a < b by global id, sorted by (a, b) global ids. Bonded
+  /// neighbours are left out (contact/bonded.hpp); a pair a CE6 joins is kept, with that CE6
+  /// (`joint`). On several ranks, so are pairs acting on no owned node.
   BroadPhaseStats find_pairs(const CandidateInputs& in, DeviceArray<ContactPair>& pairs) {
     BroadPhaseStats st;
     st.boxes = active_ids(in);
@@ -65,6 +66,7 @@ class CandidateBuild {
       pairs.resize(0);
       return st;
     }
+    label_welds(in);
     const Grid grid = choose_grid(na, st.cell);
     st.entries = bin(na, grid);
     const long cells = cell_runs(st.entries);
@@ -165,7 +167,7 @@ class CandidateBuild {
   void release_scratch() {
     auto release = [](auto&... a) { (a.release(), ...); };
     release(flags_, offsets_, counts_, entry_offsets_, head_, head_offsets_, cell_start_, cell_counts_, cell_offsets_,
-            ids_, boxes_, entries_, node_slots_);
+            vertex_flags_, vertex_offsets_, ids_, vertex_list_, welds_, boxes_, entries_, node_slots_);
   }
 
   // The stages of find_pairs. (Public, as every function holding a pass: nvcc's extended lambdas
@@ -178,15 +180,40 @@ class CandidateBuild {
     offsets_.resize(std::max(nt, in.nodes));
     long* fl = flags_.data();
     long* of = offsets_.data();
-    const std::uint8_t* active = in.active;
-    Exec::forall(nt, [=] FDEM_LAMBDA(int t) { fl[t] = active[t] == 1; });
+    const std::uint8_t* active = in.flags;
+    Exec::forall(nt, [=] FDEM_LAMBDA(int t) { fl[t] = (active[t] & TetFlag::kCandidate) != 0; });
     const long na = Exec::scan(nt, fl, of);
     ids_.resize(na);
     int* ids = ids_.data();
     Exec::forall(nt, [=] FDEM_LAMBDA(int t) {
-      if (active[t] == 1) ids[of[t]] = t;
+      if (active[t] & TetFlag::kCandidate) ids[of[t]] = t;
     });
     return na;
+  }
+
+  /// welds_: per tet corner at a vertex of an active tet, its weld label there
+  /// (BondInputs::label_star). Each such vertex is labelled once.
+  void label_welds(const CandidateInputs& in) {
+    const int na = int(ids_.size()), nv = in.vertices;
+    vertex_flags_.resize(nv);
+    vertex_offsets_.resize(nv);
+    welds_.resize(4 * long(in.tets));
+    long* vf = vertex_flags_.data();
+    long* vo = vertex_offsets_.data();
+    const int* ids = ids_.data();
+    const BondInputs bond = in.bond;
+    Exec::forall(nv, [=] FDEM_LAMBDA(int u) { vf[u] = 0; });
+    Exec::forall(na, [=] FDEM_LAMBDA(int k) {
+      for (int i = 0; i < 4; ++i) raise_flag(vf + bond.node_vertex[bond.tet_nodes[4 * ids[k] + i]]);
+    });
+    const long marked = Exec::scan(nv, vf, vo);
+    vertex_list_.resize(marked);
+    int* list = vertex_list_.data();
+    Exec::forall(nv, [=] FDEM_LAMBDA(int u) {
+      if (vf[u]) list[vo[u]] = u;
+    });
+    int* weld = welds_.data();
+    Exec::forall(int(marked), [=] FDEM_LAMBDA(int k) { bond.label_star(list[k], weld); });
   }
 
   /// boxes_: each active tet's box, inflated by half the buffer.
@@ -292,9 +319,8 @@ class CandidateBuild {
     const long* cst = cell_start_.data();
     const Aabb* boxes = boxes_.data();
     const int* ids = ids_.data();
-    const int* tn = in.tet_nodes;
-    const int* tce = in.tet_ce6;
-    const int* cet = in.ce6_tets;
+    const BondInputs bond = in.bond;
+    const int* weld = welds_.data();
     const std::uint8_t* own_n = in.own_node;
     const GlobalTetId gid{in.tet_global};
     auto test = [=] FDEM_LAMBDA(long c, ContactPair* out, long* tested_out) -> long {
@@ -312,7 +338,7 @@ class CandidateBuild {
             const int t = ta;
             ta = tb, tb = t;
           }
-          const int joint = candidate_joint(tn, tce, cet, own_n, ta, tb);
+          const int joint = candidate_joint(bond, weld, own_n, ta, tb);
           if (joint == kNotACandidate) continue;
           if (out) out[kept] = ContactPair{ta, tb, joint};
           ++kept;
@@ -342,21 +368,17 @@ class CandidateBuild {
 
   static constexpr int kNotACandidate = -2;
   /// The filters of a box pair (ta, tb): the CE6 that joins them, -1 where none does, or
-  /// kNotACandidate where they share a node and no CE6 joins them, or (own_n: several ranks)
-  /// where they act on no node this rank owns.
-  static FDEM_HD int candidate_joint(const int* tn, const int* tce, const int* cet, const std::uint8_t* own_n, int ta,
+  /// kNotACandidate where they are bonded neighbours (`weld`: label_welds), or (own_n: several
+  /// ranks) where they act on no node this rank owns.
+  static FDEM_HD int candidate_joint(const BondInputs& bond, const int* weld, const std::uint8_t* own_n, int ta,
                                      int tb) {
+    const int* tn = bond.tet_nodes;
     int joint = -1;
     for (int i = 0; i < 4; ++i) {
-      const int ce = tce[4 * ta + i];
-      if (ce >= 0 && (cet[2 * ce] == tb || cet[2 * ce + 1] == tb)) joint = ce;
+      const int ce = bond.face_ce6[4 * ta + i];
+      if (ce >= 0 && (bond.ce6_tets[2 * ce] == tb || bond.ce6_tets[2 * ce + 1] == tb)) joint = ce;
     }
-    if (joint < 0) {
-      bool share = false;
-      for (int i = 0; i < 4; ++i)
-        for (int l = 0; l < 4; ++l) share = share || tn[4 * ta + i] == tn[4 * tb + l];
-      if (share) return kNotACandidate;
-    }
+    if (joint < 0 && bond.bonded(weld, ta, tb)) return kNotACandidate;
     if (own_n) {  // a pair acting on no owned node does not matter on this rank
       bool any = false;
       for (int i = 0; i < 4; ++i) any = any || own_n[tn[4 * ta + i]] || own_n[tn[4 * tb + i]];
@@ -368,8 +390,8 @@ class CandidateBuild {
  private:
   // Scratch, kept between builds on a GPU (allocated once).
   DeviceArray<long> flags_, offsets_, counts_, entry_offsets_, head_, head_offsets_, cell_start_, cell_counts_,
-      cell_offsets_;
-  DeviceArray<int> ids_;
+      cell_offsets_, vertex_flags_, vertex_offsets_;
+  DeviceArray<int> ids_, vertex_list_, welds_;  // welds_: label_welds
   DeviceArray<Aabb> boxes_;
   DeviceArray<BinEntry> entries_;
   DeviceArray<NodeSlot> node_slots_;

@@ -50,23 +50,26 @@ class ContactPasses : SumSlots {
   void set_backend(Backend b, bool held) {
     b_ = b, held_ = held;
     auto set = [&](auto&... a) { (a.set_backend(b), ...); };
-    set(node_vertex_, vt_ptr_, vt_tets_, tet_ce6_, ce6_tets_, tet_global_, watch_nodes_, gather_node_, gather_ptr_,
-        gather_slot_, gather_of_);
+    set(node_vertex_, vt_ptr_, vt_tets_, face_ce6_, ce6_tets_, slot_faces_, tet_global_, watch_nodes_, gather_node_,
+        gather_ptr_, gather_slot_, gather_of_, whole_star_);
     set(plan_x_, watch_x_, history_, next_history_, pair_force_, contact_sum_, active_, pairs_, next_pairs_, eval_);
     candidates_.set_backend(b);
   }
 
   /// The constants: activation's vertex -> tets lists, the candidate filters (the CE6s on each
-  /// tet's faces, the tets of each CE6), and on several ranks the tets' global ids and the
-  /// positions the contact ghosts were gathered at.
-  void place(const LoopParts& s) {
+  /// tet's faces, the tets of each CE6, the vertices whose every tet this rank holds), the faces
+  /// of each CE6 slot (`slot_ce6`: slot -> CE6 id), and on several ranks the tets' global ids
+  /// and the positions the contact ghosts were gathered at.
+  void place(const LoopParts& s, const std::vector<int>& slot_ce6) {
     const Model& m = s.model;
     const ContactSet& c = s.contacts;
     fdem::place(b_, node_vertex_, m.node_vertex);
     fdem::place(b_, vt_ptr_, c.vertex_tet_ptr());
     fdem::place(b_, vt_tets_, c.vertex_tets());
-    fdem::place(b_, tet_ce6_, reinterpret_cast<const int*>(c.tet_ce6().data()), 4 * c.tet_ce6().size());
+    fdem::place(b_, face_ce6_, reinterpret_cast<const int*>(c.face_ce6().data()), 4 * c.face_ce6().size());
     fdem::place(b_, ce6_tets_, reinterpret_cast<const int*>(m.ce6_tets.data()), 2 * m.ce6_tets.size());
+    slot_faces_.upload(slot_faces(c, m, slot_ce6));
+    whole_star_.upload(whole_stars(m, s.layout.own_tet, c.vertex_tet_ptr().size() - 1));
     if (s.layout.dd.distributed()) {
       fdem::place(b_, plan_x_, c.plan_x());
       fdem::place(b_, tet_global_, s.layout.dd.tet_global);
@@ -76,7 +79,7 @@ class ContactPasses : SumSlots {
 
   /// Contact's state: flags, pairs, their histories, forces and indices; the gather list followed anew.
   void upload_state(const ContactSet& c) {
-    fdem::place(b_, active_, c.active);
+    fdem::place(b_, active_, c.tet_flags);
     // Every node out of the old gather list (on the cpu backend the list this loop borrowed may
     // have been overwritten by a checkpoint's).
     if (held_) {
@@ -90,7 +93,7 @@ class ContactPasses : SumSlots {
   }
 
   void download_state(ContactSet& c) {
-    active_.download(c.active);
+    active_.download(c.tet_flags);
     c.recount_active();
     history_.download(c.history);
     eval_.download(c.eval);
@@ -105,6 +108,39 @@ class ContactPasses : SumSlots {
     pairs_on_host_ = true;
   }
 
+  /// The bonded-neighbour rule's inputs (contact/bonded.hpp) over the loop's arrays.
+  BondInputs bond_inputs(const int* tet_nodes) const {
+    BondInputs b;
+    b.tet_nodes = tet_nodes, b.node_vertex = node_vertex_.data();
+    b.star_ptr = vt_ptr_.data(), b.star_tets = vt_tets_.data();
+    b.face_ce6 = face_ce6_.data(), b.ce6_tets = ce6_tets_.data();
+    b.flags = active_.data(), b.whole_star = whole_star_.data();
+    return b;
+  }
+
+  /// Per CE6 slot, the faces of its two tets it lies on, as 4 tet + face.
+  static std::vector<int> slot_faces(const ContactSet& c, const Model& m, const std::vector<int>& slot_ce6) {
+    std::vector<int> out(2 * slot_ce6.size());
+    for (std::size_t k = 0; k < slot_ce6.size(); ++k)
+      for (int j = 0; j < 2; ++j) {
+        const int t = m.ce6_tets[slot_ce6[k]][j];
+        for (int i = 0; i < 4; ++i)
+          if (c.face_ce6()[t][i] == slot_ce6[k]) out[2 * k + j] = 4 * t + i;
+      }
+    return out;
+  }
+
+  /// Per mesh vertex, 1 where this rank holds every tet at it: the vertices of its own tets (the
+  /// ghost layer holds every tet sharing one, partition/partition.hpp). One rank: all.
+  static std::vector<std::uint8_t> whole_stars(const Model& m, const std::vector<std::uint8_t>& own_tet,
+                                               std::size_t vertices) {
+    std::vector<std::uint8_t> out(vertices, 0);
+    for (std::size_t t = 0; t < m.tet_nodes.size(); ++t)
+      if (own_tet[t])
+        for (int n : m.tet_nodes[t]) out[m.node_vertex[n]] = 1;
+    return out;
+  }
+
   DeviceArray<std::uint8_t>& active() { return active_; }
   long pairs() const { return long(pairs_.size()); }
   long gathered_nodes() const { return long(gather_node_.size()); }
@@ -114,11 +150,13 @@ class ContactPasses : SumSlots {
 
   /// One launch: over `flags` CE6 slots, adaptive activation: the vicinity of each CE6 whose
   /// break flag is up (every tet sharing a vertex of its face, ce6_nodes: 6 per slot) joins the
-  /// candidates and the flag goes down (kAdded counts the tets added, which marks the set dirty
-  /// with the evaluation's sums); with `watch` and contact, the broad phase's watch (kMoved:
-  /// nodes of active tets that moved half the buffer since the list was built). Flags only
-  /// rise, each with one atomic operation (raise_flag), so a tet at the vertices of several
-  /// breaking CE6s is raised and counted once, whatever the iterations' order.
+  /// candidates; the two faces of each CE6 with an event (a break, or damage: Ce6Event) are
+  /// released from the welds; the flags go down (kAdded counts the tets added and faces
+  /// released, which marks the set dirty with the evaluation's sums); with
+  /// `watch` and contact, the broad phase's watch (kMoved: nodes of active tets that moved half
+  /// the buffer since the list was built). Flags only rise, each with one atomic operation
+  /// (raise_bits), so a tet at the vertices of several breaking CE6s is raised and counted
+  /// once, whatever the iterations' order.
   void activate(const ContactSet& cs, int flags, bool with_watch, const int* ce6_nodes, std::uint8_t* broke,
                 const Vec3* x, real* sums) {
     const bool on = cs.enabled();
@@ -127,6 +165,7 @@ class ContactPasses : SumSlots {
     const int* nv = node_vertex_.data();
     const int* vptr = vt_ptr_.data();
     const int* vtets = vt_tets_.data();
+    const int* faces = slot_faces_.data();
     std::uint8_t* active = active_.data();
     const Watch moved = watch(cs.buffer());
     static_assert(kMoved == kAdded + 1, "the activation's and the watch's counts");
@@ -137,14 +176,17 @@ class ContactPasses : SumSlots {
             if (moved.moved(i - flags, x)) acc[1] += 1;
             return;
           }
-          if (!broke[i]) return;
+          const std::uint8_t events = broke[i];
+          if (!events) return;
           broke[i] = 0;
           if (!on) return;
-          for (int j = 0; j < 3; ++j) {
+          for (int j = 0; j < 3 && (events & Ce6Event::kBroke); ++j) {
             const int vtx = nv[cn[6 * i + j]];
             for (int k = vptr[vtx]; k < vptr[vtx + 1]; ++k)  // (a tet two broken CE6s share: raised once)
-              if (raise_flag(active + vtets[k])) acc[0] += 1;
+              if (raise_bits(active + vtets[k], TetFlag::kCandidate)) acc[0] += 1;
           }
+          for (int j = 0; j < 2; ++j)
+            if (raise_bits(active + faces[2 * i + j] / 4, TetFlag::face_released(faces[2 * i + j] % 4))) acc[0] += 1;
         },
         sums + kAdded);
   }
@@ -167,10 +209,12 @@ class ContactPasses : SumSlots {
     apart_for_rebuild(cs);
     CandidateInputs in;
     in.tets = tets, in.nodes = nodes;
-    in.x = x, in.tet_nodes = tet_nodes, in.active = active_.data();
+    in.x = x, in.tet_nodes = tet_nodes, in.flags = active_.data();
     in.tet_global = tet_global_.size() > 0 ? tet_global_.data() : nullptr;
     in.own_node = own_node;
-    in.tet_ce6 = tet_ce6_.data(), in.ce6_tets = ce6_tets_.data(), in.buffer = cs.buffer();
+    in.vertices = int(whole_star_.size());
+    in.bond = bond_inputs(tet_nodes);
+    in.buffer = cs.buffer();
     const BroadPhaseStats st = candidates_.find_pairs(in, next_pairs_);
     candidates_.carry_history(in, pairs_, history_, next_pairs_, next_history_);
     const long grown_before = pairs_.times_grown() + pair_force_.times_grown();
@@ -220,7 +264,7 @@ class ContactPasses : SumSlots {
           // A joint broken in this evaluation (its flag still up) still holds its faces.
           const int js = in.ce6_slot && cp.joint >= 0 ? in.ce6_slot[cp.joint] : cp.joint;
           bool pushes = false;  // some force not zero: only then has the pair a power
-          if (js >= 0 && (!ce6_broken(in.damage[js]) || (in.fresh && in.fresh[js]))) {
+          if (js >= 0 && (!ce6_broken(in.damage[js]) || (in.fresh && (in.fresh[js] & Ce6Event::kBroke)))) {
             for (int i = 0; i < 4; ++i) fa[i] = fb[i] = Vec3{0, 0, 0};
             ev[k] = ContactEval{{0, 0, 0}, {0, 0, 0}, 0, 0, 0};
             history_out[k] = new_pair_history();  // its first evaluation after the break sets its zero
@@ -330,8 +374,9 @@ class ContactPasses : SumSlots {
   void measure(const std::uint8_t* own_t, MonitorSums& out) const {
     const std::uint8_t* active = active_.data();
     const ContactPair* pairs = pairs_.data();
-    out.active_tets = Exec::template sum<1>(
-        int(active_.size()), [=] FDEM_LAMBDA(int t, real* acc) { acc[0] += active[t] == 1 && own_t[t]; })[0];
+    out.active_tets = Exec::template sum<1>(int(active_.size()), [=] FDEM_LAMBDA(int t, real* acc) {
+      acc[0] += (active[t] & TetFlag::kCandidate) && own_t[t];
+    })[0];
     out.contact_pairs = Exec::template sum<1>(int(pairs_.size()),
                                               [=] FDEM_LAMBDA(int k, real* acc) { acc[0] += own_t[pairs[k].a]; })[0];
   }
@@ -401,7 +446,9 @@ class ContactPasses : SumSlots {
   // The candidate list's build (its scratch kept between builds on a GPU) and what it reads.
   CandidateBuild<Exec> candidates_;
   DeviceArray<long> tet_global_;  // several ranks: pairs in global order
-  DeviceArray<int> node_vertex_, vt_ptr_, vt_tets_, tet_ce6_, ce6_tets_;
+  DeviceArray<int> node_vertex_, vt_ptr_, vt_tets_, face_ce6_, ce6_tets_;
+  DeviceArray<int> slot_faces_;           // per CE6 slot, its two tets' faces (4 tet + face)
+  DeviceArray<std::uint8_t> whole_star_;  // per vertex, 1 where this rank holds every tet at it
   DeviceArray<Vec3> plan_x_;
   DeviceArray<std::uint8_t> active_;
   DeviceArray<ContactPair> pairs_, next_pairs_;

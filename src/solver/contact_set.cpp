@@ -23,20 +23,11 @@ ContactSet::ContactSet(const Model& m, const Scene& s) {
   vertex_tet_ptr_ = std::move(vt.ptr);
   vertex_tets_ = std::move(vt.tets);
 
-  tet_ce6_.assign(nt, {-1, -1, -1, -1});
-  for (int c = 0; c < int(m.ce6_tets.size()); ++c)
-    for (int t : m.ce6_tets[c]) {
-      auto& slots = tet_ce6_[t];
-      for (int& sl : slots)
-        if (sl < 0) {
-          sl = c;
-          break;
-        }
-    }
+  face_ce6_ = face_ce6_of(m);
 
-  active.assign(nt, 0);
+  tet_flags.assign(nt, 0);
   if (s.contact.activation == Activation::full) {
-    std::fill(active.begin(), active.end(), 1);
+    std::fill(tet_flags.begin(), tet_flags.end(), TetFlag::kCandidate);
   } else if (s.platens.enabled) {
     // Adaptive: the tets at the loaded ends are candidates from the start.
     std::vector<std::uint8_t> loaded(m.X.size(), 0);
@@ -44,13 +35,33 @@ ContactSet::ContactSet(const Model& m, const Scene& s) {
     for (int n : m.bottom_nodes) loaded[n] = 1;
     for (int t = 0; t < nt; ++t)
       for (int n : m.tet_nodes[t])
-        if (loaded[n]) active[t] = 1;
+        if (loaded[n]) tet_flags[t] = TetFlag::kCandidate;
   }
-  active_count_ = std::count(active.begin(), active.end(), 1);
+  recount_active();
+}
+
+std::vector<std::array<int, 4>> ContactSet::face_ce6_of(const Model& m) {
+  std::vector<std::array<int, 4>> out(m.tet_nodes.size(), {-1, -1, -1, -1});
+  for (int c = 0; c < int(m.ce6_tets.size()); ++c)
+    for (int t : m.ce6_tets[c]) {
+      int face = -1;  // the corner not on the CE6's face
+      for (int i = 0; i < 4; ++i) {
+        const int u = m.node_vertex[m.tet_nodes[t][i]];
+        bool on = false;
+        for (int j = 0; j < 3; ++j) on = on || m.node_vertex[m.ce6_nodes[c][j]] == u;
+        if (!on) face = face < 0 ? i : 4;
+      }
+      if (face < 0 || face > 3 || out[t][face] >= 0)
+        throw RunError("contact: CE6 #" + std::to_string(c) + " does not lie on one face of tet #" + std::to_string(t) +
+                       " (a model whose CE6s do not match its tets)");
+      out[t][face] = c;
+    }
+  return out;
 }
 
 void ContactSet::recount_active() {
-  active_count_ = std::count(active.begin(), active.end(), 1);
+  active_count_ =
+      std::count_if(tet_flags.begin(), tet_flags.end(), [](std::uint8_t f) { return (f & TetFlag::kCandidate) != 0; });
 }
 
 void ContactSet::set_ownership(const std::vector<std::uint8_t>* tet_owned, real reach,
@@ -66,15 +77,22 @@ long ContactSet::activate_ce6(const Model& m, int c) {
   for (int i = 0; i < 3; ++i) {
     const int vtx = m.node_vertex[m.ce6_nodes[c][i]];
     for (int k = vertex_tet_ptr_[vtx]; k < vertex_tet_ptr_[vtx + 1]; ++k) {
-      std::uint8_t& a = active[vertex_tets_[k]];
-      if (!a) a = 1, ++added;
+      std::uint8_t& a = tet_flags[vertex_tets_[k]];
+      if (!(a & TetFlag::kCandidate)) a |= TetFlag::kCandidate, ++added;
     }
   }
-  if (added) {
-    active_count_ += added;
-    rebuild_due = true;
-  }
+  active_count_ += added;
+  if (added) rebuild_due = true;
+  release_ce6(m, c);
   return added;
+}
+
+void ContactSet::release_ce6(const Model& m, int c) {
+  if (!enabled_) return;
+  for (int t : m.ce6_tets[c])
+    for (int i = 0; i < 4; ++i)
+      if (face_ce6_[t][i] == c && !(tet_flags[t] & TetFlag::face_released(i)))
+        tet_flags[t] |= TetFlag::face_released(i), rebuild_due = true;
 }
 
 void ContactSet::check_reach(const Model& m, const std::vector<Vec3>& x) const {
@@ -115,7 +133,7 @@ void ContactSet::save(CheckpointOut& out) const {
   out.put(enabled_);
   out.put(touching);
   if (!enabled_) return;
-  out.put(active);
+  out.put(tet_flags);
   out.put(active_count_);
   out.put(rebuild_due);
   out.put(pairs);
@@ -138,11 +156,11 @@ void ContactSet::load(CheckpointIn& in, const std::vector<std::uint8_t>* appende
   if (enabled != enabled_) in.mismatch("contact.activation differs: 'none' in one of them");
   in.get(touching);
   if (!enabled_) return;
-  const std::size_t nt = active.size(), nn = plan_x_.size();
-  in.get(active);
-  if (appended) active.insert(active.end(), appended->begin(), appended->end());
-  if (active.size() != nt)
-    in.mismatch("tet count " + std::to_string(active.size()) + ", the model has " + std::to_string(nt));
+  const std::size_t nt = tet_flags.size(), nn = plan_x_.size();
+  in.get(tet_flags);
+  if (appended) tet_flags.insert(tet_flags.end(), appended->begin(), appended->end());
+  if (tet_flags.size() != nt)
+    in.mismatch("tet count " + std::to_string(tet_flags.size()) + ", the model has " + std::to_string(nt));
   in.get(active_count_);
   in.get(rebuild_due);
   in.get(pairs);
@@ -160,7 +178,7 @@ void ContactSet::load(CheckpointIn& in, const std::vector<std::uint8_t>* appende
   if (history.size() != pairs.size() || eval.size() != pairs.size()) in.mismatch("inconsistent contact pair arrays");
   if (appended) {
     // The new tets are candidates only after a build; the caller sets the new plan positions.
-    active_count_ = std::count(active.begin(), active.end(), 1);
+    recount_active();
     rebuild_due = true;
   } else if (plan_x_.size() != nn) {
     in.mismatch("node count " + std::to_string(plan_x_.size()) + " of the contact reach, the model has " +

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "contact/bonded.hpp"
 #include "contact/broad_phase.hpp"
 #include "model/model.hpp"
 #include "physics/cohesive6.hpp"
@@ -40,9 +41,12 @@ class ContactSet {
   ContactLaw law() const { return law_; }    // contact.law
   real friction() const { return mu_; }      // Coulomb coefficient, material.friction_rock
   real buffer() const { return buffer_; }    // m, the broad phase's box inflation
-  /// Flags the vicinity of CE6 `c` (every tet sharing a vertex of its face). Returns the
-  /// number of tets newly activated.
+  /// Flags the vicinity of CE6 `c` (every tet sharing a vertex of its face) and releases its
+  /// faces (release_ce6), as its break does. Returns the number of tets newly activated.
   long activate_ce6(const Model& m, int c);
+  /// Flags the faces of CE6 `c` on its two tets as welding no more (contact/bonded.hpp), as its
+  /// first damage does.
+  void release_ce6(const Model& m, int c);
   /// Rebuild the candidate list at the next evaluation (as after an activation change).
   void request_rebuild() { rebuild_due = true; }
 
@@ -69,10 +73,12 @@ class ContactSet {
   void set_plan(const std::vector<Vec3>& x) { plan_x_ = x; }
 
   /// The activation's search: mesh vertex -> the tets touching it (CSR), and the CE6 on each
-  /// face of a tet (-1: none).
+  /// face of a tet (face i: opposite corner i; -1: none).
   const std::vector<int>& vertex_tet_ptr() const { return vertex_tet_ptr_; }
   const std::vector<int>& vertex_tets() const { return vertex_tets_; }
-  const std::vector<std::array<int, 4>>& tet_ce6() const { return tet_ce6_; }
+  const std::vector<std::array<int, 4>>& face_ce6() const { return face_ce6_; }
+  /// Per tet, the CE6 on each face (throws RunError where a CE6 lies on no face of its tet).
+  static std::vector<std::array<int, 4>> face_ce6_of(const Model& m);
 
   long active_count() const { return active_count_; }
   /// Counts the active flags again (after the loop changed them).
@@ -89,12 +95,12 @@ class ContactSet {
 
   // The state the time loop builds and evaluates (solver/device_loop_impl.hpp); here its host
   // copy, for checkpoints, outputs and tests.
-  std::vector<std::uint8_t> active;  // per tet: 1 where it is a contact candidate
-  bool rebuild_due = true;           // activation changed since the last build
-  std::vector<ContactPair> pairs;    // the candidate list
-  std::vector<PairHistory> history;  // per pair, its friction spring and overlap zero
-  std::vector<ContactEval> eval;     // per pair, its normal evaluation
-  std::vector<Vec3> pair_force;      // per pair, 8 nodal forces (a's 4 nodes, then b's), N
+  std::vector<std::uint8_t> tet_flags;  // per tet: TetFlag bits (a candidate; its opened faces)
+  bool rebuild_due = true;              // activation changed since the last build
+  std::vector<ContactPair> pairs;       // the candidate list
+  std::vector<PairHistory> history;     // per pair, its friction spring and overlap zero
+  std::vector<ContactEval> eval;        // per pair, its normal evaluation
+  std::vector<Vec3> pair_force;         // per pair, 8 nodal forces (a's 4 nodes, then b's), N
   // Gather index: node gather_node[k] receives pair_force[slot] for slots
   // gather_slot[gather_ptr[k] .. gather_ptr[k+1]).
   std::vector<int> gather_node, gather_ptr, gather_slot;
@@ -114,7 +120,7 @@ class ContactSet {
   ContactLaw law_ = ContactLaw::volume;
   long active_count_ = 0;
   std::vector<int> vertex_tet_ptr_, vertex_tets_;
-  std::vector<std::array<int, 4>> tet_ce6_;
+  std::vector<std::array<int, 4>> face_ce6_;
 };
 
 }  // namespace fdem

@@ -62,7 +62,7 @@ void poison_host_state(const LoopParts& s, bool scalars_waiting, bool integrates
   std::fill(s.ce6_broke.begin(), s.ce6_broke.end(), 0xAA);
   if (s.contacts.enabled()) {
     ContactSet& c = s.contacts;
-    std::fill(c.active.begin(), c.active.end(), 0xAA);
+    std::fill(c.tet_flags.begin(), c.tet_flags.end(), 0xAA);
     std::fill(c.history.begin(), c.history.end(), PairHistory{bad, nan});
     std::fill(c.pair_force.begin(), c.pair_force.end(), bad);
     std::fill(c.eval.begin(), c.eval.end(), ContactEval{bad, bad, nan, nan, nan});

@@ -87,7 +87,7 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     if (s.layout.halo) halo_.plan(*s.layout.halo, s.layout.dd);
     mid_third_.upload(middle_third_tets(m));
     s.loads.each([&](auto& load) { load.place(m, integrates()); });
-    if (s.contacts.enabled()) contact_.place(s);
+    if (s.contacts.enabled()) contact_.place(s, elements_.ce6_order());
     place_held_flags(s, s.loads.confinement.loaded_nodes());
   }
 
@@ -542,7 +542,7 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
   /// The Solver's bookkeeping of a force evaluation from its sums.
   void apply_force_sums(const LoopParts& s, const ForceSums& b) {
     waiting_.force_sums = false;
-    if (b.tets_added > 0) s.contacts.rebuild_due = true;  // for the next evaluation's contact
+    if (b.candidates_changed > 0) s.contacts.rebuild_due = true;  // for the next evaluation's contact
     ConfiningPressure& cf = s.loads.confinement;
     s.energy.p_contact = b.contact_power;
     s.energy.contact_slip += b.contact_slip;

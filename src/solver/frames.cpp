@@ -53,7 +53,7 @@ void write_frame(FieldWriter& w, const Solver& s, real time, long step, const st
   fr.crack_mode = &mode;
   std::vector<real> active;
   if (flags) {
-    active.assign(flags->begin(), flags->end());
+    for (std::uint8_t f : *flags) active.push_back((f & TetFlag::kCandidate) ? 1 : 0);
     fr.extra.push_back({"active", &active});
   }
   fr.extra.insert(fr.extra.end(), more.begin(), more.end());
@@ -95,7 +95,7 @@ FrameState frame_state_now(const Solver& s, real stress) {
   f.x = s.state.x;
   f.v = s.state.v;
   f.ce6 = s.state.ce6.states();
-  if (s.contacts.enabled()) f.active = s.contacts.active;
+  if (s.contacts.enabled()) f.active = s.contacts.tet_flags;
   return f;
 }
 
@@ -109,7 +109,7 @@ void load_frame_state(CheckpointIn& in, FrameState& f) {
 void write_frame(FieldWriter& w, const Solver& s, const std::string& label) {
   s.sync_host();
   write_frame(w, s, s.time(), s.step_count(), s.state.x, s.state.v, s.state.ce6.states(),
-              s.contacts.enabled() ? &s.contacts.active : nullptr, label);
+              s.contacts.enabled() ? &s.contacts.tet_flags : nullptr, label);
 }
 
 void write_frame(FieldWriter& w, const Solver& s, const FrameState& f, const std::string& label) {
@@ -123,7 +123,7 @@ void write_frame(FieldWriter& w, const Solver& s, const FrameState& f, const std
     g.v.insert(g.v.end(), s.state.v.begin() + f.v.size(), s.state.v.end());
     for (std::size_t c = f.ce6.size(); c < s.state.ce6.size(); ++c) g.ce6.push_back(s.state.ce6[c]);
     if (!g.active.empty())
-      g.active.insert(g.active.end(), s.contacts.active.begin() + f.active.size(), s.contacts.active.end());
+      g.active.insert(g.active.end(), s.contacts.tet_flags.begin() + f.active.size(), s.contacts.tet_flags.end());
     write_frame(w, s, g, label);
     return;
   }
@@ -151,7 +151,7 @@ void write_diagnostic(FieldWriter& w, const Solver& s) {
       inverted[t] = non_finite[t] == 0 && !(vol / m.tet_V0[t] > 0);
     }
     write_frame(w, s, s.time(), s.step_count(), x, v, s.state.ce6.states(),
-                s.contacts.enabled() ? &s.contacts.active : nullptr, "diagnostic",
+                s.contacts.enabled() ? &s.contacts.tet_flags : nullptr, "diagnostic",
                 {{"non_finite", &non_finite}, {"inverted", &inverted}}, true);
   } catch (const std::exception&) {
     // Nothing more to show; the frames written before remain valid.

@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "contact/bonded.hpp"
 #include "core/device_memory.hpp"
 #include "core/forall.hpp"
 #include "core/vec.hpp"
@@ -74,9 +75,9 @@ class HaloPasses {
     seconds += MPI_Wtime() - w0;
   }
 
-  /// Activation flags OR-ed among the ranks holding a tet; true when one was raised here. When
-  /// the shared tets' active flags changed, the node lists follow them and the new ghosts take
-  /// their owners' x and v at once (Halo::follow_flags).
+  /// A tet's contact flags (TetFlag: candidate, opened faces) OR-ed among the ranks holding it;
+  /// true when one was raised here. When the shared tets' candidate flags changed, the node lists follow them and the
+  /// new ghosts take their owners' x and v at once (Halo::follow_flags).
   bool merge_flags(Halo& h, DeviceArray<std::uint8_t>& active, DeviceArray<Vec3>& x, DeviceArray<Vec3>& v,
                    double& seconds) {
     const std::uint8_t* act = active.data();
@@ -96,8 +97,8 @@ class HaloPasses {
     const std::uint8_t* in = flag_recv_.data();
     const std::uint8_t* mine = flag_send_.data();
     const std::array<real, 2> r = Exec::template sum<2>(nf, [=] FDEM_LAMBDA(int j, real* acc) {
-      if (in[j] == 1 && raise_flag(aw + ft[j])) acc[0] += 1;  // (a tet listed for two ranks: raised once)
-      acc[1] += in[j] == 1 || mine[j] == 1;
+      if (in[j] && raise_bits(aw + ft[j], in[j])) acc[0] += 1;  // (a tet listed for two ranks: raised once)
+      acc[1] += ((in[j] | mine[j]) & TetFlag::kCandidate) != 0;
     });
     if (long(r[1]) != shared_active_) {  // flags only rise: an unchanged count is an unchanged set
       shared_active_ = long(r[1]);

@@ -26,13 +26,13 @@ struct KeepAndClear {
 /// A force evaluation's sums (slots [0, kBad)) by name: this rank's, or after the step's
 /// reduction the whole model's where SumSlots::kWhole says so.
 struct ForceSums {
-  real tets_added = 0;      // activation
-  real touching = 0;        // contact pairs that touch
-  real contact_slip = 0;    // J, friction dissipated by contact
-  real contact_spring = 0;  // J, stored in the friction springs
-  real contact_energy = 0;  // J, the pairs' contact energy (the volume law)
-  real contact_power = 0;   // W
-  real platen_top = 0;      // N, z reactions
+  real candidates_changed = 0;  // activation: tets added and CE6 faces opened
+  real touching = 0;            // contact pairs that touch
+  real contact_slip = 0;        // J, friction dissipated by contact
+  real contact_spring = 0;      // J, stored in the friction springs
+  real contact_energy = 0;      // J, the pairs' contact energy (the volume law)
+  real contact_power = 0;       // W
+  real platen_top = 0;          // N, z reactions
   real platen_bottom = 0;
   real platen_friction = 0;  // J, dissipated by the platens' friction
   real pressure_power = 0;   // W
@@ -44,7 +44,7 @@ struct ForceSums {
   static ForceSums from_slots(const real* b) {
     using S = SumSlots;
     ForceSums s;
-    s.tets_added = b[S::kAdded], s.touching = b[S::kTouching], s.contact_slip = b[S::kConDiss];
+    s.candidates_changed = b[S::kAdded], s.touching = b[S::kTouching], s.contact_slip = b[S::kConDiss];
     s.contact_spring = b[S::kConStored], s.contact_energy = b[S::kConEnergy], s.contact_power = b[S::kConPower],
     s.platen_top = b[S::kTop];
     s.platen_bottom = b[S::kBottom], s.platen_friction = b[S::kPlatenFric], s.pressure_power = b[S::kPressurePower];

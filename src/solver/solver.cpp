@@ -65,7 +65,7 @@ void Solver::grow_contact_ghosts() {
   const double t0 = MPI_Wtime();
   sync_host();
   GhostState now;
-  now.x = state.x, now.v = state.v, now.ce6 = state.ce6.states(), now.active = contacts.active;
+  now.x = state.x, now.v = state.v, now.ce6 = state.ce6.states(), now.active = contacts.tet_flags;
   GrownRank g = fdem::grow_contact_ghosts(layout_.comm, model_, layout_.dd, now);
   CheckpointOut kept;
   save_state(kept);

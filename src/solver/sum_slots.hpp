@@ -12,7 +12,7 @@ namespace fdem {
 /// of slots asserts their order where it does.
 struct SumSlots {
   enum Slot : int {
-    kAdded,     // activation: tets it added to the candidates
+    kAdded,     // activation: tets it added to the candidates and CE6 faces it opened
     kMoved,     // the broad phase's watch: nodes that moved half the buffer
     kTouching,  // contact: touching pairs, slip dissipated, spring energy, contact energy, power
     kConDiss,

@@ -86,7 +86,7 @@ TEST_P(CudaSchedule, FracturingBoxPeakWithin1PercentBrokenWithin5Percent) {
   // The activation on the GPU (raise_flag: an atomicOr on the word holding the tet's flag):
   // exactly the tets around its broken CE6s and at the loaded ends.
   cpu->sync_host(), gpu->sync_host();
-  EXPECT_EQ(flags_from_breaks(*gpu), gpu->contacts.active);
+  EXPECT_EQ(flags_from_breaks(*gpu), gpu->contacts.tet_flags);
   // Through fracture and contact the states should be the same bits too (the debug backend's
   // are): recorded here, asserted once a GPU has shown it.
   cpu->sync_host();

@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <sstream>
 #include <string>
 #include <utility>
 
@@ -99,12 +100,12 @@ TEST_P(DebugSchedule, FracturingBoxWithContactAndPressureMatchesCpu) {
     }
   }
   EXPECT_GT(anchored, ra.broken) << "damaged CE6s that did not break keep anchors too";
-  EXPECT_EQ(cpu->contacts.active, dbg->contacts.active);
+  EXPECT_EQ(cpu->contacts.tet_flags, dbg->contacts.tet_flags);
   // Exactly the tets around the broken CE6s and at the loaded ends (the device raises each flag
   // once, raise_flag, whichever broken CE6s share it).
   const std::vector<std::uint8_t> expected = flags_from_breaks(*dbg);
-  EXPECT_EQ(expected, dbg->contacts.active);
-  EXPECT_GT(std::count(expected.begin(), expected.end(), 1),
+  EXPECT_EQ(expected, dbg->contacts.tet_flags);
+  EXPECT_GT(std::count_if(expected.begin(), expected.end(), [](std::uint8_t f) { return f & TetFlag::kCandidate; }),
             backend_solver(backend_fracture_scene("cpu"))->contacts.active_count())
       << "the breaks should activate tets beyond the loaded ends";
   // The candidate lists built on the device (broad phase, filters, order) are the host's.
@@ -437,7 +438,31 @@ TEST(DebugBackend, CliRunGivesTheCpuFiles) {
   };
   const std::string ma = read(dir.path / "cpu" / "monitors.csv"), mb = read(dir.path / "debug" / "monitors.csv");
   EXPECT_GT(ma.size(), 1000u);
-  EXPECT_EQ(ma, mb);
+  // The state agrees bit for bit; sums over many elements follow each backend's reduction order
+  // and agree to round-off. The energy error is a difference of such sums, relative to the
+  // external work: to 1e-12 absolute. Every other value to 1e-12 of itself.
+  std::stringstream ra(ma), rb(mb);
+  std::string la, lb, header;
+  std::getline(ra, header), std::getline(rb, lb);
+  ASSERT_EQ(header, lb);
+  std::vector<std::string> names;
+  for (std::stringstream h(header); std::getline(h, la, ',');) names.push_back(la);
+  int rows = 0;
+  while (std::getline(ra, la)) {
+    ASSERT_TRUE(std::getline(rb, lb)) << "the debug run has fewer rows";
+    std::stringstream ca(la), cb(lb);
+    std::string va, vb;
+    for (const std::string& name : names) {
+      ASSERT_TRUE(std::getline(ca, va, ',') && std::getline(cb, vb, ',')) << la;
+      if (va == vb) continue;
+      const double a = std::stod(va), b = std::stod(vb);
+      const double tol = name == "energy_error" ? 1e-12 : 1e-12 * std::max(std::fabs(a), std::fabs(b));
+      EXPECT_LE(std::fabs(a - b), tol) << name << " in row " << rows << ": " << va << " against " << vb;
+    }
+    ++rows;
+  }
+  EXPECT_FALSE(std::getline(rb, lb)) << "the debug run has more rows";
+  EXPECT_GT(rows, 20);
   EXPECT_EQ(read(dir.path / "cpu" / "broken_ce6.csv"), read(dir.path / "debug" / "broken_ce6.csv"));
   EXPECT_EQ(read(dir.path / "cpu" / "fields.xdmf").size(), read(dir.path / "debug" / "fields.xdmf").size());
 }

@@ -96,7 +96,7 @@ class Reference : public ::testing::TestWithParam<Leg> {
 
   /// Activation flags, candidate pairs, their histories and the builds of the list.
   static void expect_same_contact(const Solver& s, const ReferenceStepper& r) {
-    EXPECT_EQ(s.contacts.active, r.active);
+    EXPECT_EQ(s.contacts.tet_flags, r.active);
     ASSERT_EQ(s.contacts.pairs.size(), r.pairs.size());
     for (std::size_t k = 0; k < r.pairs.size(); ++k) {
       const ContactPair &p = s.contacts.pairs[k], &q = r.pairs[k];
