@@ -132,16 +132,14 @@ inline FractureResult run_fracture(Solver& s, int steps) {
 
 /// The contact flags a run should have (adaptive activation): those of a run of the same scene
 /// that has not started (the tets at the loaded ends), raised around every CE6 that `run` has
-/// broken (ContactSet::activate_ce6), with the faces of every CE6 it damaged released. `run`
-/// synchronised to the host (sync_host).
+/// broken (ContactSet::activate_ce6), their faces released. `run` synchronised to the host
+/// (sync_host).
 inline std::vector<std::uint8_t> flags_from_breaks(const Solver& run) {
   Scene scene = run.scene();
   scene.solver.backend = Backend::cpu;
   std::unique_ptr<Solver> start = backend_solver(scene);
-  for (std::size_t c = 0; c < run.state.ce6.size(); ++c) {
+  for (std::size_t c = 0; c < run.state.ce6.size(); ++c)
     if (run.state.ce6[c].mode != 0) start->contacts.activate_ce6(start->model(), int(c));
-    if (ce6_max_damage(run.state.ce6[c]) > 0) start->contacts.release_ce6(start->model(), int(c));
-  }
   return start->contacts.tet_flags;
 }
 

@@ -108,11 +108,10 @@ class ReferenceStepper {
       if (!ce6_carries_force(ce6p_, ce6[c])) continue;
       Vec3 xe[6], ve[6], fe[6];
       for (int j = 0; j < 6; ++j) xe[j] = x[m_.ce6_nodes[c][j]], ve[j] = v[m_.ce6_nodes[c][j]];
-      const bool was_broken = ce6_broken(ce6[c]), was_sound = ce6_max_damage(ce6[c]) == 0;
+      const bool was_broken = ce6_broken(ce6[c]);
       cohesive6_forces(ce6p_, xe, ve, m_.ce6_h[c], ce6[c], fe);
       for (int j = 0; j < 6; ++j) f[m_.ce6_nodes[c][j]] += fe[j];
-      if (!was_broken && ce6_broken(ce6[c])) broke_[c] |= 1;        // it broke
-      if (was_sound && ce6_max_damage(ce6[c]) > 0) broke_[c] |= 2;  // its damage started
+      if (!was_broken && ce6_broken(ce6[c])) broke_[c] = 1;
     }
     if (s_.contact.enabled()) contact_forces();
     activate_around_breaks();
@@ -190,17 +189,16 @@ class ReferenceStepper {
   /// the next evaluation's contact.
   void activate_around_breaks() {
     for (std::size_t c = 0; c < broke_.size(); ++c) {
-      const int events = broke_[c];
-      if (!events) continue;
+      if (!broke_[c]) continue;
       broke_[c] = 0;
       if (!s_.contact.enabled()) continue;
-      for (int j = 0; j < 3 && (events & 1); ++j) {
+      for (int j = 0; j < 3; ++j) {
         const int vtx = m_.node_vertex[m_.ce6_nodes[c][j]];
         for (int k = vertex_ptr_[vtx]; k < vertex_ptr_[vtx + 1]; ++k)
           if (!(active[vertex_tets_[k]] & 1)) active[vertex_tets_[k]] |= 1, dirty_ = true;
       }
-      dirty_ = dirty_ || !opened_[c];  // (a break after the damage changes no weld)
       opened_[c] = 1;
+      dirty_ = true;
       for (int t : m_.ce6_tets[c])
         for (int i = 0; i < 4; ++i) {  // the face opposite the corner off the CE6
           bool on = false;
@@ -211,7 +209,7 @@ class ReferenceStepper {
     }
   }
 
-  /// Nodes na and nb at mesh vertex u are joined by undamaged CE6s, through the node pairs they
+  /// Nodes na and nb at mesh vertex u are joined by intact CE6s, through the node pairs they
   /// hold at u (a search over nodes; stars of more than 64 tets weld nothing).
   bool welded(int u, int na, int nb) const {
     if (na == nb) return true;
@@ -309,7 +307,7 @@ class ReferenceStepper {
         fa[i] = fb[i] = Vec3{0, 0, 0};
       }
       // A pair joined by a CE6 touches once the CE6 broke in an earlier evaluation.
-      const bool held = p.joint >= 0 && (!ce6_broken(ce6[p.joint]) || (broke_[p.joint] & 1));
+      const bool held = p.joint >= 0 && (!ce6_broken(ce6[p.joint]) || broke_[p.joint]);
       PairHistory& h = history[k];
       const ContactEval e =
           held ? ContactEval{}
@@ -342,13 +340,12 @@ class ReferenceStepper {
   Ce6Params ce6p_{};
   std::vector<Fixed> fixed_;
   std::vector<std::array<int, 3>> lateral_faces_;
-  std::vector<std::uint8_t>
-      broke_;          // CE6s broken (bit 0; their faces still held) or first damaged (bit 1) in this evaluation
-  bool dirty_ = true;  // the candidate list is to be built
+  std::vector<std::uint8_t> broke_;  // CE6s broken in this evaluation (their faces still held)
+  bool dirty_ = true;                // the candidate list is to be built
   std::vector<int> vertex_ptr_, vertex_tets_, watch_;
   std::vector<std::vector<int>> tet_ce6_;     // the CE6s on each tet's faces
   std::vector<std::vector<int>> vertex_ce6_;  // the CE6s with a vertex of their face at each mesh vertex
-  std::vector<char> opened_;                  // per CE6: damaged or broken, and its faces flagged
+  std::vector<char> opened_;                  // per CE6: broken, and its faces flagged
   std::vector<Vec3> watch_x_;
 };
 

@@ -1,13 +1,12 @@
 #pragma once
 // The bonded-neighbour rule of the contact candidate filter (docs/physics.md, "Bonded
-// neighbours"). Two tets that share a mesh vertex and are held together there by undamaged
-// CE6s can press into each other only through those CE6s' elastic penalty gaps, a force the
-// CE6s already carry. So they are no contact pair until a CE6 on the path between them starts
-// to soften.
+// neighbours"). Two tets that share a mesh vertex and are held together there by intact CE6s
+// meet only through those CE6s, which hold the interface until they break (as they hold their
+// own two faces). So they are no contact pair until a CE6 on the path between them breaks.
 //
 // At a mesh vertex u the tets around it (its star) hold one or more nodes at u: a node is a set
 // of tets joined across faces without a CE6 (model/build.cpp splits nodes that way). An
-// undamaged CE6 on a face containing u welds the nodes of its two tets at u. Two tets are welded
+// intact CE6 on a face containing u welds the nodes of its two tets at u. Two tets are welded
 // at u when their nodes there are joined by a chain of such welds. They are bonded when they
 // share at least one vertex, no CE6 joins them, and they are welded at every vertex they share.
 #include <cstdint>
@@ -20,7 +19,7 @@ namespace fdem {
 /// and which of its faces' CE6s weld no more. Flags only rise.
 struct TetFlag {
   static constexpr std::uint8_t kCandidate = 1;
-  /// The CE6 on face i (the face opposite corner i) has been damaged or has broken.
+  /// The CE6 on face i (the face opposite corner i) has broken.
   static FDEM_HD constexpr std::uint8_t face_released(int i) { return std::uint8_t(2u << i); }
 };
 

@@ -103,13 +103,6 @@ FDEM_HD bool ce6_broken(const Ce6Damage& s) {
   return s.mode != 0;
 }
 
-/// What one evaluation of a CE6 did, as bits of its event flag (the loop's break flags): it
-/// broke, or its damage left zero. Either releases its faces from the welds of the contact
-/// filter (contact/bonded.hpp); a break also activates its vicinity.
-struct Ce6Event {
-  static constexpr std::uint8_t kBroke = 1, kDamaged = 2;
-};
-
 /// False for a broken CE6 when tet-tet contact takes over its faces: the law gives it no force
 /// and changes nothing, so a loop may skip it without reading its nodes.
 FDEM_HD bool ce6_carries_force(const Ce6Params& p, const Ce6Damage& s) {

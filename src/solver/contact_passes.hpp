@@ -150,9 +150,9 @@ class ContactPasses : SumSlots {
 
   /// One launch: over `flags` CE6 slots, adaptive activation: the vicinity of each CE6 whose
   /// break flag is up (every tet sharing a vertex of its face, ce6_nodes: 6 per slot) joins the
-  /// candidates; the two faces of each CE6 with an event (a break, or damage: Ce6Event) are
-  /// released from the welds; the flags go down (kAdded counts the tets added and faces
-  /// released, which marks the set dirty with the evaluation's sums); with
+  /// candidates, its two faces are released from the welds (contact/bonded.hpp), and the flag
+  /// goes down (kAdded counts the tets added and faces released, which marks the set dirty
+  /// with the evaluation's sums); with
   /// `watch` and contact, the broad phase's watch (kMoved: nodes of active tets that moved half
   /// the buffer since the list was built). Flags only rise, each with one atomic operation
   /// (raise_bits), so a tet at the vertices of several breaking CE6s is raised and counted
@@ -176,11 +176,10 @@ class ContactPasses : SumSlots {
             if (moved.moved(i - flags, x)) acc[1] += 1;
             return;
           }
-          const std::uint8_t events = broke[i];
-          if (!events) return;
+          if (!broke[i]) return;
           broke[i] = 0;
           if (!on) return;
-          for (int j = 0; j < 3 && (events & Ce6Event::kBroke); ++j) {
+          for (int j = 0; j < 3; ++j) {
             const int vtx = nv[cn[6 * i + j]];
             for (int k = vptr[vtx]; k < vptr[vtx + 1]; ++k)  // (a tet two broken CE6s share: raised once)
               if (raise_bits(active + vtets[k], TetFlag::kCandidate)) acc[0] += 1;
@@ -264,7 +263,7 @@ class ContactPasses : SumSlots {
           // A joint broken in this evaluation (its flag still up) still holds its faces.
           const int js = in.ce6_slot && cp.joint >= 0 ? in.ce6_slot[cp.joint] : cp.joint;
           bool pushes = false;  // some force not zero: only then has the pair a power
-          if (js >= 0 && (!ce6_broken(in.damage[js]) || (in.fresh && (in.fresh[js] & Ce6Event::kBroke)))) {
+          if (js >= 0 && (!ce6_broken(in.damage[js]) || (in.fresh && in.fresh[js]))) {
             for (int i = 0; i < 4; ++i) fa[i] = fb[i] = Vec3{0, 0, 0};
             ev[k] = ContactEval{{0, 0, 0}, {0, 0, 0}, 0, 0, 0};
             history_out[k] = new_pair_history();  // its first evaluation after the break sets its zero

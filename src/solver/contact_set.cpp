@@ -83,16 +83,11 @@ long ContactSet::activate_ce6(const Model& m, int c) {
   }
   active_count_ += added;
   if (added) rebuild_due = true;
-  release_ce6(m, c);
-  return added;
-}
-
-void ContactSet::release_ce6(const Model& m, int c) {
-  if (!enabled_) return;
   for (int t : m.ce6_tets[c])
     for (int i = 0; i < 4; ++i)
       if (face_ce6_[t][i] == c && !(tet_flags[t] & TetFlag::face_released(i)))
         tet_flags[t] |= TetFlag::face_released(i), rebuild_due = true;
+  return added;
 }
 
 void ContactSet::check_reach(const Model& m, const std::vector<Vec3>& x) const {

@@ -41,12 +41,10 @@ class ContactSet {
   ContactLaw law() const { return law_; }    // contact.law
   real friction() const { return mu_; }      // Coulomb coefficient, material.friction_rock
   real buffer() const { return buffer_; }    // m, the broad phase's box inflation
-  /// Flags the vicinity of CE6 `c` (every tet sharing a vertex of its face) and releases its
-  /// faces (release_ce6), as its break does. Returns the number of tets newly activated.
+  /// Flags the vicinity of CE6 `c` (every tet sharing a vertex of its face) and its faces on its
+  /// two tets as welding no more (contact/bonded.hpp), as its break does. Returns the number of
+  /// tets newly activated.
   long activate_ce6(const Model& m, int c);
-  /// Flags the faces of CE6 `c` on its two tets as welding no more (contact/bonded.hpp), as its
-  /// first damage does.
-  void release_ce6(const Model& m, int c);
   /// Rebuild the candidate list at the next evaluation (as after an activation change).
   void request_rebuild() { rebuild_due = true; }
 

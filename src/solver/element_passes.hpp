@@ -37,18 +37,15 @@ FDEM_HD void tet4_start(const Vec3* f, const int* q, int first, Vec3 (&fe)[4]) {
 }
 /// A CE6 that carries force, on its nodes at xe, ve (fe), with its damage d and anchors a
 /// updated. Where `counts` (the one evaluation of it that keeps its results): its power into
-/// acc[0] (intact) or acc[1] (broken) when owned, and its events (a break, its damage leaving
-/// zero: Ce6Event) into its flag, counted in acc[2].
+/// acc[0] (intact) or acc[1] (broken) when owned, and a break into acc[2] and its flag.
 FDEM_HD void ce6_element(const Ce6Params& p, const Vec3 (&xe)[6], const Vec3 (&ve)[6], real h, Ce6Damage& d,
                          Vec3 (&a)[3], bool counts, bool own, real* acc, std::uint8_t* broke, Vec3 (&fe)[6]) {
-  const bool was_broken = ce6_broken(d), was_sound = !(ce6_max_damage(d) > 0);
+  const bool was_broken = ce6_broken(d);
   const Ce6Eval ev = cohesive6_forces(p, xe, ve, h, d, a, fe);
   if (!counts) return;
   if (own && was_broken) acc[1] += ev.power;  // constant indices: acc stays in registers
   if (own && !was_broken) acc[0] += ev.power;
-  const std::uint8_t events = std::uint8_t((!was_broken && ce6_broken(d) ? Ce6Event::kBroke : 0) |
-                                           (was_sound && ce6_max_damage(d) > 0 ? Ce6Event::kDamaged : 0));
-  if (events) *broke = std::uint8_t(*broke | events), acc[2] += 1;
+  if (!was_broken && ce6_broken(d)) *broke = 1, acc[2] += 1;
 }
 }  // namespace device_pass
 
