@@ -337,3 +337,39 @@ TEST(VolumeLaw, AClosedLoopOfDeformingTetsReturnsNoWork) {
   EXPECT_LT(std::fabs(volume), 1e-6) << "volume law: net work / (|F| x path) " << volume;
   EXPECT_GT(std::fabs(munjiza), 1e-3) << "Munjiza's law: net work / (|F| x path) " << munjiza;
 }
+
+TEST(VolumeLaw, EdgeAxesRejectOnlyPairsThatDoNotOverlap) {
+  // Random pairs of deformed tets, b shifted by up to two edge lengths. Where the edge axes say
+  // separated but no face plane does, clipping must find no overlap; and the edge axes must
+  // spare some clippings that find none (the cheap test does work).
+  using namespace contact_detail;
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<real> u(-2e-3, 2e-3);
+  int spared = 0, clipped_empty = 0, overlapping = 0;
+  for (int k = 0; k < 20000; ++k) {
+    Tet a, b;
+    deformed_tet(a, 2 * k, 0.2e-3);
+    deformed_tet(b, 2 * k + 1, 0.2e-3);
+    const Vec3 shift{u(rng), u(rng), u(rng)};
+    for (auto& p : b) p += shift;
+    const Planes pa = tet_face_planes(a), pb = tet_face_planes(b);
+    if (separated_by(pb, a) || separated_by(pa, b)) continue;
+    Overlap ov{0, {}, {}, {0, 0, 0}, 0};
+    add_faces_inside(a, pb, ov.grad_a, ov);
+    add_faces_inside(b, pa, ov.grad_b, ov);
+    const bool empty = !(ov.volume > 1e-12 * std::fabs(tet4_volume(a)));
+    if (separated_by_edges(a, b)) {
+      ASSERT_TRUE(empty) << "pair " << k << ": separated by an edge axis but overlapping by " << ov.volume << " m^3";
+      ++spared;
+    } else if (empty) {
+      ++clipped_empty;
+    } else {
+      ++overlapping;
+    }
+  }
+  std::printf("past the face planes: %d overlap, %d spared by the edge axes, %d clipped to nothing\n", overlapping,
+              spared, clipped_empty);
+  EXPECT_GT(overlapping, 100);
+  EXPECT_GT(spared, 100);
+  EXPECT_LT(clipped_empty, spared / 10) << "the edge axes are all the separating axes there are";
+}
