@@ -182,11 +182,14 @@ class ReferenceStepper {
     for (int c = 0; c < int(m_.ce6_nodes.size()); ++c)
       for (int j = 0; j < 3; ++j) vertex_ce6_[m_.node_vertex[m_.ce6_nodes[c][j]]].push_back(c);
     opened_.assign(m_.ce6_nodes.size(), 0);
+    std::vector<int> seen(x.size(), 0);  // CE6s weld only where no two tets share a node
+    for (const auto& q : m_.tet_nodes)
+      for (int n : q) welds_ = welds_ && ++seen[n] == 1;
   }
 
   /// The tets sharing a vertex with the face of each CE6 broken in this evaluation become
-  /// candidates, and a CE6 broken or damaged in it welds no more (its tets' faces flagged), for
-  /// the next evaluation's contact.
+  /// candidates, and the CE6 welds no more (its tets' faces flagged), for the next evaluation's
+  /// contact.
   void activate_around_breaks() {
     for (std::size_t c = 0; c < broke_.size(); ++c) {
       if (!broke_[c]) continue;
@@ -213,7 +216,7 @@ class ReferenceStepper {
   /// hold at u (a search over nodes; stars of more than 64 tets weld nothing).
   bool welded(int u, int na, int nb) const {
     if (na == nb) return true;
-    if (vertex_ptr_[u + 1] - vertex_ptr_[u] > 64) return false;
+    if (!welds_ || vertex_ptr_[u + 1] - vertex_ptr_[u] > 64) return false;
     std::vector<int> reached{na};
     for (std::size_t k = 0; k < reached.size(); ++k)
       for (int c : vertex_ce6_[u]) {
@@ -228,8 +231,15 @@ class ReferenceStepper {
     return std::find(reached.begin(), reached.end(), nb) != reached.end();
   }
 
-  /// Tets a and b share a mesh vertex and are welded at every one they share.
+  /// Tets a and b share a mesh vertex and are welded at every one they share; without welds,
+  /// they share a node.
   bool bonded(int a, int b) const {
+    if (!welds_) {
+      for (int na : m_.tet_nodes[a])
+        for (int nb : m_.tet_nodes[b])
+          if (na == nb) return true;
+      return false;
+    }
     bool shares = false;
     for (int na : m_.tet_nodes[a])
       for (int nb : m_.tet_nodes[b])
@@ -346,6 +356,7 @@ class ReferenceStepper {
   std::vector<std::vector<int>> tet_ce6_;     // the CE6s on each tet's faces
   std::vector<std::vector<int>> vertex_ce6_;  // the CE6s with a vertex of their face at each mesh vertex
   std::vector<char> opened_;                  // per CE6: broken, and its faces flagged
+  bool welds_ = true;                         // every node belongs to one tet: CE6s weld
   std::vector<Vec3> watch_x_;
 };
 

@@ -31,7 +31,7 @@ struct BondInputs {
   const int* star_tets = nullptr;            //
   const int* face_ce6 = nullptr;             // 4 per tet: the CE6 on face i, -1 none
   const int* ce6_tets = nullptr;             // 2 per CE6
-  const std::uint8_t* flags = nullptr;       // per tet, TetFlag bits; null: no welds (only a shared node bonds)
+  const std::uint8_t* flags = nullptr;       // per tet, TetFlag bits; null: no welds (one shared node bonds)
   const std::uint8_t* whole_star = nullptr;  // per vertex, 1 where every tet at it is held here
 
   /// Stars larger than this keep each node apart (conservative: more pairs, never fewer).
@@ -80,15 +80,17 @@ struct BondInputs {
   }
 
   /// ta and tb share a vertex and are welded at each they share (`weld` from label_star).
+  /// Without welds (flags null) one shared node bonds them, as tets of one continuous body.
   FDEM_HD bool bonded(const int* weld, int ta, int tb) const {
-    bool shares = false;
+    bool shares = false, welded = true, one_node = false;
     for (int i = 0; i < 4; ++i) {
       const int j = corner_at(tb, node_vertex[tet_nodes[4 * ta + i]]);
       if (j < 0) continue;
       shares = true;
-      if (weld[4 * ta + i] != weld[4 * tb + j]) return false;
+      welded = welded && weld[4 * ta + i] == weld[4 * tb + j];
+      one_node = one_node || tet_nodes[4 * ta + i] == tet_nodes[4 * tb + j];
     }
-    return shares;
+    return flags ? shares && welded : one_node;
   }
 };
 

@@ -70,6 +70,7 @@ class ContactPasses : SumSlots {
     fdem::place(b_, ce6_tets_, reinterpret_cast<const int*>(m.ce6_tets.data()), 2 * m.ce6_tets.size());
     slot_faces_.upload(slot_faces(c, m, slot_ce6));
     whole_star_.upload(whole_stars(m, s.layout.own_tet, c.vertex_tet_ptr().size() - 1));
+    welds_ = every_node_private(m, s.layout);
     if (s.layout.dd.distributed()) {
       fdem::place(b_, plan_x_, c.plan_x());
       fdem::place(b_, tet_global_, s.layout.dd.tet_global);
@@ -114,8 +115,22 @@ class ContactPasses : SumSlots {
     b.tet_nodes = tet_nodes, b.node_vertex = node_vertex_.data();
     b.star_ptr = vt_ptr_.data(), b.star_tets = vt_tets_.data();
     b.face_ce6 = face_ce6_.data(), b.ce6_tets = ce6_tets_.data();
-    b.flags = active_.data(), b.whole_star = whole_star_.data();
+    b.flags = welds_ ? active_.data() : nullptr, b.whole_star = whole_star_.data();
     return b;
+  }
+
+  /// Whether every node of the whole model belongs to one tet (CE6s on every internal face).
+  /// Only then do CE6s weld (contact/bonded.hpp). Where some tets share nodes, a rank may own
+  /// a node of a tet whose partner's vertex star it does not hold, and could not decide a weld
+  /// as one rank does; there only shared nodes bond, on every rank count alike.
+  static bool every_node_private(const Model& m, const RankLayout& layout) {
+    std::vector<int> tets_at(m.X.size(), 0);  // (an owned node's tets are all held here)
+    for (const auto& q : m.tet_nodes)
+      for (int n : q) ++tets_at[n];
+    real shared = 0;
+    for (std::size_t n = 0; n < tets_at.size(); ++n) shared += layout.own_node[n] && tets_at[n] > 1;
+    layout.sum(&shared, 1);
+    return shared == 0;
   }
 
   /// Per CE6 slot, the faces of its two tets it lies on, as 4 tet + face.
@@ -448,6 +463,7 @@ class ContactPasses : SumSlots {
   DeviceArray<int> node_vertex_, vt_ptr_, vt_tets_, face_ce6_, ce6_tets_;
   DeviceArray<int> slot_faces_;           // per CE6 slot, its two tets' faces (4 tet + face)
   DeviceArray<std::uint8_t> whole_star_;  // per vertex, 1 where this rank holds every tet at it
+  bool welds_ = false;                    // CE6s weld (every_node_private)
   DeviceArray<Vec3> plan_x_;
   DeviceArray<std::uint8_t> active_;
   DeviceArray<ContactPair> pairs_, next_pairs_;

@@ -17,7 +17,7 @@ using namespace fdem::test;
 namespace {
 
 /// The candidate list of a solver's state, built as the loop builds it, every tet a candidate;
-/// `welds` false: only a shared node bonds (the rule without CE6 welds).
+/// `welds` false: one shared node bonds a pair (the rule without CE6 welds).
 std::set<std::pair<int, int>> candidates(const Solver& s, bool welds, const std::vector<std::uint8_t>& flags) {
   const Model& m = s.model();
   const ContactSet& c = s.contacts;
