@@ -25,14 +25,13 @@ struct TetFlag {
 
 /// What the rule reads: the vertex stars and the CE6s on the tets' faces.
 struct BondInputs {
-  const int* tet_nodes = nullptr;            // 4 per tet
-  const int* node_vertex = nullptr;          // per node, its mesh vertex
-  const int* star_ptr = nullptr;             // per vertex u, its tets star_tets[star_ptr[u] .. star_ptr[u+1])
-  const int* star_tets = nullptr;            //
-  const int* face_ce6 = nullptr;             // 4 per tet: the CE6 on face i, -1 none
-  const int* ce6_tets = nullptr;             // 2 per CE6
-  const std::uint8_t* flags = nullptr;       // per tet, TetFlag bits; null: no welds (one shared node bonds)
-  const std::uint8_t* whole_star = nullptr;  // per vertex, 1 where every tet at it is held here
+  const int* tet_nodes = nullptr;       // 4 per tet
+  const int* node_vertex = nullptr;     // per node, its mesh vertex
+  const int* star_ptr = nullptr;        // per vertex u, its tets star_tets[star_ptr[u] .. star_ptr[u+1])
+  const int* star_tets = nullptr;       //
+  const int* face_ce6 = nullptr;        // 4 per tet: the CE6 on face i, -1 none
+  const int* ce6_tets = nullptr;        // 2 per CE6
+  const std::uint8_t* flags = nullptr;  // per tet, TetFlag bits; null: no welds (one shared node bonds)
 
   /// Stars larger than this keep each node apart (conservative: more pairs, never fewer).
   static constexpr int kMaxStar = 64;
@@ -45,23 +44,31 @@ struct BondInputs {
 
   /// Labels the corners at vertex u: weld[4 t + i] for each tet t of its star (corner i at u) is
   /// the smallest node id welded to t's node at u. Equal labels: welded at u.
+  /// On several ranks a star may lack tets; the labels there are read only for pairs that act
+  /// on no node the rank owns, which it drops anyway (every node private: an owned node's tet is
+  /// owned, and the ghost layer holds the whole star of each of its vertices).
   FDEM_HD void label_star(int u, int* weld) const {
     const int first = star_ptr[u], n = star_ptr[u + 1] - first;
-    const bool walk = flags && whole_star[u] && n <= kMaxStar;
-    int group[kMaxStar];  // union-find over the star's entries
-    for (int k = 0; k < n && walk; ++k) group[k] = k;
-    auto node_of = [&](int k) {
+    if (!flags || n > kMaxStar) {  // no welds: each node its own label
+      for (int k = 0; k < n; ++k) {
+        const int t = star_tets[first + k], c = corner_at(t, u);
+        weld[4 * t + c] = tet_nodes[4 * t + c];
+      }
+      return;
+    }
+    int group[kMaxStar], node[kMaxStar], corner[kMaxStar];  // union-find over the star's entries
+    for (int k = 0; k < n; ++k) {
       const int t = star_tets[first + k];
-      return tet_nodes[4 * t + corner_at(t, u)];
-    };
+      group[k] = k, corner[k] = corner_at(t, u), node[k] = tet_nodes[4 * t + corner[k]];
+    }
     auto root = [&](int k) {
       while (group[k] != k) k = group[k] = group[group[k]];
       return k;
     };
-    for (int k = 0; k < n && walk; ++k) {
+    for (int k = 0; k < n; ++k) {
       for (int j = 0; j < k; ++j)  // one node: one group
-        if (node_of(j) == node_of(k)) group[root(j)] = root(k);
-      const int t = star_tets[first + k], cu = corner_at(t, u);
+        if (node[j] == node[k]) group[root(j)] = root(k);
+      const int t = star_tets[first + k], cu = corner[k];
       for (int i = 0; i < 4; ++i) {
         const int c = face_ce6[4 * t + i];
         if (i == cu || c < 0 || (flags[t] & TetFlag::face_released(i))) continue;
@@ -70,12 +77,11 @@ struct BondInputs {
           if (star_tets[first + j] == other) group[root(j)] = root(k);
       }
     }
-    for (int k = 0; k < n; ++k) {  // same node: the same label, welded or not
-      int label = node_of(k);
-      for (int j = 0; j < n && walk; ++j)
-        if (root(j) == root(k) && node_of(j) < label) label = node_of(j);
-      const int t = star_tets[first + k];
-      weld[4 * t + corner_at(t, u)] = label;
+    for (int k = 0; k < n; ++k) {  // the smallest node of its group
+      int label = node[k];
+      for (int j = 0; j < n; ++j)
+        if (root(j) == root(k) && node[j] < label) label = node[j];
+      weld[4 * star_tets[first + k] + corner[k]] = label;
     }
   }
 
@@ -87,7 +93,7 @@ struct BondInputs {
       const int j = corner_at(tb, node_vertex[tet_nodes[4 * ta + i]]);
       if (j < 0) continue;
       shares = true;
-      welded = welded && weld[4 * ta + i] == weld[4 * tb + j];
+      welded = welded && flags && weld[4 * ta + i] == weld[4 * tb + j];  // (weld: read with welds only)
       one_node = one_node || tet_nodes[4 * ta + i] == tet_nodes[4 * tb + j];
     }
     return flags ? shares && welded : one_node;

@@ -66,7 +66,7 @@ class CandidateBuild {
       pairs.resize(0);
       return st;
     }
-    label_welds(in);
+    if (in.bond.flags) label_welds(in);  // (without welds a shared node alone bonds)
     const Grid grid = choose_grid(na, st.cell);
     st.entries = bin(na, grid);
     const long cells = cell_runs(st.entries);

@@ -51,15 +51,14 @@ class ContactPasses : SumSlots {
     b_ = b, held_ = held;
     auto set = [&](auto&... a) { (a.set_backend(b), ...); };
     set(node_vertex_, vt_ptr_, vt_tets_, face_ce6_, ce6_tets_, slot_faces_, tet_global_, watch_nodes_, gather_node_,
-        gather_ptr_, gather_slot_, gather_of_, whole_star_);
+        gather_ptr_, gather_slot_, gather_of_);
     set(plan_x_, watch_x_, history_, next_history_, pair_force_, contact_sum_, active_, pairs_, next_pairs_, eval_);
     candidates_.set_backend(b);
   }
 
   /// The constants: activation's vertex -> tets lists, the candidate filters (the CE6s on each
-  /// tet's faces, the tets of each CE6, the vertices whose every tet this rank holds), the faces
-  /// of each CE6 slot (`slot_ce6`: slot -> CE6 id), and on several ranks the tets' global ids
-  /// and the positions the contact ghosts were gathered at.
+  /// tet's faces, the tets of each CE6, whether CE6s weld), the faces of each CE6 slot (`slot_ce6`: slot -> CE6 id),
+  /// and on several ranks the tets' global ids and the positions the contact ghosts were gathered at.
   void place(const LoopParts& s, const std::vector<int>& slot_ce6) {
     const Model& m = s.model;
     const ContactSet& c = s.contacts;
@@ -69,7 +68,6 @@ class ContactPasses : SumSlots {
     fdem::place(b_, face_ce6_, reinterpret_cast<const int*>(c.face_ce6().data()), 4 * c.face_ce6().size());
     fdem::place(b_, ce6_tets_, reinterpret_cast<const int*>(m.ce6_tets.data()), 2 * m.ce6_tets.size());
     slot_faces_.upload(slot_faces(c, m, slot_ce6));
-    whole_star_.upload(whole_stars(m, s.layout.own_tet, c.vertex_tet_ptr().size() - 1));
     welds_ = every_node_private(m, s.layout);
     if (s.layout.dd.distributed()) {
       fdem::place(b_, plan_x_, c.plan_x());
@@ -115,7 +113,7 @@ class ContactPasses : SumSlots {
     b.tet_nodes = tet_nodes, b.node_vertex = node_vertex_.data();
     b.star_ptr = vt_ptr_.data(), b.star_tets = vt_tets_.data();
     b.face_ce6 = face_ce6_.data(), b.ce6_tets = ce6_tets_.data();
-    b.flags = welds_ ? active_.data() : nullptr, b.whole_star = whole_star_.data();
+    b.flags = welds_ ? active_.data() : nullptr;
     return b;
   }
 
@@ -142,17 +140,6 @@ class ContactPasses : SumSlots {
         for (int i = 0; i < 4; ++i)
           if (c.face_ce6()[t][i] == slot_ce6[k]) out[2 * k + j] = 4 * t + i;
       }
-    return out;
-  }
-
-  /// Per mesh vertex, 1 where this rank holds every tet at it: the vertices of its own tets (the
-  /// ghost layer holds every tet sharing one, partition/partition.hpp). One rank: all.
-  static std::vector<std::uint8_t> whole_stars(const Model& m, const std::vector<std::uint8_t>& own_tet,
-                                               std::size_t vertices) {
-    std::vector<std::uint8_t> out(vertices, 0);
-    for (std::size_t t = 0; t < m.tet_nodes.size(); ++t)
-      if (own_tet[t])
-        for (int n : m.tet_nodes[t]) out[m.node_vertex[n]] = 1;
     return out;
   }
 
@@ -226,7 +213,7 @@ class ContactPasses : SumSlots {
     in.x = x, in.tet_nodes = tet_nodes, in.flags = active_.data();
     in.tet_global = tet_global_.size() > 0 ? tet_global_.data() : nullptr;
     in.own_node = own_node;
-    in.vertices = int(whole_star_.size());
+    in.vertices = int(vt_ptr_.size()) - 1;
     in.bond = bond_inputs(tet_nodes);
     in.buffer = cs.buffer();
     const BroadPhaseStats st = candidates_.find_pairs(in, next_pairs_);
@@ -461,9 +448,8 @@ class ContactPasses : SumSlots {
   CandidateBuild<Exec> candidates_;
   DeviceArray<long> tet_global_;  // several ranks: pairs in global order
   DeviceArray<int> node_vertex_, vt_ptr_, vt_tets_, face_ce6_, ce6_tets_;
-  DeviceArray<int> slot_faces_;           // per CE6 slot, its two tets' faces (4 tet + face)
-  DeviceArray<std::uint8_t> whole_star_;  // per vertex, 1 where this rank holds every tet at it
-  bool welds_ = false;                    // CE6s weld (every_node_private)
+  DeviceArray<int> slot_faces_;  // per CE6 slot, its two tets' faces (4 tet + face)
+  bool welds_ = false;           // CE6s weld (every_node_private)
   DeviceArray<Vec3> plan_x_;
   DeviceArray<std::uint8_t> active_;
   DeviceArray<ContactPair> pairs_, next_pairs_;

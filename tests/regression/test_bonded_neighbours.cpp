@@ -21,14 +21,13 @@ namespace {
 std::set<std::pair<int, int>> candidates(const Solver& s, bool welds, const std::vector<std::uint8_t>& flags) {
   const Model& m = s.model();
   const ContactSet& c = s.contacts;
-  const std::vector<std::uint8_t> whole(c.vertex_tet_ptr().size() - 1, 1);
   CandidateInputs in;
   in.tets = int(m.tet_nodes.size());
   in.nodes = int(m.X.size());
   in.x = s.state.x.data();
   in.tet_nodes = m.tet_nodes.data()->data();
   in.flags = flags.data();
-  in.vertices = int(whole.size());
+  in.vertices = int(c.vertex_tet_ptr().size()) - 1;
   in.bond.tet_nodes = in.tet_nodes;
   in.bond.node_vertex = m.node_vertex.data();
   in.bond.star_ptr = c.vertex_tet_ptr().data();
@@ -36,7 +35,6 @@ std::set<std::pair<int, int>> candidates(const Solver& s, bool welds, const std:
   in.bond.face_ce6 = c.face_ce6().data()->data();
   in.bond.ce6_tets = m.ce6_tets.data()->data();
   in.bond.flags = welds ? flags.data() : nullptr;
-  in.bond.whole_star = whole.data();
   in.buffer = c.buffer();
   CandidateBuild<HostExec> build;
   DeviceArray<ContactPair> pairs;
