@@ -88,6 +88,11 @@ TEST(CliRanks, TwoRanksWriteTheOneRankResults) {
   EXPECT_EQ(tets(r0) + tets(r1), tets(slurp(one / "fields.xdmf")));
 }
 
+// The first job's ranks (the launcher's children) are stopped while the second job tries the
+// folder, so a fast first job cannot end before the second starts. Stopped ranks keep the lock.
+const std::string kStopRanks = "kids=$(cat /proc/$pid/task/*/children 2>/dev/null); kill -STOP $kids; ";
+const std::string kContinueRanks = "kill -CONT $kids; ";
+
 TEST(CliRanks, ASecondJobIntoAFolderInUseIsRefused) {
   // Rank 0 holds the folder's lock for the whole job: a second two-rank job into it ends with
   // exit 2 on every rank before writing, and the first finishes with the two-rank results.
@@ -98,8 +103,8 @@ TEST(CliRanks, ASecondJobIntoAFolderInUseIsRefused) {
   ASSERT_EQ(run_cmd(job + quote(alone.string())).code, 0);
   const std::string script = job + quote(x.string()) + " & pid=$!; for i in $(seq 1500); do [ \"$(cat " +
                              quote((x / "monitors.csv").string()) +
-                             " 2>/dev/null | wc -l)\" -ge 3 ] && break; sleep 0.02; done; " + job +
-                             quote(x.string()) + "; echo second=$?; wait $pid; echo first=$?";
+                             " 2>/dev/null | wc -l)\" -ge 3 ] && break; sleep 0.02; done; " + kStopRanks + job +
+                             quote(x.string()) + "; echo second=$?; " + kContinueRanks + "wait $pid; echo first=$?";
   const Outcome o = run_cmd("bash -c " + quote(script));
   EXPECT_TRUE(has(o.text, "second=2")) << o.text;
   EXPECT_TRUE(has(o.text, "first=0")) << o.text;

@@ -380,15 +380,17 @@ TEST(Restart, ACheckpointThatCannotBeWrittenWarnsAndTheRunGoesOn) {
 namespace {
 
 /// Runs `first` in the background until its monitors.csv in `folder` has `rows` rows, then
-/// `second` (both whole fdem argument strings), then waits for the first. The output holds
+/// `second` (both whole fdem argument strings), then waits for the first. The first is stopped
+/// (SIGSTOP) while the second runs, so a fast first run cannot end before the second starts;
+/// a stopped process still holds its lock and counts as alive. The output holds
 /// "pid=<first's PID>", "second=<exit code>" and "first=<exit code>", with what both printed.
 Outcome overlapping_runs(const std::string& first, const fs::path& folder, int rows, const std::string& second,
                          const std::string& second_env = "", const std::string& first_env = "") {
-  const std::string script = first_env + kEnv + quote(kExe) + " " + first +
-                             " & pid=$!; echo pid=$pid; for i in $(seq 1500); do " + "[ \"$(cat " +
-                             quote((folder / "monitors.csv").string()) + " 2>/dev/null | wc -l)\" -ge " +
-                             std::to_string(rows + 1) + " ] && break; sleep 0.02; " + "done; " + second_env + kEnv +
-                             quote(kExe) + " " + second + "; echo second=$?; wait $pid; echo first=$?";
+  const std::string script =
+      first_env + kEnv + quote(kExe) + " " + first + " & pid=$!; echo pid=$pid; for i in $(seq 1500); do " +
+      "[ \"$(cat " + quote((folder / "monitors.csv").string()) + " 2>/dev/null | wc -l)\" -ge " +
+      std::to_string(rows + 1) + " ] && break; sleep 0.02; " + "done; kill -STOP $pid; " + second_env + kEnv +
+      quote(kExe) + " " + second + "; echo second=$?; kill -CONT $pid; wait $pid; echo first=$?";
   return run_cmd("bash -c " + quote(script));
 }
 
