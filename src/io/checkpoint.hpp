@@ -25,8 +25,8 @@ namespace fdem {
 // part of the state writes its own section (Solver::save_state). 5: the ledger keeps the
 // contact energy, and each contact pair its overlap zero. 6: a tet's contact flags hold its
 // opened faces too (contact/bonded.hpp). Rank files stay at 3: their content did not change.
-constexpr std::uint32_t kCheckpointVersion = 6;
-constexpr std::uint32_t kRankFileVersion = 3;
+constexpr std::uint32_t kCheckpointVersion = 7;
+constexpr std::uint32_t kRankFileVersion = 4;
 
 /// Collects values for a checkpoint payload.
 class CheckpointOut {

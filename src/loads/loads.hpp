@@ -23,7 +23,7 @@ struct Loads {
   PlatenLoad platens;
   ConfiningPressure confinement;
   GravityLoad gravity;
-  PrescribedVelocities prescribed;  // (set by the caller)
+  PrescribedVelocities prescribed;  // the scene's kinematic boundary conditions, and the caller's
 
   /// f(load) for every load, in this order (the checkpoint's and the monitor row's).
   template <class F>
@@ -48,7 +48,8 @@ struct Loads {
 };
 
 /// The loads of `scene` on model m. `wave_speed` (m/s, the P-wave speed with mass scaling) sets
-/// the automatic ramps: ten transits of the height. Prescribed velocities start empty.
+/// the automatic ramps: ten transits of the height. Prescribed velocities start with the scene's
+/// boundary conditions; a caller may add its own (Solver::prescribe).
 Loads make_loads(const Scene& scene, const Model& m, real wave_speed);
 
 }  // namespace fdem

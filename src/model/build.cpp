@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "core/error.hpp"
+#include "model/conditions.hpp"
 #include "model/model.hpp"
 #include "physics/tet4.hpp"
 #include "physics/time_step.hpp"
@@ -411,6 +412,7 @@ Model build_model(const Mesh& mesh, const Scene& scene) {
   const SurfaceNodes surface = add_surface_faces(mesh, tv, split, centroid, tet_hmin, m);
   set_nominal_area(surface, m);
   set_node_groups(surface, m);
+  mark_condition_faces(mesh, scene, m);
   m.tet_colours = colour_elements(m.tet_nodes, m.X.size(), "TET4");
   m.ce6_colours = colour_elements(m.ce6_nodes, m.X.size(), "CE6");
   number_ce6_in_colour_order(m);

@@ -2,6 +2,7 @@
 // The discretised model the time loop runs on: plain arrays indexed by integers,
 // built once on the host (model/build.cpp) and copied as they are to a backend.
 #include <array>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -50,6 +51,11 @@ struct Model {
   std::vector<real> platen_node_area;  // tributary reference area of each, m^2
   std::vector<real> platen_node_h;     // size of the element under each, m
   std::vector<int> top_nodes, bottom_nodes, lateral_nodes;
+  // Per surface face, bit c: the scene's boundary condition c acts on it (empty: none given).
+  std::vector<std::uint32_t> surface_conditions;
+  std::uint32_t conditions_of(std::size_t face) const {
+    return surface_conditions.empty() ? 0 : surface_conditions[face];
+  }
 
   // Geometry of the specimen in the reference configuration.
   Vec3 box_min{0, 0, 0}, box_max{0, 0, 0};

@@ -409,6 +409,8 @@ void append_ghost_tets(std::vector<TetRec>& tets, const std::unordered_map<long,
     for (const auto& f : t.faces) {
       gm.surface_faces.push_back({node_local.at(f[0]), node_local.at(f[1]), node_local.at(f[2])});
       gm.surface_tet.push_back(i);
+      // A contact ghost's nodes move with their owner's halo: its faces need no condition.
+      if (!gm.surface_conditions.empty()) gm.surface_conditions.push_back(0);
     }
   }
 }

@@ -317,6 +317,7 @@ void cut_elements(const Model& g, const HeldParts& h, Model& m) {
       const auto& q = g.surface_faces[i];
       m.surface_faces.push_back({h.node_local[q[0]], h.node_local[q[1]], h.node_local[q[2]]});
       m.surface_tet.push_back(h.tet_local[g.surface_tet[i]]);
+      if (!g.surface_conditions.empty()) m.surface_conditions.push_back(g.surface_conditions[i]);
     }
 }
 
@@ -468,7 +469,7 @@ void model_fields(F&& f, M& m) {
   f(m.surface_faces), f(m.surface_tet), f(m.platen_nodes), f(m.platen_node_area), f(m.platen_node_h);
   f(m.top_nodes), f(m.bottom_nodes), f(m.lateral_nodes);
   f(m.box_min), f(m.box_max), f(m.axis_point), f(m.height0), f(m.area0), f(m.line_loaded), f(m.min_altitude);
-  f(m.mean_edge), f(m.source);
+  f(m.mean_edge), f(m.source), f(m.surface_conditions);
 }
 
 constexpr std::uint64_t kRankFileMagic = 0x4644454d52414e4bull;  // "FDEMRANK"
@@ -521,6 +522,10 @@ std::uint64_t model_key(const Scene& s) {
     const real c[] = {b.min.x, b.min.y, b.min.z, b.max.x, b.max.y, b.max.z};
     h = fnv1a64(c, sizeof c, h);
   }
+  for (const BoundaryCondition& c : s.conditions) {  // (they mark faces; their values are read at the run)
+    const std::string w = c.surface + "|" + name_of(c.type) + "|" + std::to_string(c.components);
+    h = fnv1a64(w.data(), w.size(), h);
+  }
   // (A mesh read from a file has the empty word, as it had when the shape was a string.)
   const std::string words = std::string(g.generated() ? name_of(g.shape) : "") + "|" + g.file;
   return fnv1a64(words.data(), words.size(), h);
@@ -551,7 +556,8 @@ RankModel get_rank_model(CheckpointIn& in, std::uint64_t key) {
   std::uint64_t magic = 0, file_key = 0;
   in.get(magic);
   if (magic != kRankFileMagic)
-    throw InputError(path + ": not a rank file of fdem partition. Fix: write the rank files with fdem partition");
+    throw InputError(path +
+                     ": not a rank file of fdem partition. Fix: write the rank files with fdem partition");
   in.get(file_key);
   if (file_key != key)
     throw InputError(path +
@@ -571,7 +577,8 @@ RankModel get_rank_model(CheckpointIn& in, std::uint64_t key) {
       rm.dd.node_owned.size() != nn || rm.dd.tet_global.size() != nt || rm.dd.tet_owned.size() != nt ||
       m.tet_Xinv.size() != nt || m.tet_V0.size() != nt || m.tet_eta.size() != nt ||
       m.ce6_tets.size() != m.ce6_nodes.size() || m.ce6_h.size() != m.ce6_nodes.size() ||
-      rm.dd.ce6_owned.size() != m.ce6_nodes.size())
+      rm.dd.ce6_owned.size() != m.ce6_nodes.size() ||
+      (!m.surface_conditions.empty() && m.surface_conditions.size() != m.surface_faces.size()))
     bad("array sizes differ");
   for (const auto& q : m.tet_nodes)
     for (int n : q)

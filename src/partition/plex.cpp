@@ -130,7 +130,7 @@ std::string tet_record(const Model& g, const PartitionPlan& plan, const Lookup& 
   }
   o.put(lk.face_ptr[t + 1] - lk.face_ptr[t]);
   for (int j = lk.face_ptr[t]; j < lk.face_ptr[t + 1]; ++j)
-    o.put(lk.face_list[j]), o.put(g.surface_faces[lk.face_list[j]]);
+    o.put(lk.face_list[j]), o.put(g.surface_faces[lk.face_list[j]]), o.put(g.conditions_of(lk.face_list[j]));
   return o.payload();
 }
 
@@ -183,6 +183,7 @@ struct Ce6Rec {
 struct FaceRec {
   int id = 0, tet = 0;
   std::array<int, 3> nodes{};
+  std::uint32_t conditions = 0;  // Model::surface_conditions
 };
 
 struct Piece {
@@ -215,7 +216,7 @@ void read_record(const char* bytes, std::size_t n, Piece& p) {
   in.get(k);
   for (int j = 0; j < k; ++j) {
     FaceRec f;
-    in.get(f.id), in.get(f.nodes);
+    in.get(f.id), in.get(f.nodes), in.get(f.conditions);
     f.tet = int(t.id);
     p.faces.push_back(f);
   }
@@ -289,7 +290,10 @@ RankModel cut_piece(Piece& p, const Header& h, int rank) {
   for (const FaceRec& f : p.faces) {
     m.surface_faces.push_back({node_local.at(f.nodes[0]), node_local.at(f.nodes[1]), node_local.at(f.nodes[2])});
     m.surface_tet.push_back(tet_local.at(f.tet));
+    m.surface_conditions.push_back(f.conditions);
   }
+  if (std::all_of(m.surface_conditions.begin(), m.surface_conditions.end(), [](auto c) { return c == 0; }))
+    m.surface_conditions.clear();  // (none given: none held, as on the root's path)
   return extract_rank(m, plan, rank, ids);
 }
 

@@ -16,101 +16,15 @@
 
 #include "core/error.hpp"
 #include "core/format.hpp"
+#include "scene/conditions.hpp"
+#include "scene/reader.hpp"
 #include "scene/scene.hpp"
 
 namespace fdem {
 namespace {
 
 namespace fs = std::filesystem;
-constexpr double kInf = std::numeric_limits<double>::infinity();
-
-std::string join_path(const std::string& path, const std::string& key) {
-  return path.empty() ? key : path + "." + key;
-}
-
-std::string last_key(const std::string& path) {
-  const auto dot = path.find_last_of('.');
-  return dot == std::string::npos ? path : path.substr(dot + 1);
-}
-
-/// At most n bytes of s, not cutting a UTF-8 character.
-std::string utf8_prefix(const std::string& s, std::size_t n) {
-  if (s.size() <= n) return s;
-  while (n > 0 && (static_cast<unsigned char>(s[n]) & 0xC0) == 0x80) --n;
-  return s.substr(0, n);
-}
-
-std::string describe(const YAML::Node& n) {
-  switch (n.Type()) {
-    case YAML::NodeType::Null:
-      return "nothing";
-    case YAML::NodeType::Sequence:
-      return "a list";
-    case YAML::NodeType::Map:
-      return "a map";
-    case YAML::NodeType::Scalar:  // the start of a long one (a whole file read as one value)
-      return "'" + (n.Scalar().size() > 60
-                        ? utf8_prefix(n.Scalar(), 60) + "...' (" + std::to_string(n.Scalar().size()) + " bytes)"
-                        : n.Scalar() + "'");
-    default:
-      return "an undefined value";
-  }
-}
-
-// Edit distance, for "did you mean" hints on misspelled keys.
-size_t distance(const std::string& a, const std::string& b) {
-  std::vector<size_t> row(b.size() + 1);
-  for (size_t j = 0; j <= b.size(); ++j) row[j] = j;
-  for (size_t i = 1; i <= a.size(); ++i) {
-    size_t diag = row[0];
-    row[0] = i;
-    for (size_t j = 1; j <= b.size(); ++j) {
-      const size_t up = row[j];
-      const bool same = std::tolower(a[i - 1]) == std::tolower(b[j - 1]);
-      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diag + (same ? 0 : 1)});
-      diag = up;
-    }
-  }
-  return row[b.size()];
-}
-
-/// Allowed interval of a number; open or closed at each end; optionally integers only.
-struct Range {
-  double lo = -kInf, hi = kInf;
-  bool lo_open = false, hi_open = false;
-  bool integer = false;
-
-  bool contains(double v) const {
-    if (lo_open ? !(v > lo) : !(v >= lo)) return false;
-    if (hi_open ? !(v < hi) : !(v <= hi)) return false;
-    return true;
-  }
-  std::string text(const std::string& name) const {
-    std::string s;
-    const bool has_lo = lo > -kInf, has_hi = hi < kInf;
-    if (has_lo && has_hi)
-      s = fmt(lo) + (lo_open ? " < " : " <= ") + name + (hi_open ? " < " : " <= ") + fmt(hi);
-    else if (has_lo)
-      s = name + (lo_open ? " > " : " >= ") + fmt(lo);
-    else if (has_hi)
-      s = name + (hi_open ? " < " : " <= ") + fmt(hi);
-    else
-      s = "any finite " + name;
-    return "allowed " + s + (integer ? " (a whole number)" : "");
-  }
-};
-Range positive() {
-  return {0, kInf, true, false};
-}
-Range at_least(double lo) {
-  return {lo, kInf, false, false};
-}
-Range closed(double lo, double hi) {
-  return {lo, hi, false, false};
-}
-Range count_at_least(double lo, double hi = kInf) {
-  return {lo, hi, false, false, true};
-}
+using namespace scene_reading;
 
 /// What a run's name may not hold: control characters, and what ends a folder name.
 bool bad_name_char(char c) {
@@ -119,171 +33,9 @@ bool bad_name_char(char c) {
 }
 
 /// Walks the YAML tree, fills the Scene and collects every error.
-class Reader {
+class Reader : public YamlReader {
  public:
-  explicit Reader(std::string file) : file_(std::move(file)) {}
-
-  const std::vector<std::string>& errors() const { return errors_; }
-
-  void error(const std::string& path, const std::string& what, const std::string& fix) {
-    std::string msg = file_ + ": ";
-    if (!path.empty()) msg += path + ": ";
-    msg += what;
-    if (!fix.empty()) msg += "; " + fix;
-    errors_.push_back(msg);
-  }
-
-  /// True if `n` is a map whose keys are all in `allowed` (unknown/duplicate keys are reported).
-  bool check_map(const YAML::Node& n, const std::string& path, const std::vector<std::string>& allowed) {
-    std::string list;
-    for (const auto& k : allowed) list += (list.empty() ? "" : ", ") + k;
-    if (!n.IsMap()) {
-      error(path, "expected a map of keys, got " + describe(n), "allowed keys: " + list);
-      return false;
-    }
-    std::set<std::string> seen;  // not a vector: a file with 10^5 keys must not take minutes
-    for (const auto& kv : n) {
-      if (!kv.first.IsScalar()) {
-        error(path, "a key is " + describe(kv.first) + ", not a plain name", "allowed keys: " + list);
-        continue;
-      }
-      const std::string key = kv.first.Scalar();
-      if (!seen.insert(key).second) error(join_path(path, key), "key given twice", "give each key once");
-      if (std::find(allowed.begin(), allowed.end(), key) != allowed.end()) continue;
-      std::string hint;
-      size_t best = 3;
-      for (const auto& a : allowed) {
-        const size_t d = distance(key, a);
-        if (d < best) best = d, hint = "did you mean '" + a + "'? ";
-      }
-      if (hint.empty() && key.size() >= 3)
-        for (const auto& a : allowed)
-          if (a.find(key) != std::string::npos || key.find(a) != std::string::npos) {
-            hint = "did you mean '" + a + "'? ";
-            break;
-          }
-      error(join_path(path, key), "unknown key",
-            hint + "allowed keys in " + (path.empty() ? "the top level" : path) + ": " + list);
-    }
-    return true;
-  }
-
-  /// Reads number `key` of map `n` into `out` if present and inside `r`. Returns true if assigned.
-  template <class T>
-  bool number(const YAML::Node& n, const std::string& path, const std::string& key, const Range& r, T& out) {
-    const YAML::Node v = n[key];
-    if (!v) return false;
-    const std::string p = join_path(path, key);
-    double x = 0;
-    if (!scalar_number(v, p, r, x)) return false;
-    out = static_cast<T>(x);
-    return true;
-  }
-
-  /// A number given directly (list entries). Returns false (and reports) if bad.
-  bool scalar_number(const YAML::Node& v, const std::string& p, const Range& r, double& x) {
-    const std::string name = last_key(p);
-    if (!v.IsScalar()) {
-      error(p, "expected a number, got " + describe(v), r.text(name));
-      return false;
-    }
-    try {
-      x = v.as<double>();
-    } catch (const YAML::Exception&) {
-      error(p, "'" + v.Scalar() + "' is not a number", r.text(name));
-      return false;
-    }
-    if (!std::isfinite(x)) {
-      error(p, "'" + v.Scalar() + "' is not a finite number", r.text(name));
-      return false;
-    }
-    if (!r.contains(x)) {
-      error(p, v.Scalar() + " is out of range", r.text(name));
-      return false;
-    }
-    if (r.integer && std::fabs(x) > 1e15) {
-      error(p, v.Scalar() + " is too large", r.text(name) + ", at most 1e15");
-      return false;
-    }
-    if (r.integer && x != std::floor(x)) {
-      error(p, v.Scalar() + " is not a whole number", r.text(name));
-      return false;
-    }
-    return true;
-  }
-
-  /// Reads a non-empty string. Returns true if assigned.
-  bool text(const YAML::Node& n, const std::string& path, const std::string& key, std::string& out,
-            const std::string& allowed) {
-    const YAML::Node v = n[key];
-    if (!v) return false;
-    const std::string p = join_path(path, key);
-    if (!v.IsScalar() || v.Scalar().empty()) {
-      error(p, "expected a text value, got " + describe(v), allowed);
-      return false;
-    }
-    out = v.Scalar();
-    return true;
-  }
-
-  /// Reads one of a fixed set of words. Returns true if assigned.
-  bool choice(const YAML::Node& n, const std::string& path, const std::string& key,
-              const std::vector<std::string>& options, std::string& out) {
-    std::string list;
-    for (const auto& o : options) list += (list.empty() ? "" : " | ") + o;
-    std::string s;
-    if (!text(n, path, key, s, "allowed: " + list)) return false;
-    if (std::find(options.begin(), options.end(), s) == options.end()) {
-      error(join_path(path, key), "'" + s + "' is not recognised", "allowed: " + list);
-      return false;
-    }
-    out = s;
-    return true;
-  }
-
-  /// Reads one of the words of E (ChoiceNames). Returns true if assigned.
-  template <class E>
-  bool choice(const YAML::Node& n, const std::string& path, const std::string& key, E& out) {
-    const auto& words = ChoiceNames<E>::words;
-    std::string s;
-    return choice(n, path, key, std::vector<std::string>(words.begin(), words.end()), s) && choice_named(s, out);
-  }
-
-  bool boolean(const YAML::Node& n, const std::string& path, const std::string& key, bool& out) {
-    const YAML::Node v = n[key];
-    if (!v) return false;
-    try {
-      if (v.IsScalar()) {
-        out = v.as<bool>();
-        return true;
-      }
-    } catch (const YAML::Exception&) {
-    }
-    error(join_path(path, key), "expected true or false, got " + describe(v), "allowed: true | false");
-    return false;
-  }
-
-  /// A list of three numbers [x, y, z].
-  bool vec3(const YAML::Node& v, const std::string& p, const Range& r, Vec3& out) {
-    if (!v.IsSequence() || v.size() != 3) {
-      error(p,
-            "expected a list of three numbers [x, y, z], got " + describe(v) +
-                (v.IsSequence() ? " of " + std::to_string(v.size()) : ""),
-            "write e.g. " + p.substr(p.find_last_of('.') + 1) + ": [0.01, 0.01, 0.02]");
-      return false;
-    }
-    Vec3 x{0, 0, 0};
-    bool ok = true;
-    for (int i = 0; i < 3; ++i) {
-      double c = 0;
-      if (scalar_number(v[i], p + "[" + std::to_string(i) + "]", r, c))
-        x[i] = c;
-      else
-        ok = false;
-    }
-    if (ok) out = x;
-    return ok;
-  }
+  using YamlReader::YamlReader;
 
   // ---- sections -------------------------------------------------------------------------
 
@@ -625,7 +377,7 @@ class Reader {
     strange_yaml(root, "");
     if (!check_map(root, "",
                    {"name", "material", "mesh", "fracture_regions", "platens", "confinement", "contact", "gravity",
-                    "solver", "output"}))
+                    "boundary_conditions", "solver", "output"}))
       return s;
     const std::string scene_dir = fs::path(file).parent_path().string();
     if (text(root, "", "name", s.name, "give a short name for the run")) name_check(s.name);
@@ -645,6 +397,7 @@ class Reader {
     if (given("confinement")) confinement(root["confinement"], s.confinement, s.platens.enabled);
     if (given("contact")) contact(root["contact"], s.contact);
     if (root["gravity"]) vec3(root["gravity"], "gravity", closed(-1e4, 1e4), s.gravity);
+    if (root["boundary_conditions"]) read_boundary_conditions(*this, root["boundary_conditions"], s.conditions);
     if (given("solver"))
       solver(root["solver"], s.solver, s.platens.enabled);
     else
@@ -654,10 +407,6 @@ class Reader {
     if (given("output")) output(root["output"], s.output);
     return s;
   }
-
- private:
-  std::string file_;
-  std::vector<std::string> errors_;
 };
 
 /// The scene's YAML document: the text with the empty documents before it blanked (line numbers

@@ -8,6 +8,7 @@
 #include "core/choice.hpp"
 #include "core/vec.hpp"
 #include "physics/contact.hpp"
+#include "physics/time_function.hpp"
 
 namespace fdem {
 
@@ -133,6 +134,27 @@ struct ContactSettings {
   bool enabled() const { return activation != Activation::none; }
 };
 
+/// What a boundary condition holds on its surface's nodes: every velocity component at zero
+/// (fixed), the component along the surface's normal at zero (roller: the surface must be normal
+/// to x, y or z), or the components given at a velocity (velocity; ~ leaves one free).
+enum class ConditionType { fixed, roller, velocity };
+template <>
+struct ChoiceNames<ConditionType> {
+  static constexpr std::array<const char*, 3> words{"fixed", "roller", "velocity"};
+};
+
+/// A boundary condition on a surface group of the mesh (MeshGroup, dim 2).
+struct BoundaryCondition {
+  std::string surface;  // the group's name, or its gmsh tag as a number
+  ConditionType type = ConditionType::fixed;
+  Vec3 velocity{0, 0, 0};          // m/s (velocity), times time(t)
+  int components = 7;              // (velocity) bit d: component d prescribed; a ~ in the scene leaves it free
+  TimeFunction time;               // (velocity)
+  static constexpr int kMax = 32;  // conditions a scene may give (one bit each per surface face)
+  /// "boundary_conditions[i]", for messages.
+  static std::string key(std::size_t i) { return "boundary_conditions[" + std::to_string(i) + "]"; }
+};
+
 struct EndCondition {
   real time = 0;                // s; 0 = not used
   long steps = 0;               // 0 = not used
@@ -182,7 +204,8 @@ struct Scene {
   Platens platens;
   ContactSettings contact;
   Confinement confinement;
-  Vec3 gravity{0, 0, 0};  // m/s^2, body force per unit mass
+  std::vector<BoundaryCondition> conditions;  // boundary_conditions, in file order
+  Vec3 gravity{0, 0, 0};                      // m/s^2, body force per unit mass
   bool has_gravity() const { return gravity.x != 0 || gravity.y != 0 || gravity.z != 0; }
   SolverSettings solver;
   OutputSettings output;

@@ -43,6 +43,7 @@ struct AdvanceSums {
   real contact_power = 0;   // -sum f.v of the last contact forces with the new velocities, W
   real pressure_power = 0;  // the same for the confining pressure, W
   real gravity_power = 0;   // sum m g.v with the new velocities, W
+  real reaction_power = 0;  // sum R.v of the prescribed velocities' reactions over the step, W
   real far = 0;             // owned nodes a quarter of the contact reach from ContactSet::plan_x()
   real lost = 0;            // owned nodes half the contact reach from there
   // Several ranks: what this rank adds to the step's one reduction besides the above
@@ -78,11 +79,11 @@ struct MonitorSums {
 /// The step's one reduction over the ranks: this rank's integration sums and works over the
 /// step, then a device loop's values (AdvanceSums::more).
 struct StepSums {
-  real bad = 0, ke = 0, w_con = 0, w_pre = 0, w_grav = 0, far = 0, lost = 0;
-  static constexpr int kValues = 7;  // the values above, summed over the ranks in this order
+  real bad = 0, ke = 0, w_con = 0, w_pre = 0, w_grav = 0, w_kin = 0, far = 0, lost = 0;
+  static constexpr int kValues = 8;  // the values above, summed over the ranks in this order
   template <class F>
   void for_each(F&& f) {
-    for (real* p : {&bad, &ke, &w_con, &w_pre, &w_grav, &far, &lost}) f(*p);
+    for (real* p : {&bad, &ke, &w_con, &w_pre, &w_grav, &w_kin, &far, &lost}) f(*p);
   }
   int n_more = 0;  // a device loop's values summed after them (AdvanceSums::more)
   std::array<real, 11> more{};

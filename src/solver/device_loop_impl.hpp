@@ -347,6 +347,7 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     elements_.template fused_pass<Elements::kStep>(element_inputs(s), held_forces(), fused_step(dt), keep_and_clear);
     std::swap(x_, x2_);
     std::swap(v_, v2_);
+    s.loads.prescribed.reaction_power<Exec>(v_.data(), own_node_.data(), dt, sums_.data() + kReactionPower);
     waiting_.elements = false;
     clock_.lap(t_.ce6);  // (the TET4 and integration columns stay empty)
     contact_pressure_powers(s.contacts.enabled(), s.loads.confinement.enabled, s.contacts.enabled());
@@ -367,7 +368,7 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
   }
   /// The step of dt (s) the fused pass takes: into the second copies of x and v.
   FusedStep fused_step(real dt) {
-    return FusedStep{x2_.data(), v2_.data(), p_.loads.prescribed.node_step(mass_.data(), dt)};
+    return FusedStep{x2_.data(), v2_.data(), p_.loads.prescribed.node_step(mass_.data(), p_.time, dt)};
   }
 
   /// Where the fused pass stepped: the last evaluation's sums (its contact, platens and pressure
@@ -616,7 +617,10 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
           }
         },
         sums_.data() + kBad);
-    p_.loads.prescribed.apply<Exec>(x, v, dt);
+    PrescribedVelocities& prescribed = p_.loads.prescribed;
+    if (!prescribed.on()) return;
+    prescribed.apply<Exec>(x, v, mass, p_.time, dt);
+    prescribed.reaction_power<Exec>(v, own_n, dt, sums_.data() + kReactionPower);
   }
 
   /// The powers of the last contact and pressure forces, and of gravity, with the velocities now

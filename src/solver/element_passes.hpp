@@ -120,7 +120,7 @@ struct FusedStep {
       mover.move_with(mn, xn, vn, fe[i]);
       acc[0] += !finite_value(vn.x + vn.y + vn.z);
       acc[1] += mn * dot(vn, vn);
-      mover.prescribe(n, xn, vn);
+      mover.prescribe(n, mn, xn, vn);
       x_new[n] = xn, v_new[n] = vn;
       if (gravity) acc[2] += mn * dot(g, vn);
     }

@@ -60,7 +60,7 @@ inline AdvanceSums advance_sums_from(const real* r) {
   AdvanceSums out;
   out.bad = r[S::kBad], out.kinetic2 = r[S::kKinetic2], out.contact_power = r[S::kConPowerNew];
   out.pressure_power = r[S::kPressurePowerNew], out.gravity_power = r[S::kGravityNew], out.far = r[S::kFar];
-  out.lost = r[S::kLost];
+  out.lost = r[S::kLost], out.reaction_power = r[S::kReactionPower];
   return out;
 }
 

@@ -26,6 +26,11 @@ struct Monitors {
   real lateral_stress = 0;
   real indirect_tensile = 0;  // Pa, 2 P / (pi D t) of a line-loaded disc (Brazilian test), else 0
   real energy_error = 0;      // |external - (everything else)| / max(external, floor)
+  // Per scene boundary condition, 4 columns after kMonitorColumns: its reaction on the rock
+  // (x, y, z, N) and the work it did (J). (An array: a row is checkpointed as plain bytes.)
+  static constexpr int kMaxConditionColumns = 128;
+  int condition_columns = 0;
+  std::array<real, kMaxConditionColumns> conditions{};
 };
 
 /// A column of monitors.csv: its name (with the unit) and the field it shows, a count or a real.

@@ -109,8 +109,11 @@ Model build_scene_model(const Scene& scene, const std::string& write_mesh, std::
     mesh = load_mesh(scene.mesh);
     model = build_model(mesh, scene);
   } catch (const InputError& e) {
-    // Name the scene too: the mesh message names the mesh file and the element.
-    throw InputError(scene.file + ": mesh: " + e.what());
+    // Name the scene too: the mesh message names the mesh file and the element. (A boundary
+    // condition's message names the scene and its key already.)
+    const std::string what = e.what();
+    if (what.rfind(scene.file + ": ", 0) == 0) throw;
+    throw InputError(scene.file + ": mesh: " + what);
   }
   log << describe_groups(mesh);
   if (!write_mesh.empty()) {

@@ -144,7 +144,7 @@ RunSession::RunSession(Solver& solver, std::ostream& log, const RunOptions& opti
     replace_earlier_run();
   if (!r_.csv.f) throw InputError(scene_.file + ": output.folder: cannot write '" + r_.csv_path + "'");
   if (!r_.fields) {
-    r_.csv.put(monitors_header());
+    r_.csv.put(monitors_header(scene_));
     r_.fields = std::make_unique<FieldWriter>(out_.folder, fields_name_);
   }
   // The automatic field interval: about 20 frames over the steps the end takes.

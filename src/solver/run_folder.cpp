@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
@@ -24,9 +25,22 @@ const char* const kSummaryHeader =
     "planarity,mean_facet_angle_deg,crack_centroid_x_m,crack_centroid_y_m,crack_centroid_z_m,steps,time_s,wall_s,"
     "end_reason";
 
-std::string monitors_header() {
+std::vector<std::string> condition_column_names(const Scene& scene) {
+  std::vector<std::string> names;
+  for (std::size_t i = 0; i < scene.conditions.size(); ++i) {
+    std::string surface = scene.conditions[i].surface;
+    for (char& c : surface)
+      if (!std::isalnum(static_cast<unsigned char>(c)) && c != '_' && c != '-') c = '_';
+    const std::string stem = "bc" + std::to_string(i) + "_" + surface + "_";
+    for (const char* end : {"reaction_x_N", "reaction_y_N", "reaction_z_N", "work_J"}) names.push_back(stem + end);
+  }
+  return names;
+}
+
+std::string monitors_header(const Scene& scene) {
   std::string h;
   for (const MonitorColumn& c : kMonitorColumns) h += (h.empty() ? "" : ",") + std::string(c.name);
+  for (const std::string& name : condition_column_names(scene)) h += "," + name;
   return h + '\n';
 }
 
@@ -41,15 +55,19 @@ std::string monitor_row(const Monitors& m, const Solver& solver) {
     else
       o << m.*c.value;
   }
+  for (int k = 0; k < m.condition_columns; ++k) o << ',' << m.conditions[k];
   o << '\n';
   const std::string row = o.str();
   if (row.find("nan") != std::string::npos || row.find("inf") != std::string::npos) {
     std::stringstream cells(row);
     std::string cell;
-    for (const MonitorColumn& c : kMonitorColumns)
+    std::vector<std::string> names;
+    for (const MonitorColumn& c : kMonitorColumns) names.push_back(c.name);
+    for (const std::string& name : condition_column_names(solver.scene())) names.push_back(name);
+    for (const std::string& name : names)
       if (std::getline(cells, cell, ',') &&
           (cell.find("nan") != std::string::npos || cell.find("inf") != std::string::npos))
-        throw RunError("step " + std::to_string(m.step) + ": the monitor " + c.name + " is " + cell +
+        throw RunError("step " + std::to_string(m.step) + ": the monitor " + name + " is " + cell +
                        ": the run is unstable. " + solver.instability_advice());
     throw RunError("step " + std::to_string(m.step) + ": a monitor is not finite: the run is unstable. " +
                    solver.instability_advice());

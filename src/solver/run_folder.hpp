@@ -20,7 +20,10 @@ struct RunSummary;
 /// Columns of summary.csv.
 extern const char* const kSummaryHeader;
 /// The header line of monitors.csv (kMonitorColumns' names).
-std::string monitors_header();
+std::string monitors_header(const Scene& scene);
+/// The boundary conditions' columns after kMonitorColumns: bc<i>_<surface>_reaction_x_N, _y_N,
+/// _z_N and _work_J for each condition i.
+std::vector<std::string> condition_column_names(const Scene& scene);
 
 /// One monitor row (10 significant digits); a row with a non-finite value throws RunError
 /// instead (no output file holds NaN or inf), naming the step and the column.

@@ -206,9 +206,8 @@ void Solver::check_step_count() const {
 }
 
 void Solver::check_runaway(real ke) const {
-  // Energy enters only through the platens, the pressure and gravity; prescribed velocities
-  // (tests) bring their own.
-  energy_.check_runaway(ke, loads_.prescribed.on(), where(), [&] { return instability_advice(); });
+  // Velocities the caller prescribes (tests) may change at any time: no check then.
+  energy_.check_runaway(ke, loads_.prescribed.set_by_caller(), where(), [&] { return instability_advice(); });
 }
 
 std::string Solver::where() const {
@@ -251,6 +250,7 @@ StepSums Solver::step_sums(const AdvanceSums& a) const {
   if (contacts.enabled()) st.w_con = 0.5 * dt * (energy_.p_contact + a.contact_power);
   if (loads_.confinement.enabled) st.w_pre = 0.5 * dt * (loads_.confinement.power + a.pressure_power);
   if (loads_.gravity.enabled) st.w_grav = 0.5 * dt * (loads_.gravity.power + a.gravity_power);
+  st.w_kin = dt * a.reaction_power;  // (the reaction acts over the step it was found in)
   return st;
 }
 
@@ -285,13 +285,24 @@ bool Solver::finish_step(const AdvanceSums& a) {
   }
   // for the runaway check of every step (the loop is memory-bound: this is free)
   energy_.contact += all.w_con;
-  energy_.external += all.w_pre + all.w_grav;
+  energy_.external += all.w_pre + all.w_grav + all.w_kin;
   // After every work of this step is counted (pressure and gravity just above).
   check_runaway(0.5 * all.ke);
   loads_.platens.top_offset = loads_.platens.top_offset_after(dt);
   state.time += dt;
   ++state.step;
   return all.far > 0;
+}
+
+void Solver::condition_columns(Monitors& r) {
+  if (scene_.conditions.empty()) return;
+  loads_.prescribed.download_state();
+  const bool ranks = layout_.dd.distributed();
+  std::vector<real> sums =
+      loads_.prescribed.condition_sums(ranks ? layout_.dd.node_owned : std::vector<std::uint8_t>{});
+  if (ranks) layout_.sum(sums.data(), int(sums.size()));
+  r.condition_columns = int(sums.size());
+  std::copy(sums.begin(), sums.end(), r.conditions.begin());
 }
 
 Monitors Solver::measure() {
@@ -301,6 +312,7 @@ Monitors Solver::measure() {
   r.step = state.step;
   r.time = state.time;
   loads_.monitor(m, r);
+  condition_columns(r);
   // This rank's sums: on the device where the state is (no copy of the state to the host).
   upload_if_changed();
   MonitorSums sums = dev_->measure_sums();
@@ -344,8 +356,8 @@ Monitors Solver::measure() {
   const real accounted = energy_.accounted(ke, se, pl_stored);
   r.energy_error = energy_.balance_error(accounted);
   // The energy balance: work put in against everything stored, dissipated and moving. Runs
-  // with prescribed node velocities (tests) do not account for the work those do.
-  energy_.check_row(accounted, ke, scene_.solver.max_energy_error, loads_.prescribed.on(), where(),
+  // whose caller prescribes node velocities (tests) are not checked.
+  energy_.check_row(accounted, ke, scene_.solver.max_energy_error, loads_.prescribed.set_by_caller(), where(),
                     [&] { return instability_advice(); });
   return r;
 }
@@ -452,6 +464,13 @@ std::uint64_t physics_fingerprint(const Scene& s, const Model& m, real dt) {
                          s.solver.damping_scale,
                          dt};
   h = fnv1a64(values, sizeof values, h);
+  for (const BoundaryCondition& c : s.conditions) {
+    const real v[] = {real(c.type),       c.velocity.x,       c.velocity.y,   c.velocity.z,
+                      real(c.components), real(c.time.shape), c.time.duration};
+    h = fnv1a64(v, sizeof v, h);
+    h = fnv1a64(c.time.table.data(), c.time.table.size() * sizeof c.time.table[0], h);
+    h = fnv1a64(c.surface.data(), c.surface.size(), h);
+  }
   const std::string words = std::string(name_of(a.softening)) + "|" + name_of(s.confinement.path) + "|" +
                             name_of(s.contact.activation) + "|" + name_of(s.contact.law);
   return fnv1a64(words.data(), words.size(), h);

@@ -14,6 +14,7 @@
 
 #include "core/device_memory.hpp"
 #include "core/error.hpp"
+#include "loads/loads.hpp"
 #include "model/laws.hpp"
 #include "model/model.hpp"
 #include "partition/halo.hpp"
@@ -24,7 +25,6 @@
 #include "solver/contact_set.hpp"
 #include "solver/device_loop.hpp"
 #include "solver/energy_ledger.hpp"
-#include "loads/loads.hpp"
 #include "solver/monitors.hpp"
 #include "solver/rank_layout.hpp"
 #include "solver/solver_state.hpp"
@@ -138,6 +138,8 @@ class Solver : private StepBookkeeping {
   /// Prescribe velocity components (mask bit 0 = x, 1 = y, 2 = z) of a node. Prescribing a node
   /// again sets the new components (the others stay prescribed).
   void prescribe(int node, int mask, Vec3 velocity);
+  /// The kinematic conditions' monitor columns (their reactions and works, whole model) into r.
+  void condition_columns(Monitors& r);
 
   /// Per-tet Cauchy stress and von Mises stress at node positions xs and velocities vs (for
   /// output; the current state or a saved one).

@@ -36,12 +36,13 @@ struct SumSlots {
     kLost,
     kConPowerNew,  // the last forces' powers with the new velocities
     kPressurePowerNew,
-    kWatched,       // the broad phase's watch where the fused pass steps (with the new powers)
-    kSums = 25,     // (kWatched + 1 at most)
-    kPrev = kSums,  // [kPrev, kPrev + kBad): the last evaluation's [0, kBad), kept for its step
+    kWatched,        // the broad phase's watch where the fused pass steps (with the new powers)
+    kReactionPower,  // the prescribed velocities' reactions with the new velocities
+    kSums = 26,      // (kReactionPower + 1 at most)
+    kPrev = kSums,   // [kPrev, kPrev + kBad): the last evaluation's [0, kBad), kept for its step
     kAll = kPrev + kBad
   };
-  static_assert(kWatched < kSums, "an integration's slots end before kPrev");
+  static_assert(kReactionPower < kSums, "an integration's slots end before kPrev");
   /// The sums that the whole model sums over the ranks (the others are each rank's own).
   static constexpr std::array<int, 10> kWhole = {kTop,  kBottom,  kPlatenFric, kVisc,      kCoh,
                                                  kFric, kConDiss, kConStored,  kConEnergy, kTouching};

@@ -88,6 +88,24 @@ TEST(CliRanks, TwoRanksWriteTheOneRankResults) {
   EXPECT_EQ(tets(r0) + tets(r1), tets(slurp(one / "fields.xdmf")));
 }
 
+TEST(CliRanks, BoundaryConditionsOnTwoRanksGiveTheOneRankReactions) {
+  // Rollers, a fixed face and a pressed end on a box cut in two: each node's reaction is counted
+  // by its owner once, so the reactions and works match the one-rank run to round-off.
+  if (mpiexec(2).empty()) GTEST_SKIP() << "mpiexec not found";
+  TempDir tmp("ranks_conditions");
+  const std::string scene = (kData / "cli" / "conditions_box.yaml").string();
+  const fs::path one = tmp.path / "one", two = tmp.path / "two";
+  const Outcome a = run_fdem("run " + quote(scene) + " -q -o " + quote(one.string()));
+  ASSERT_EQ(a.code, 0) << a.text;
+  const Outcome b = run_cmd(mpiexec(2) + quote(kExe) + " run " + quote(scene) + " -q -o " + quote(two.string()));
+  ASSERT_EQ(b.code, 0) << b.text;
+  const Csv c1 = read_csv(one / "monitors.csv"), c2 = read_csv(two / "monitors.csv");
+  EXPECT_LT(monitor_difference(c1, c2), 1e-9);
+  const int rz = column(c1, "bc4_zmax_reaction_z_N");
+  ASSERT_GE(rz, 0) << "the pressed end's column";
+  EXPECT_LT(c1.rows.back()[rz], -10) << "the end is loaded";
+}
+
 // The first job's ranks (the launcher's children) are stopped while the second job tries the
 // folder, so a fast first job cannot end before the second starts. Stopped ranks keep the lock.
 const std::string kStopRanks = "kids=$(cat /proc/$pid/task/*/children 2>/dev/null); kill -STOP $kids; ";
