@@ -12,27 +12,27 @@
 // place its kind takes: a body force starts each node's force (gravity), a surface load adds to
 // it after contact (platens, pressure), a kinematic condition follows the integration
 // (prescribed velocities). Its law is in src/physics.
-#include "loads/confinement.hpp"
 #include "loads/gravity.hpp"
 #include "loads/platens.hpp"
 #include "loads/prescribed.hpp"
+#include "loads/surface_loads.hpp"
 
 namespace fdem {
 
 struct Loads {
   PlatenLoad platens;
-  ConfiningPressure confinement;
+  SurfaceLoads surface;  // the confining pressure and the surface conditions
   GravityLoad gravity;
   PrescribedVelocities prescribed;  // the scene's kinematic boundary conditions, and the caller's
 
   /// f(load) for every load, in this order (the checkpoint's and the monitor row's).
   template <class F>
   void each(F&& f) {
-    f(platens), f(confinement), f(gravity), f(prescribed);
+    f(platens), f(surface), f(gravity), f(prescribed);
   }
   template <class F>
   void each(F&& f) const {
-    f(platens), f(confinement), f(gravity), f(prescribed);
+    f(platens), f(surface), f(gravity), f(prescribed);
   }
   /// Each load's monitor columns, in turn.
   void monitor(const Model& m, Monitors& r) const {

@@ -28,6 +28,7 @@ void PrescribedVelocities::set_up(const Scene& scene, const Model& m) {
       if (!(m.surface_conditions[k] >> ci & 1)) continue;
       const BoundaryCondition& c = scene.conditions[ci];
       const int components = prescribed_components(c, m, m.surface_faces[k]);
+      if (components == 0) continue;  // a face load (loads/surface_loads.hpp)
       const bool moves =
           c.type == ConditionType::velocity && (c.velocity.x != 0 || c.velocity.y != 0 || c.velocity.z != 0);
       for (int n : m.surface_faces[k]) {

@@ -126,8 +126,10 @@ int prescribed_components(const BoundaryCondition& c, const Model& m, const std:
       return 1 << face_axis(m, q).axis;
     case ConditionType::velocity:
       return c.components;
-    default:
+    case ConditionType::fixed:
       return 7;
+    default:
+      return 0;  // a face load
   }
 }
 

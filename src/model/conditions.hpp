@@ -19,7 +19,8 @@ struct FaceAxis {
 };
 FaceAxis face_axis(const Model& m, const std::array<int, 3>& q);
 
-/// The velocity components (bit d: component d) condition c prescribes on its nodes, on face q.
+/// The velocity components (bit d: component d) condition c prescribes on its nodes, on face q
+/// (none for a face load).
 int prescribed_components(const BoundaryCondition& c, const Model& m, const std::array<int, 3>& q);
 
 }  // namespace fdem

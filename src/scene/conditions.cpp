@@ -69,28 +69,53 @@ void read_velocity(YamlReader& r, const YAML::Node& n, const std::string& p, Bou
   if (c.components == 0) r.error(p, "leaves every component free", form);
 }
 
+/// The key that gives condition c's value ("velocity", "traction", "pressure"), or "" (none).
+std::string value_key(ConditionType t) {
+  switch (t) {
+    case ConditionType::velocity:
+      return "velocity";
+    case ConditionType::traction:
+      return "traction";
+    case ConditionType::pressure:
+      return "pressure";
+    default:
+      return "";
+  }
+}
+
+/// The value of a condition of type c.type under `key`, and its time function.
+void read_value(YamlReader& r, const YAML::Node& n, const std::string& p, BoundaryCondition& c) {
+  const std::string key = value_key(c.type);
+  const std::string pk = p + "." + key;
+  if (c.type == ConditionType::velocity) read_velocity(r, n[key], pk, c);
+  if (c.type == ConditionType::traction) r.vec3(n[key], pk, closed(-1e10, 1e10), c.traction);
+  if (c.type == ConditionType::pressure) r.number(n, p, key, closed(-1e10, 1e10), c.pressure);
+  if (n["time_function"]) read_time_function(r, n["time_function"], p + ".time_function", c.time);
+}
+
 void read_condition(YamlReader& r, const YAML::Node& n, const std::string& p, BoundaryCondition& c) {
-  if (!r.check_map(n, p, {"surface", "type", "velocity", "time_function"})) return;
+  if (!r.check_map(n, p, {"surface", "type", "velocity", "traction", "pressure", "time_function"})) return;
   if (!n["surface"]) r.error(p + ".surface", "missing", "name a surface group of the mesh (fdem check lists them)");
   r.text(n, p, "surface", c.surface, "name a surface group of the mesh (fdem check lists them)");
   if (!n["type"]) r.error(p + ".type", "missing", "give the condition's type: " + choice_list<ConditionType>(" | "));
-  r.choice(n, p, "type", c.type);
-  const bool moves = c.type == ConditionType::velocity;
-  if (moves && !n["velocity"]) r.error(p + ".velocity", "missing", "give the surface's velocity [vx, vy, vz] in m/s");
-  if (n["velocity"]) {
-    if (moves)
-      read_velocity(r, n["velocity"], p + ".velocity", c);
-    else
-      r.error(p + ".velocity", std::string("is not read for type ") + name_of(c.type),
-              "remove it, or give type: velocity");
-  }
-  if (n["time_function"]) {
-    if (moves)
-      read_time_function(r, n["time_function"], p + ".time_function", c.time);
-    else
-      r.error(p + ".time_function", std::string("a ") + name_of(c.type) + " condition holds its value at zero",
-              "remove it, or give type: velocity");
-  }
+  if (!r.choice(n, p, "type", c.type)) return;
+  const std::string key = value_key(c.type);
+  const char* units = c.type == ConditionType::velocity   ? "[vx, vy, vz] in m/s"
+                      : c.type == ConditionType::traction ? "[tx, ty, tz] in Pa"
+                                                          : "in Pa, compression positive";
+  if (!key.empty() && !n[key]) r.error(p + "." + key, "missing", "give the surface's " + key + " " + units);
+  for (const char* other : {"velocity", "traction", "pressure"})
+    if (n[other] && key != other)
+      r.error(p + "." + other, std::string("is not read for type ") + name_of(c.type),
+              "remove it, or give type: " + std::string(other));
+  if (n["time_function"] && key.empty())
+    r.error(p + ".time_function",
+            c.type == ConditionType::absorbing
+                ? std::string("an absorbing boundary has no value to scale")
+                : std::string("a ") + name_of(c.type) + " condition holds its value at zero",
+            "remove it, or give type velocity, traction or pressure");
+  else if (!key.empty() && n[key])
+    read_value(r, n, p, c);
 }
 
 }  // namespace

@@ -134,13 +134,15 @@ struct ContactSettings {
   bool enabled() const { return activation != Activation::none; }
 };
 
-/// What a boundary condition holds on its surface's nodes: every velocity component at zero
-/// (fixed), the component along the surface's normal at zero (roller: the surface must be normal
-/// to x, y or z), or the components given at a velocity (velocity; ~ leaves one free).
-enum class ConditionType { fixed, roller, velocity };
+/// What a boundary condition does on its surface's nodes. Kinematic: every velocity component
+/// at zero (fixed), the component along the surface's normal at zero (roller: the surface must
+/// be normal to x, y or z), or the components given (velocity; ~ leaves one free). Face loads: a
+/// follower pressure (pressure), a fixed traction on the reference area (traction), or viscous
+/// dashpots that absorb outgoing waves (absorbing).
+enum class ConditionType { fixed, roller, velocity, traction, pressure, absorbing };
 template <>
 struct ChoiceNames<ConditionType> {
-  static constexpr std::array<const char*, 3> words{"fixed", "roller", "velocity"};
+  static constexpr std::array<const char*, 6> words{"fixed", "roller", "velocity", "traction", "pressure", "absorbing"};
 };
 
 /// A boundary condition on a surface group of the mesh (MeshGroup, dim 2).
@@ -149,8 +151,13 @@ struct BoundaryCondition {
   ConditionType type = ConditionType::fixed;
   Vec3 velocity{0, 0, 0};          // m/s (velocity), times time(t)
   int components = 7;              // (velocity) bit d: component d prescribed; a ~ in the scene leaves it free
-  TimeFunction time;               // (velocity)
+  Vec3 traction{0, 0, 0};          // Pa (traction), times time(t)
+  real pressure = 0;               // Pa, compression positive (pressure), times time(t)
+  TimeFunction time;               // (velocity, traction, pressure)
   static constexpr int kMax = 32;  // conditions a scene may give (one bit each per surface face)
+  bool kinematic() const {
+    return type == ConditionType::fixed || type == ConditionType::roller || type == ConditionType::velocity;
+  }
   /// "boundary_conditions[i]", for messages.
   static std::string key(std::size_t i) { return "boundary_conditions[" + std::to_string(i) + "]"; }
 };

@@ -55,7 +55,7 @@ int device_blocks_per_sm() {
 void poison_host_state(const LoopParts& s, bool scalars_waiting, bool integrates) {
   const real nan = std::numeric_limits<real>::quiet_NaN();
   const Vec3 bad{nan, nan, nan};
-  for (auto* a : {&s.x, &s.v, &s.f, &s.loads.platens.anchor, &s.loads.confinement.face_force})
+  for (auto* a : {&s.x, &s.v, &s.f, &s.loads.platens.anchor, &s.loads.surface.face_force})
     std::fill(a->begin(), a->end(), bad);
   for (Ce6Damage& c : s.ce6.damage) c.D[0] = c.D[1] = c.D[2] = nan, c.mode = -1;
   for (Ce6Anchors& c : s.ce6.anchors) std::fill(std::begin(c.a), std::end(c.a), bad);
@@ -73,7 +73,7 @@ void poison_host_state(const LoopParts& s, bool scalars_waiting, bool integrates
       s.energy.contact_stored = nan;
   s.energy.p_viscous = s.energy.p_cohesive = s.energy.p_friction = nan;
   if (integrates) s.loads.gravity.power = nan;  // (with the elements' sums there)
-  if (s.loads.confinement.enabled) s.loads.confinement.pressure = s.loads.confinement.power = nan;
+  if (s.loads.surface.enabled) s.loads.surface.pressure = s.loads.surface.power = nan;
 }
 
 std::vector<std::uint8_t> middle_third_tets(const Model& m) {
@@ -92,7 +92,7 @@ std::vector<std::uint8_t> tets_on_loads(const LoopParts& s, const std::vector<in
   std::vector<std::uint8_t> loaded(m.X.size(), 0);
   if (s.loads.platens.enabled)
     for (int n : m.platen_nodes) loaded[n] = 1;
-  if (s.loads.confinement.enabled)
+  if (s.loads.surface.enabled)
     for (int n : lateral_nodes) loaded[n] = 1;
   std::vector<std::uint8_t> ext(m.tet_nodes.size(), 0);
   for (std::size_t t = 0; t < ext.size(); ++t)

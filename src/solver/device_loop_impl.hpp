@@ -88,7 +88,7 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     mid_third_.upload(middle_third_tets(m));
     s.loads.each([&](auto& load) { load.place(m, integrates()); });
     if (s.contacts.enabled()) contact_.place(s, elements_.ce6_order());
-    place_held_flags(s, s.loads.confinement.loaded_nodes());
+    place_held_flags(s, s.loads.surface.loaded_nodes());
   }
 
   /// Where the fused pass integrates: the tets with a node on a platen or a lateral face
@@ -178,7 +178,7 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     integrate_nodes(dt, reach_check ? contact_.plan_x() : nullptr, s.layout.dd.reach);
     clock_.lap(t_.integrate);
     if (s.layout.halo) halo_.update_nodes(*s.layout.halo, x_, v_, s.layout.halo_seconds);  // ghosts: their owners'
-    new_powers(s.contacts.enabled(), s.loads.confinement.enabled, s.loads.gravity.enabled);
+    new_powers(s.contacts.enabled(), s.loads.surface.enabled, s.loads.gravity.enabled);
     if (!s.layout.dd.distributed()) {  // the sums wait for the first copy of the forces
       clock_.lap(t_.energy);
       forces(true);
@@ -247,7 +247,7 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     const bool stepping = dt > 0 && waiting_.elements;
     if (dt > 0 && !stepping) {
       integrate_nodes(dt, nullptr, 0);
-      new_powers(s.contacts.enabled(), s.loads.confinement.enabled, s.loads.gravity.enabled);
+      new_powers(s.contacts.enabled(), s.loads.surface.enabled, s.loads.gravity.enabled);
       clock_.lap(t_.integrate);
     }
     // The last evaluation's scalars kept at kPrev, then the slots cleared: where the fused pass
@@ -350,7 +350,7 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     s.loads.prescribed.reaction_power<Exec>(v_.data(), own_node_.data(), dt, sums_.data() + kReactionPower);
     waiting_.elements = false;
     clock_.lap(t_.ce6);  // (the TET4 and integration columns stay empty)
-    contact_pressure_powers(s.contacts.enabled(), s.loads.confinement.enabled, s.contacts.enabled());
+    contact_pressure_powers(s.contacts.enabled(), s.loads.surface.enabled, s.contacts.enabled());
     clock_.lap(t_.energy);
   }
 
@@ -364,7 +364,7 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
   HeldForces held_forces() const {
     const Loads& l = p_.loads;
     return HeldForces{ext_tet_.data(),        contact_.gather_place(), contact_.held_sum(),
-                      l.platens.held_place(), l.platens.held_force(),  l.confinement.held()};
+                      l.platens.held_place(), l.platens.held_force(),  l.surface.held()};
   }
   /// The step of dt (s) the fused pass takes: into the second copies of x and v.
   FusedStep fused_step(real dt) {
@@ -492,7 +492,7 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     // evaluation's platen reactions. Several ranks sum those over the ranks first and put them
     // back on the device (a reduction of their own; the rest of the evaluation's sums wait for
     // the step's).
-    ConfiningPressure& cf = s.loads.confinement;
+    SurfaceLoads& cf = s.loads.surface;
     if (cf.enabled && cf.hydrostatic && s.layout.dd.distributed()) {
       device::to_host(b_, reactions_.data(), sums + kTop, sizeof reactions_);
       s.layout.sum(reactions_.data(), 2);
@@ -530,7 +530,7 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     if (waiting_.force_sums) {  // the rank's own sums, the whole model's where they are summed (kWhole)
       std::array<real, kBad> b = rank_sums_;
       for (int k = 0; k < int(kWhole.size()); ++k) b[kWhole[k]] = more[k];
-      if (s.loads.confinement.enabled && s.loads.confinement.hydrostatic)  // summed already (platens_and_pressure)
+      if (s.loads.surface.enabled && s.loads.surface.hydrostatic)  // summed already (platens_and_pressure)
         b[kTop] = reactions_[0], b[kBottom] = reactions_[1];
       apply_force_sums(s, ForceSums::from_slots(b.data()));
     }
@@ -544,7 +544,7 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
   void apply_force_sums(const LoopParts& s, const ForceSums& b) {
     waiting_.force_sums = false;
     if (b.candidates_changed > 0) s.contacts.rebuild_due = true;  // for the next evaluation's contact
-    ConfiningPressure& cf = s.loads.confinement;
+    SurfaceLoads& cf = s.loads.surface;
     s.energy.p_contact = b.contact_power;
     s.energy.contact_slip += b.contact_slip;
     s.energy.contact_spring = b.contact_spring;
@@ -575,7 +575,7 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     if (waiting_.force_sums) {
       std::copy(r.begin(), r.begin() + kBad, rank_sums_.begin());
       s.energy.p_contact = r[kConPower];
-      if (s.loads.confinement.enabled) s.loads.confinement.power = r[kPressurePower];
+      if (s.loads.surface.enabled) s.loads.surface.power = r[kPressurePower];
     }
     out.n_more = int(out.more.size());
     reduction_values(out.more.data());
@@ -636,11 +636,11 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
   /// then the faces); with `watch`, the broad phase's watch too (the watched nodes after them,
   /// counted into kWatched; where the fused pass steps, this saves the watch a launch).
   void contact_pressure_powers(bool contact, bool pressure, bool watch) {
-    const ConfiningPressure& cf = p_.loads.confinement;
+    SurfaceLoads& cf = p_.loads.surface;
     const int np = contact ? int(contact_.pairs()) : 0, nf = pressure ? cf.face_count() : 0;
     const int nw = watch ? contact_.watched() : 0;
     const auto pair = contact_.power(elements_.tet_nodes());
-    const auto face = cf.new_power();
+    const auto face = cf.new_power(p_.dt);
     const auto moved = contact_.watch(p_.contacts.buffer());
     const Vec3* x = x_.data();
     const Vec3* v = v_.data();
@@ -730,7 +730,7 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     // read.) The tet's own x and v are read again for the step.
     const double ng = double(contact_.gathered_nodes());
     const double held = nt + double(ext_nodes_) * 3 * sizeof(int) + ng * (sizeof(int) + 2 * vec) +
-                        double(loads.platens.nodes() + loads.confinement.node_face_entries()) * vec;
+                        double(loads.platens.nodes() + loads.surface.node_face_entries()) * vec;
     const double mass_read = elements_.mass_from_volume() ? 0 : sizeof(real);  // (else from V0, read for TET4)
     const double node = integrates()
                             ? nt * 4 * (4 * vec + mass_read + (loads.prescribed.per_node() ? sizeof(int) : 0)) + held

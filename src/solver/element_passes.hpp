@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "core/forall.hpp"
-#include "loads/confinement.hpp"
+#include "loads/surface_loads.hpp"
 #include "loads/gravity.hpp"
 #include "loads/prescribed.hpp"
 #include "physics/cohesive6.hpp"

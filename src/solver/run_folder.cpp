@@ -32,7 +32,7 @@ std::vector<std::string> condition_column_names(const Scene& scene) {
     for (char& c : surface)
       if (!std::isalnum(static_cast<unsigned char>(c)) && c != '_' && c != '-') c = '_';
     const std::string stem = "bc" + std::to_string(i) + "_" + surface + "_";
-    for (const char* end : {"reaction_x_N", "reaction_y_N", "reaction_z_N", "work_J"}) names.push_back(stem + end);
+    for (const char* end : {"force_x_N", "force_y_N", "force_z_N", "work_J"}) names.push_back(stem + end);
   }
   return names;
 }

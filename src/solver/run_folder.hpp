@@ -21,7 +21,7 @@ struct RunSummary;
 extern const char* const kSummaryHeader;
 /// The header line of monitors.csv (kMonitorColumns' names).
 std::string monitors_header(const Scene& scene);
-/// The boundary conditions' columns after kMonitorColumns: bc<i>_<surface>_reaction_x_N, _y_N,
+/// The boundary conditions' columns after kMonitorColumns: bc<i>_<surface>_force_x_N, _y_N,
 /// _z_N and _work_J for each condition i.
 std::vector<std::string> condition_column_names(const Scene& scene);
 

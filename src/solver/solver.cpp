@@ -248,7 +248,7 @@ StepSums Solver::step_sums(const AdvanceSums& a) const {
   st.bad = a.bad, st.ke = a.kinetic2, st.far = a.far, st.lost = a.lost;
   st.n_more = a.n_more, st.more = a.more;
   if (contacts.enabled()) st.w_con = 0.5 * dt * (energy_.p_contact + a.contact_power);
-  if (loads_.confinement.enabled) st.w_pre = 0.5 * dt * (loads_.confinement.power + a.pressure_power);
+  if (loads_.surface.enabled) st.w_pre = 0.5 * dt * (loads_.surface.power + a.pressure_power);
   if (loads_.gravity.enabled) st.w_grav = 0.5 * dt * (loads_.gravity.power + a.gravity_power);
   st.w_kin = dt * a.reaction_power;  // (the reaction acts over the step it was found in)
   return st;
@@ -297,9 +297,12 @@ bool Solver::finish_step(const AdvanceSums& a) {
 void Solver::condition_columns(Monitors& r) {
   if (scene_.conditions.empty()) return;
   loads_.prescribed.download_state();
+  loads_.surface.download_state();
   const bool ranks = layout_.dd.distributed();
-  std::vector<real> sums =
-      loads_.prescribed.condition_sums(ranks ? layout_.dd.node_owned : std::vector<std::uint8_t>{});
+  const std::vector<std::uint8_t> owned = ranks ? layout_.dd.node_owned : std::vector<std::uint8_t>{};
+  std::vector<real> sums = loads_.prescribed.condition_sums(owned);
+  const std::vector<real> faces = loads_.surface.condition_sums(owned);
+  for (std::size_t k = 0; k < sums.size(); ++k) sums[k] += faces[k];  // (each condition is one load's)
   if (ranks) layout_.sum(sums.data(), int(sums.size()));
   r.condition_columns = int(sums.size());
   std::copy(sums.begin(), sums.end(), r.conditions.begin());
@@ -465,8 +468,8 @@ std::uint64_t physics_fingerprint(const Scene& s, const Model& m, real dt) {
                          dt};
   h = fnv1a64(values, sizeof values, h);
   for (const BoundaryCondition& c : s.conditions) {
-    const real v[] = {real(c.type),       c.velocity.x,       c.velocity.y,   c.velocity.z,
-                      real(c.components), real(c.time.shape), c.time.duration};
+    const real v[] = {real(c.type), c.velocity.x, c.velocity.y, c.velocity.z,       real(c.components), c.traction.x,
+                      c.traction.y, c.traction.z, c.pressure,   real(c.time.shape), c.time.duration};
     h = fnv1a64(v, sizeof v, h);
     h = fnv1a64(c.time.table.data(), c.time.table.size() * sizeof c.time.table[0], h);
     h = fnv1a64(c.surface.data(), c.surface.size(), h);

@@ -89,8 +89,9 @@ TEST(CliRanks, TwoRanksWriteTheOneRankResults) {
 }
 
 TEST(CliRanks, BoundaryConditionsOnTwoRanksGiveTheOneRankReactions) {
-  // Rollers, a fixed face and a pressed end on a box cut in two: each node's reaction is counted
-  // by its owner once, so the reactions and works match the one-rank run to round-off.
+  // Rollers, a fixed face, a pressed end, a pressure and dashpots on a box cut in two: each
+  // node's force is counted by its owner once, so the forces and works match the one-rank run
+  // to round-off.
   if (mpiexec(2).empty()) GTEST_SKIP() << "mpiexec not found";
   TempDir tmp("ranks_conditions");
   const std::string scene = (kData / "cli" / "conditions_box.yaml").string();
@@ -101,9 +102,14 @@ TEST(CliRanks, BoundaryConditionsOnTwoRanksGiveTheOneRankReactions) {
   ASSERT_EQ(b.code, 0) << b.text;
   const Csv c1 = read_csv(one / "monitors.csv"), c2 = read_csv(two / "monitors.csv");
   EXPECT_LT(monitor_difference(c1, c2), 1e-9);
-  const int rz = column(c1, "bc4_zmax_reaction_z_N");
+  const int rz = column(c1, "bc4_zmax_force_z_N");
   ASSERT_GE(rz, 0) << "the pressed end's column";
   EXPECT_LT(c1.rows.back()[rz], -10) << "the end is loaded";
+  const int py = column(c1, "bc5_ymax_force_y_N"), wx = column(c1, "bc6_xmax_work_J");
+  ASSERT_GE(py, 0);
+  ASSERT_GE(wx, 0);
+  EXPECT_NEAR(c1.rows.back()[py], -1e6 * 2e-4, 2e-3 * 1e6 * 2e-4) << "1 MPa on the 10 x 20 mm face";
+  EXPECT_LT(c1.rows.back()[wx], 0) << "the dashpots take energy out";
 }
 
 // The first job's ranks (the launcher's children) are stopped while the second job tries the

@@ -1,7 +1,8 @@
-// Kinematic boundary conditions on surface groups (scene boundary_conditions: fixed, roller,
-// velocity with a time function): a closed-form answer, their reactions and works in the
-// energy balance, every schedule and the debug backend alike, a restart bit for bit, and the
-// errors a scene gets for conditions that cannot hold.
+// Boundary conditions on surface groups (scene boundary_conditions): kinematic ones (fixed,
+// roller, velocity with a time function) and face loads (pressure, traction, absorbing).
+// Closed-form answers, their forces and works in the energy balance, every schedule and the
+// debug backend alike, a restart bit for bit, and the errors a scene gets for conditions that
+// cannot hold.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -68,6 +69,33 @@ std::string model_error(const std::string& yaml, const Mesh& mesh = box_mesh()) 
   return "";
 }
 
+/// The box with CE6s on every face and the conditions `extra` added, 1500 steps on the cpu's
+/// colour passes: its last monitor row. Every schedule on the cpu and debug backends is held to
+/// it: positions within 1e-18 m, condition columns and external work within 1e-9.
+Monitors every_schedule_gives_the_cpu_run(const std::string& extra) {
+  auto run = [&](const std::string& backend, const char* schedule) {
+    test::EnvSetting env("FDEM_DEVICE_SCHEDULE", schedule);
+    auto s = box_solver(parse_scene(box_scene(extra, backend, "all"), "bc.yaml"));
+    for (int k = 0; k < 1500; ++k) s->step();
+    s->sync_host();
+    return std::make_pair(s->state.x, s->measure());
+  };
+  const auto [x, row] = run("cpu", "colour");
+  for (const char* schedule : {"colour", "fused", "auto"}) {
+    for (const char* backend : {"cpu", "debug"}) {
+      SCOPED_TRACE(std::string(backend) + ", " + schedule);
+      const auto [y, other] = run(backend, schedule);
+      real worst = 0;
+      for (std::size_t n = 0; n < x.size(); ++n) worst = std::max(worst, norm(x[n] - y[n]));
+      EXPECT_LT(worst, 1e-18) << "m";
+      for (int k = 0; k < row.condition_columns; ++k)
+        EXPECT_NEAR(row.conditions[k], other.conditions[k], 1e-9 * std::fabs(row.conditions[k]) + 1e-15) << k;
+      EXPECT_NEAR(row.external_work, other.external_work, 1e-9 * row.external_work);
+    }
+  }
+  return row;
+}
+
 }  // namespace
 
 TEST(BoundaryConditions, RollersAndAPressedEndGiveEATimesTheStrainAtRest) {
@@ -100,28 +128,8 @@ TEST(BoundaryConditions, TheSchedulesAndTheDebugBackendGiveTheCpuRun) {
   // the colour passes after the integration: the same arithmetic, the same run; the debug
   // backend's separate memory holds the lists. A fixed face on a roller's face and along the
   // rollers' edges: where both hold the velocity at zero they agree.
-  const std::string extra = "  - {surface: zmin, type: fixed}\n";
-  auto run = [&](const std::string& backend, const char* schedule) {
-    test::EnvSetting env("FDEM_DEVICE_SCHEDULE", schedule);
-    auto s = box_solver(parse_scene(box_scene(extra, backend, "all"), "bc.yaml"));
-    for (int k = 0; k < 1500; ++k) s->step();
-    s->sync_host();
-    return std::make_pair(s->state.x, s->measure());
-  };
-  const auto [x, row] = run("cpu", "colour");
+  const Monitors row = every_schedule_gives_the_cpu_run("  - {surface: zmin, type: fixed}\n");
   EXPECT_GT(std::fabs(reaction(row, 3, 2)), 1) << "the end is loaded by step 1500";
-  for (const char* schedule : {"colour", "fused", "auto"}) {
-    for (const char* backend : {"cpu", "debug"}) {
-      SCOPED_TRACE(std::string(backend) + ", " + schedule);
-      const auto [y, other] = run(backend, schedule);
-      real worst = 0;
-      for (std::size_t n = 0; n < x.size(); ++n) worst = std::max(worst, norm(x[n] - y[n]));
-      EXPECT_LT(worst, 1e-18) << "m";
-      for (int k = 0; k < row.condition_columns; ++k)
-        EXPECT_NEAR(row.conditions[k], other.conditions[k], 1e-9 * std::fabs(row.conditions[k]) + 1e-15) << k;
-      EXPECT_NEAR(row.external_work, other.external_work, 1e-9 * row.external_work);
-    }
-  }
 }
 
 TEST(BoundaryConditions, ARestartContinuesBitForBit) {
@@ -199,6 +207,13 @@ TEST(BoundaryConditions, TheSceneKeysAreCheckedWithTheFix) {
   EXPECT_TRUE(cli_test::has(e, "allowed: fixed | roller | velocity")) << e;
   e = error_of(head + "  - {surface: zmax, type: velocity, velocity: [0, 0, 1], time_function: {shape: linear}}\n");
   EXPECT_TRUE(cli_test::has(e, "time_function.duration: missing")) << e;
+  e = error_of(head + "  - {surface: zmax, type: absorbing, time_function: {shape: linear, duration: 1}}\n");
+  EXPECT_TRUE(cli_test::has(e, "time_function: an absorbing boundary has no value to scale")) << e;
+  e = error_of(head + "  - {surface: zmax, type: traction, pressure: 1e6}\n");
+  EXPECT_TRUE(
+      cli_test::has(e, "boundary_conditions[0].traction: missing; give the surface's traction [tx, ty, tz] in Pa"))
+      << e;
+  EXPECT_TRUE(cli_test::has(e, "boundary_conditions[0].pressure: is not read for type traction")) << e;
 }
 
 TEST(BoundaryConditions, TimeFunctionsRiseAndFollowTheirTables) {
@@ -215,4 +230,98 @@ TEST(BoundaryConditions, TimeFunctionsRiseAndFollowTheirTables) {
   EXPECT_EQ(f.at(0), 2);  // held before the first row
   EXPECT_EQ(f.at(2), 0);
   EXPECT_EQ(f.at(9), -2);  // and after the last
+}
+
+// Face loads on surface groups (pressure, traction, absorbing).
+
+namespace {
+
+/// The box on rollers at xmin, ymin and zmin with `top` on zmax (a YAML list entry), held 3e-4 s.
+Scene loaded_box(const std::string& top) {
+  return parse_scene(
+      "mesh: {generate: {shape: box, size: [0.01, 0.01, 0.02], element_size: 0.0025}}\n"
+      "fracture_regions: none\nplatens: none\ncontact: {activation: none}\n"
+      "boundary_conditions:\n"
+      "  - {surface: xmin, type: roller}\n"
+      "  - {surface: ymin, type: roller}\n"
+      "  - {surface: zmin, type: roller}\n" +
+          top + "solver: {threads: 1, end: {time: 3e-4}}\n",
+      "bc.yaml");
+}
+
+}  // namespace
+
+TEST(BoundaryConditions, ATractionOrAPressureOnTheEndIsCarriedByTheRollersAtRest) {
+  // 2 MPa on the end over a 50 us ramp, then held: uniaxial stress, which linear tets hold
+  // exactly. At rest the rollers at zmin carry sigma A, and the strain energy is
+  // sigma^2 A L / (2 E). The follower pressure acts on the face as it widens (by nu times the
+  // strain): the same to 1e-4.
+  const real sigma = 2e6, A = 1e-4, L = 0.02;
+  for (const std::string top :
+       {"  - {surface: zmax, type: traction, traction: [0, 0, -2e6], time_function: {shape: linear, duration: 5e-5}}\n",
+        "  - {surface: zmax, type: pressure, pressure: 2e6, time_function: {shape: smooth, duration: 5e-5}}\n"}) {
+    SCOPED_TRACE(top);
+    const Scene scene = loaded_box(top);
+    auto s = box_solver(scene);
+    while (s->time() < 3e-4) s->step();
+    const Monitors r = s->measure();
+    const real E = scene.material.youngs_modulus;
+    EXPECT_NEAR(reaction(r, 2, 2), sigma * A, 1e-3 * sigma * A) << "the rollers at zmin push up";
+    EXPECT_NEAR(reaction(r, 3, 2), -sigma * A, 1e-3 * sigma * A) << "the load on the end";
+    EXPECT_LT(std::fabs(reaction(r, 3, 0)) + std::fabs(reaction(r, 3, 1)), 1e-3 * sigma * A);
+    const real stored = sigma * sigma * A * L / (2 * E);
+    EXPECT_NEAR(r.strain, stored, 2e-3 * stored);
+    EXPECT_NEAR(r.external_work, work(r, 3), 1e-9 * r.external_work) << "the rollers do no work";
+    EXPECT_LT(r.energy_error, 5e-3);
+    EXPECT_LT(r.kinetic, 1e-6 * r.strain) << "at rest";
+    RecordProperty(top.find("traction") != std::string::npos ? "traction_force_ratio" : "pressure_force_ratio",
+                   std::to_string(-reaction(r, 3, 2) / (sigma * A)));
+  }
+}
+
+TEST(BoundaryConditions, AnAbsorbingEndTakesOutThePulseAFreeEndReflects) {
+  // A 10 x 10 x 100 mm column on rollers at its four sides (a plane P wave), its base moved by a
+  // 10 us velocity pulse and then held. The pulse runs to the far end (35 us) and comes back
+  // (70 us). At 60 us, a free far end has reflected it: the column still holds what the base
+  // put in. An absorbing end has taken it out: under 5 % is left. Undamped, so that only the
+  // boundary takes energy.
+  auto left = [](const std::string& far) {
+    const Scene scene = parse_scene(
+        "mesh: {generate: {shape: box, size: [0.01, 0.01, 0.1], element_size: 0.0025}}\n"
+        "fracture_regions: none\nplatens: none\ncontact: {activation: none}\n"
+        "boundary_conditions:\n"
+        "  - {surface: xmin, type: roller}\n"
+        "  - {surface: xmax, type: roller}\n"
+        "  - {surface: ymin, type: roller}\n"
+        "  - {surface: ymax, type: roller}\n"
+        "  - {surface: zmin, type: velocity, velocity: [~, ~, 0.05],\n"
+        "     time_function: {table: [[0, 0], [5e-6, 1], [1e-5, 0]]}}\n" +
+            far + "solver: {threads: 1, damping_scale: 0, end: {time: 1e-4}}\n",
+        "bc.yaml");
+    Solver s(scene, build_model(structured_box_mesh({0.01, 0.01, 0.1}, 4, 4, 40), scene));
+    while (s.time() < 6e-5) s.step();
+    const Monitors r = s.measure();
+    const real input = work(r, 4);
+    EXPECT_GT(input, 0);
+    EXPECT_LT(r.energy_error, 1e-2);
+    return (r.kinetic + r.strain) / input;
+  };
+  const real free_end = left(""), absorbing = left("  - {surface: zmax, type: absorbing}\n");
+  EXPECT_GT(free_end, 0.95) << "a free end reflects the pulse";
+  EXPECT_LT(absorbing, 0.05) << "an absorbing end takes it out";
+  RecordProperty("energy_left_absorbing", std::to_string(absorbing));
+  RecordProperty("energy_left_free", std::to_string(free_end));
+}
+
+TEST(BoundaryConditions, FaceLoadsOnEveryScheduleAndTheDebugBackendGiveTheCpuRun) {
+  // A pressure, a shearing traction and an absorbing face in the pressure's pass (and, where
+  // the fused pass integrates, held for it): every schedule and the debug backend alike.
+  const std::string extra =
+      "  - {surface: xmax, type: traction, traction: [0, 0, 2e5], time_function: {shape: linear, duration: 2e-5}}\n"
+      "  - {surface: ymax, type: pressure, pressure: 1e6}\n"
+      "  - {surface: zmax, type: absorbing}\n";
+  const Monitors row = every_schedule_gives_the_cpu_run(extra);
+  ASSERT_EQ(row.condition_columns, 28);
+  EXPECT_GT(std::fabs(reaction(row, 4, 2)), 1) << "the traction pulls";
+  EXPECT_LT(work(row, 6), 0) << "the absorbing face takes energy out";
 }

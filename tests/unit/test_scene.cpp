@@ -278,7 +278,7 @@ INSTANTIATE_TEST_SUITE_P(
         BadScene{"end_all_zero.yaml", "solver.end: no end condition"},
         BadScene{"negative_modulus.yaml", "material.youngs_modulus: -12.2e9 is out of range"},
         BadScene{"poisson_half.yaml", "material.poisson_ratio"},
-        BadScene{"unknown_top_key.yaml", ": boundary_conditions: unknown key"},
+        BadScene{"unknown_top_key.yaml", ": lateral_pressure: unknown key"},
         BadScene{"typo_key.yaml", "material.densty: unknown key"},
         BadScene{"string_for_number.yaml", "material.density: 'heavy' is not a number"},
         BadScene{"map_for_number.yaml", "material.density: expected a number, got a map"},
