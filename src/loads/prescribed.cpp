@@ -10,7 +10,7 @@ int PrescribedVelocities::entry_of(int n) {
     node.push_back(n);
     mask.push_back(0);
     velocity.push_back(Vec3{0, 0, 0});
-    scale_of.push_back(-1);
+    scale_of.push_back(0);
     condition.push_back({-1, -1, -1});
     reaction.push_back(Vec3{0, 0, 0});
     work.push_back(Vec3{0, 0, 0});
@@ -21,34 +21,39 @@ int PrescribedVelocities::entry_of(int n) {
 void PrescribedVelocities::set_up(const Scene& scene, const Model& m) {
   time_.clear();
   for (const BoundaryCondition& c : scene.conditions) time_.push_back(c.time);
-  // Faces in order, their nodes in turn: the same entries on every backend. Where conditions
-  // meet, the model build checked that they agree (model/conditions.cpp); the first reports.
-  for (std::size_t k = 0; k < m.surface_conditions.size(); ++k)
-    for (std::size_t ci = 0; ci < scene.conditions.size(); ++ci) {
-      if (!(m.surface_conditions[k] >> ci & 1)) continue;
-      const BoundaryCondition& c = scene.conditions[ci];
-      const int components = prescribed_components(c, m, m.surface_faces[k]);
-      if (components == 0) continue;  // a face load (loads/surface_loads.hpp)
-      const bool moves =
-          c.type == ConditionType::velocity && (c.velocity.x != 0 || c.velocity.y != 0 || c.velocity.z != 0);
-      for (int n : m.surface_faces[k]) {
-        const int i = entry_of(n);
-        mask[i] |= components;
-        if (moves) velocity[i] = c.velocity, scale_of[i] = int(ci);
-        for (int d = 0; d < 3; ++d)
-          if (components >> d & 1 && condition[i][d] < 0) condition[i][d] = int(ci);
+  if (m.node_conditions.empty()) return;
+  // Conditions in list order, their nodes in turn: where two hold one component (the model
+  // build checked that they agree), the first in the list reports it.
+  for (std::size_t ci = 0; ci < scene.conditions.size(); ++ci) {
+    const BoundaryCondition& c = scene.conditions[ci];
+    if (!c.kinematic()) continue;
+    const int components = prescribed_components(c, m.condition_axis[ci]);
+    for (std::size_t n = 0; n < m.X.size(); ++n) {
+      if (!(m.node_conditions[n] >> ci & 1)) continue;
+      const int i = entry_of(int(n));
+      mask[i] |= components;
+      for (int d = 0; d < 3; ++d) {
+        if (!(components >> d & 1)) continue;
+        if (condition[i][d] < 0) condition[i][d] = int(ci);
+        if (c.type == ConditionType::velocity && c.velocity[d] != 0)
+          velocity[i][d] = c.velocity[d], scale_of[i] = with_scale(scale_of[i], d, int(ci));
       }
     }
+  }
 }
 
-void PrescribedVelocities::set(int n, int components, Vec3 v) {
+void PrescribedVelocities::set(int n, int components, Vec3 v, real t) {
   const int i = entry_of(n);
   by_caller_ = true;
-  if (scale_of[i] >= 0) velocity[i] = scales_at(0).at[scale_of[i]] * velocity[i];  // (now held as it is)
-  scale_of[i] = -1;
-  mask[i] |= components;
+  const ConditionScales now = scales_at(t);
   for (int d = 0; d < 3; ++d)
-    if (components >> d & 1) velocity[i][d] = v[d], condition[i][d] = -1;
+    if (components >> d & 1) {
+      velocity[i][d] = v[d], condition[i][d] = -1;
+      scale_of[i] = with_scale(scale_of[i], d, -1);
+    } else if (const int s = scale_in(scale_of[i], d); s >= 0) {  // (held at its value now)
+      velocity[i][d] *= now.at[s], scale_of[i] = with_scale(scale_of[i], d, -1);
+    }
+  mask[i] |= components;
 }
 
 ConditionScales PrescribedVelocities::scales_at(real t) const {

@@ -28,13 +28,24 @@ struct ConditionScales {
 };
 static_assert(4 * BoundaryCondition::kMax <= Monitors::kMaxConditionColumns, "4 monitor columns per condition");
 
+/// An entry's time-function scales, one byte per component d (bits 8d to 8d + 7): its scene
+/// condition + 1, or 0 (the velocity as it is).
+FDEM_HD int scale_in(int code, int d) {
+  return (code >> (8 * d) & 255) - 1;
+}
+inline int with_scale(int code, int d, int condition) {
+  return (code & ~(255 << (8 * d))) | ((condition + 1) << (8 * d));
+}
+
 namespace device_pass {
-/// The prescription of entry i after a step of dt: the target velocity (its moving condition's
-/// scale times its velocity), applied to x and v, and the reaction that took into reaction[i].
+/// The prescription of entry i after a step of dt: the target velocity (each component's
+/// condition's scale times its velocity), applied to x and v, and the reaction that took into
+/// reaction[i].
 FDEM_HD void prescribe_entry(int i, real mass, Vec3& x, Vec3& v, const int* mask, const Vec3* velocity,
                              const int* scale_of, const ConditionScales& scales, Vec3* reaction, real dt) {
-  const int s = scale_of[i];
-  const Vec3 target = s >= 0 ? scales.at[s] * velocity[i] : velocity[i];
+  Vec3 target = velocity[i];
+  for (int d = 0; d < 3; ++d)
+    if (const int s = scale_in(scale_of[i], d); s >= 0) target[d] = scales.at[s] * target[d];
   const Vec3 free = v;
   prescribe_velocity(x, v, mask[i], target, dt);
   reaction[i] = (mass / dt) * (v - free);
@@ -62,23 +73,24 @@ struct NodeStep {
 class PrescribedVelocities {
  public:
   // One entry per node. Host lists, uploaded when they change (upload_state).
-  std::vector<int> node, mask;  // mask bit 0 = x, 1 = y, 2 = z
-  std::vector<Vec3> velocity;   // m/s, times the scale of scale_of's condition (-1: as it is)
-  std::vector<int> scale_of;
+  std::vector<int> node, mask;                // mask bit 0 = x, 1 = y, 2 = z
+  std::vector<Vec3> velocity;                 // m/s, each component times its condition's scale (scale_in)
+  std::vector<int> scale_of;                  // per entry, the conditions whose scales apply (scale_in, with_scale)
   std::vector<std::array<int, 3>> condition;  // per component, the scene condition it reports to (-1: none)
   std::unordered_map<int, int> slot;          // node -> its entry
   // State: each entry's last reaction (N) and the work its components did so far (J).
   std::vector<Vec3> reaction, work;
 
-  /// The entries of the scene's kinematic conditions on model m's surface faces.
+  /// The entries of the scene's kinematic conditions on model m's held nodes (node_conditions).
   void set_up(const Scene& scene, const Model& m);
   bool on() const { return !node.empty(); }
   /// Entries the caller set (Solver::prescribe): their work is counted, but they may be set at
   /// any time, so the runaway and balance checks are off.
   bool set_by_caller() const { return by_caller_; }
-  /// The caller's entry for node n: a node prescribed again takes the new components, as if the
-  /// calls were applied in turn (those components leave the scene's scale and report).
-  void set(int n, int components, Vec3 v);
+  /// The caller's entry for node n at time t (s): a node prescribed again takes the new
+  /// components, as if the calls were applied in turn. Those leave the scene's scales and
+  /// columns; the scene's other components on the node are held at their values at t.
+  void set(int n, int components, Vec3 v, real t);
   /// Each condition's scale at time t (s).
   ConditionScales scales_at(real t) const;
   /// Its monitor columns: each scene condition's reaction and work summed over the owned nodes

@@ -121,9 +121,13 @@ FaceAxis face_axis(const Model& m, const std::array<int, 3>& q) {
 }
 
 int prescribed_components(const BoundaryCondition& c, const Model& m, const std::array<int, 3>& q) {
+  return prescribed_components(c, c.type == ConditionType::roller ? face_axis(m, q).axis : -1);
+}
+
+int prescribed_components(const BoundaryCondition& c, int axis) {
   switch (c.type) {
     case ConditionType::roller:
-      return 1 << face_axis(m, q).axis;
+      return 1 << axis;
     case ConditionType::velocity:
       return c.components;
     case ConditionType::fixed:
@@ -133,8 +137,46 @@ int prescribed_components(const BoundaryCondition& c, const Model& m, const std:
   }
 }
 
+std::string describe_conditions(const Scene& scene, const Model& m, const std::string& where) {
+  std::string out;
+  for (std::size_t i = 0; i < scene.conditions.size(); ++i) {
+    long faces = 0;
+    for (std::size_t k = 0; k < m.surface_faces.size(); ++k) faces += m.conditions_of(k) >> i & 1;
+    const BoundaryCondition& c = scene.conditions[i];
+    out += "  boundary condition bc" + std::to_string(i) + " " + name_of(c.type) + " on surface '" + c.surface +
+           "': " + std::to_string(faces) + " faces" + where + "\n";
+  }
+  return out;
+}
+
+namespace {
+
+/// m.condition_axis, and m.node_conditions: each kinematic condition's bit on every node at a
+/// vertex of its faces.
+void mark_held_nodes(const Scene& scene, Model& m) {
+  std::uint32_t kinematic = 0;
+  for (std::size_t i = 0; i < scene.conditions.size(); ++i) {
+    if (scene.conditions[i].kinematic()) kinematic |= std::uint32_t(1) << i;
+    std::int8_t axis = -1;
+    for (std::size_t k = 0; k < m.surface_faces.size() && scene.conditions[i].type == ConditionType::roller; ++k)
+      if (m.surface_conditions[k] >> i & 1) {
+        axis = std::int8_t(face_axis(m, m.surface_faces[k]).axis);
+        break;
+      }
+    m.condition_axis.push_back(axis);
+  }
+  if (kinematic == 0) return;
+  std::vector<std::uint32_t> at_vertex(m.X.size(), 0);  // (by vertex: node_vertex < nodes)
+  for (std::size_t k = 0; k < m.surface_faces.size(); ++k)
+    for (int n : m.surface_faces[k]) at_vertex[m.node_vertex[n]] |= m.surface_conditions[k] & kinematic;
+  m.node_conditions.resize(m.X.size());
+  for (std::size_t n = 0; n < m.X.size(); ++n) m.node_conditions[n] = at_vertex[m.node_vertex[n]];
+}
+
+}  // namespace
+
 void mark_condition_faces(const Mesh& mesh, const Scene& scene, Model& m) {
-  m.surface_conditions.clear();
+  m.surface_conditions.clear(), m.node_conditions.clear(), m.condition_axis.clear();
   if (scene.conditions.empty()) return;
   m.surface_conditions.assign(m.surface_faces.size(), 0);
   std::map<VertexTriple, int> surface_face_of;
@@ -147,6 +189,7 @@ void mark_condition_faces(const Mesh& mesh, const Scene& scene, Model& m) {
     if (scene.conditions[i].type == ConditionType::roller) check_roller(scene, i, m);
   }
   check_conflicts(scene, m);
+  mark_held_nodes(scene, m);
 }
 
 }  // namespace fdem

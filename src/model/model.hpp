@@ -56,6 +56,14 @@ struct Model {
   std::uint32_t conditions_of(std::size_t face) const {
     return surface_conditions.empty() ? 0 : surface_conditions[face];
   }
+  // Per node, bit c: kinematic condition c holds it. Every node at a vertex of the condition's
+  // faces is held, so that nodes split by CE6s there move together (empty: none held).
+  std::vector<std::uint32_t> node_conditions;
+  std::uint32_t node_conditions_of(std::size_t node) const {
+    return node_conditions.empty() ? 0 : node_conditions[node];
+  }
+  // Per scene condition: a roller's axis (0, 1, 2: its faces' normal), else -1.
+  std::vector<std::int8_t> condition_axis;
 
   // Geometry of the specimen in the reference configuration.
   Vec3 box_min{0, 0, 0}, box_max{0, 0, 0};

@@ -355,6 +355,7 @@ std::unordered_map<long, int> append_ghost_nodes(const Model& m, const Decomposi
     node_local[g] = n;
     gm.X.push_back(nr.X);
     gm.mass.push_back(nr.mass);
+    if (!gm.node_conditions.empty()) gm.node_conditions.push_back(0);  // (moved by its owner's halo)
     auto vit = vertex_at.emplace(key_of(nr.X), vertices).first;
     if (vit->second == vertices) ++vertices;
     gm.node_vertex.push_back(vit->second);

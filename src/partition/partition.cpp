@@ -288,6 +288,7 @@ void cut_elements(const Model& g, const HeldParts& h, Model& m) {
   const std::vector<int>& ce6s = h.ce6s;
   m.X = pick(g.X, nodes);
   m.mass = pick(g.mass, nodes);
+  if (!g.node_conditions.empty()) m.node_conditions = pick(g.node_conditions, nodes);
   // Mesh vertices renumbered densely (the contact vicinity indexes by vertex).
   {
     std::unordered_map<int, int> vmap;
@@ -342,6 +343,7 @@ void cut_node_groups(const Model& g, const std::vector<int>& node_owner, int ran
 /// The model-wide values, with the source naming the rank.
 void copy_model_scalars(const Model& g, int rank, int size, Model& m) {
   m.box_min = g.box_min;
+  m.condition_axis = g.condition_axis;
   m.box_max = g.box_max;
   m.axis_point = g.axis_point;
   m.height0 = g.height0;
@@ -469,7 +471,7 @@ void model_fields(F&& f, M& m) {
   f(m.surface_faces), f(m.surface_tet), f(m.platen_nodes), f(m.platen_node_area), f(m.platen_node_h);
   f(m.top_nodes), f(m.bottom_nodes), f(m.lateral_nodes);
   f(m.box_min), f(m.box_max), f(m.axis_point), f(m.height0), f(m.area0), f(m.line_loaded), f(m.min_altitude);
-  f(m.mean_edge), f(m.source), f(m.surface_conditions);
+  f(m.mean_edge), f(m.source), f(m.surface_conditions), f(m.node_conditions), f(m.condition_axis);
 }
 
 constexpr std::uint64_t kRankFileMagic = 0x4644454d52414e4bull;  // "FDEMRANK"
@@ -556,8 +558,7 @@ RankModel get_rank_model(CheckpointIn& in, std::uint64_t key) {
   std::uint64_t magic = 0, file_key = 0;
   in.get(magic);
   if (magic != kRankFileMagic)
-    throw InputError(path +
-                     ": not a rank file of fdem partition. Fix: write the rank files with fdem partition");
+    throw InputError(path + ": not a rank file of fdem partition. Fix: write the rank files with fdem partition");
   in.get(file_key);
   if (file_key != key)
     throw InputError(path +
@@ -578,7 +579,8 @@ RankModel get_rank_model(CheckpointIn& in, std::uint64_t key) {
       m.tet_Xinv.size() != nt || m.tet_V0.size() != nt || m.tet_eta.size() != nt ||
       m.ce6_tets.size() != m.ce6_nodes.size() || m.ce6_h.size() != m.ce6_nodes.size() ||
       rm.dd.ce6_owned.size() != m.ce6_nodes.size() ||
-      (!m.surface_conditions.empty() && m.surface_conditions.size() != m.surface_faces.size()))
+      (!m.surface_conditions.empty() && m.surface_conditions.size() != m.surface_faces.size()) ||
+      (!m.node_conditions.empty() && m.node_conditions.size() != nn))
     bad("array sizes differ");
   for (const auto& q : m.tet_nodes)
     for (int n : q)

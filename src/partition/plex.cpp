@@ -119,7 +119,7 @@ std::string tet_record(const Model& g, const PartitionPlan& plan, const Lookup& 
   for (int n : g.tet_nodes[t]) {
     const int p = lk.platen_of[n];
     o.put(n), o.put(g.X[n]), o.put(g.mass[n]), o.put(g.node_vertex[n]), o.put(plan.node_owner[n]);
-    o.put(plan.node_ranks[n]), o.put(lk.flags[n]), o.put(p >= 0);
+    o.put(plan.node_ranks[n]), o.put(lk.flags[n]), o.put(p >= 0), o.put(g.node_conditions_of(n));
     if (p >= 0) o.put(g.platen_node_area[p]), o.put(g.platen_node_h[p]);
   }
   o.put(lk.ce6_ptr[t + 1] - lk.ce6_ptr[t]);
@@ -146,7 +146,7 @@ void put_header(CheckpointOut& o, const Model& g, const PartitionPlan& plan, lon
   o.put(long(g.X.size())), o.put(long(g.tet_nodes.size())), o.put(long(g.ce6_nodes.size())), o.put(held);
   o.put(g.tet_colours.colours()), o.put(g.ce6_colours.colours()), o.put(plan.size), o.put(plan.reach);
   o.put(g.box_min), o.put(g.box_max), o.put(g.axis_point), o.put(g.height0), o.put(g.area0), o.put(g.line_loaded);
-  o.put(g.min_altitude), o.put(g.mean_edge), o.put(g.source);
+  o.put(g.min_altitude), o.put(g.mean_edge), o.put(g.source), o.put(g.condition_axis);
 }
 
 Header get_header(CheckpointIn& in) {
@@ -155,7 +155,7 @@ Header get_header(CheckpointIn& in) {
   in.get(h.nodes), in.get(h.tets), in.get(h.ce6s), in.get(h.held);
   in.get(h.tet_colours), in.get(h.ce6_colours), in.get(h.size), in.get(h.reach);
   in.get(m.box_min), in.get(m.box_max), in.get(m.axis_point), in.get(m.height0), in.get(m.area0), in.get(m.line_loaded);
-  in.get(m.min_altitude), in.get(m.mean_edge), in.get(m.source);
+  in.get(m.min_altitude), in.get(m.mean_edge), in.get(m.source), in.get(m.condition_axis);
   return h;
 }
 
@@ -166,6 +166,7 @@ struct NodeRec {
   std::vector<int> ranks;
   std::uint8_t flags = 0;
   bool platen = false;
+  std::uint32_t conditions = 0;  // Model::node_conditions
 };
 struct TetRec {
   long id = 0;
@@ -202,6 +203,7 @@ void read_record(const char* bytes, std::size_t n, Piece& p) {
     in.get(id);
     NodeRec r;
     in.get(r.X), in.get(r.mass), in.get(r.vertex), in.get(r.owner), in.get(r.ranks), in.get(r.flags), in.get(r.platen);
+    in.get(r.conditions);
     if (r.platen) in.get(r.area), in.get(r.h);
     p.nodes.emplace(id, std::move(r));
   }
@@ -254,6 +256,7 @@ RankModel cut_piece(Piece& p, const Header& h, int rank) {
     ids.node.push_back(id);
     m.X.push_back(r.X);
     m.mass.push_back(r.mass);
+    m.node_conditions.push_back(r.conditions);
     m.node_vertex.push_back(r.vertex);
     plan.node_owner.push_back(r.owner);
     plan.node_ranks.push_back(r.ranks);
@@ -292,8 +295,11 @@ RankModel cut_piece(Piece& p, const Header& h, int rank) {
     m.surface_tet.push_back(tet_local.at(f.tet));
     m.surface_conditions.push_back(f.conditions);
   }
+  // (None given: none held, as on the root's path.)
   if (std::all_of(m.surface_conditions.begin(), m.surface_conditions.end(), [](auto c) { return c == 0; }))
-    m.surface_conditions.clear();  // (none given: none held, as on the root's path)
+    m.surface_conditions.clear();
+  if (std::all_of(m.node_conditions.begin(), m.node_conditions.end(), [](auto c) { return c == 0; }))
+    m.node_conditions.clear();
   return extract_rank(m, plan, rank, ids);
 }
 

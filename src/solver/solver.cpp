@@ -131,7 +131,7 @@ void Solver::prescribe(int node, int mask, Vec3 velocity) {
   // to the fused pass completed), before its velocities and the lists change (on the cpu
   // backend the loop borrows the lists).
   sync_host();
-  loads_.prescribed.set(node, mask, velocity);
+  loads_.prescribed.set(node, mask, velocity, state.time);
   for (int d = 0; d < 3; ++d)
     if (mask >> d & 1) state.v[node][d] = velocity[d];
   host_changed();
@@ -305,6 +305,8 @@ void Solver::condition_columns(Monitors& r) {
   for (std::size_t k = 0; k < sums.size(); ++k) sums[k] += faces[k];  // (each condition is one load's)
   if (ranks) layout_.sum(sums.data(), int(sums.size()));
   r.condition_columns = int(sums.size());
+  energy_.inflow = 0;
+  for (std::size_t c = 0; c < sums.size() / 4; ++c) energy_.inflow += std::max(sums[4 * c + 3], real(0));
   std::copy(sums.begin(), sums.end(), r.conditions.begin());
 }
 
@@ -315,9 +317,9 @@ Monitors Solver::measure() {
   r.step = state.step;
   r.time = state.time;
   loads_.monitor(m, r);
-  condition_columns(r);
   // This rank's sums: on the device where the state is (no copy of the state to the host).
   upload_if_changed();
+  condition_columns(r);  // (after the upload: a host copy changed since is the state)
   MonitorSums sums = dev_->measure_sums();
   if (layout_.dd.distributed()) {  // the whole model's sums: one reduction per monitor row
     std::vector<real> all;

@@ -110,6 +110,19 @@ TEST(CliRanks, BoundaryConditionsOnTwoRanksGiveTheOneRankReactions) {
   ASSERT_GE(wx, 0);
   EXPECT_NEAR(c1.rows.back()[py], -1e6 * 2e-4, 2e-3 * 1e6 * 2e-4) << "1 MPa on the 10 x 20 mm face";
   EXPECT_LT(c1.rows.back()[wx], 0) << "the dashpots take energy out";
+  // Rank 0's cut and the rank files carry the faces' and nodes' conditions too: the same run.
+  const fs::path root = tmp.path / "root";
+  const Outcome o = run_cmd(mpiexec(2) + quote(kExe) + " run " + quote(scene) + " --distribute root -q -o " +
+                            quote(root.string()));
+  ASSERT_EQ(o.code, 0) << o.text;
+  EXPECT_LT(monitor_difference(c1, read_csv(root / "monitors.csv")), 1e-9);
+  const fs::path parts = tmp.path / "parts", files = tmp.path / "files";
+  const Outcome p = run_fdem("partition " + quote(scene) + " -n 2 -o " + quote(parts.string()));
+  ASSERT_EQ(p.code, 0) << p.text;
+  const Outcome f = run_cmd(mpiexec(2) + quote(kExe) + " run " + quote(scene) + " --partitioned " +
+                            quote(parts.string()) + " -q -o " + quote(files.string()));
+  ASSERT_EQ(f.code, 0) << f.text;
+  EXPECT_LT(monitor_difference(c1, read_csv(files / "monitors.csv")), 1e-9);
 }
 
 // The first job's ranks (the launcher's children) are stopped while the second job tries the
