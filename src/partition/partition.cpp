@@ -524,8 +524,12 @@ std::uint64_t model_key(const Scene& s) {
     const real c[] = {b.min.x, b.min.y, b.min.z, b.max.x, b.max.y, b.max.z};
     h = fnv1a64(c, sizeof c, h);
   }
-  for (const BoundaryCondition& c : s.conditions) {  // (they mark faces; their values are read at the run)
-    const std::string w = c.surface + "|" + name_of(c.type) + "|" + std::to_string(c.components);
+  // The conditions mark faces and nodes, and whether a velocity is zero decides their conflicts
+  // (model/conditions.cpp); their values are read at the run.
+  for (const BoundaryCondition& c : s.conditions) {
+    const int moving = (c.velocity.x != 0) | (c.velocity.y != 0) << 1 | (c.velocity.z != 0) << 2;
+    const std::string w =
+        c.surface + "|" + name_of(c.type) + "|" + std::to_string(c.components) + "|" + std::to_string(moving);
     h = fnv1a64(w.data(), w.size(), h);
   }
   // (A mesh read from a file has the empty word, as it had when the shape was a string.)

@@ -12,6 +12,7 @@
 #include "backend_support.hpp"
 #include "cli_support.hpp"
 #include "core/error.hpp"
+#include "io/mesh_io.hpp"
 #include "model/structured.hpp"
 #include "support.hpp"
 
@@ -387,4 +388,55 @@ TEST(BoundaryConditions, AbsorbingCornersStayStableAtTheBoundStepAndTakeOutAPuls
   EXPECT_LT(work(r, 1) + work(r, 2) + work(r, 3), -0.9 * input) << "most of it left through the dashpots";
   EXPECT_LT(r.kinetic + r.strain, 0.05 * input);
   EXPECT_LT(r.energy_error, 0.02) << "measured against the energy that came in";
+}
+
+TEST(BoundaryConditions, AThickWalledCylinderUnderInternalPressureWidensAsLameSays) {
+  // A quarter of a thick-walled cylinder (a = 10 mm, b = 30 mm) in plane strain: rollers on its
+  // symmetry planes and ends, 10 MPa on the inner wall (a follower pressure) over a smooth
+  // 200 us rise, then held until it rests. Lame: u(r) = (1 + nu) p a^2 / (E (b^2 - a^2))
+  // ((1 - 2 nu) r + b^2 / r). The walls are faceted by 2 mm elements (8 per quarter of the
+  // inner wall), and linear tets are stiff: the tolerance is 3 % (measured 0.983 of it at
+  // both walls). The mesh is gmsh's, from tests/data/scenes/thick_cylinder.geo.
+  Scene scene = parse_scene(
+      "mesh: {file: thick_cylinder.geo, element_size: 0.002}\n"
+      "fracture_regions: none\nplatens: none\ncontact: {activation: none}\n"
+      "boundary_conditions:\n"
+      "  - {surface: xsym, type: roller}\n"
+      "  - {surface: ysym, type: roller}\n"
+      "  - {surface: bottom, type: roller}\n"
+      "  - {surface: top, type: roller}\n"
+      "  - {surface: inner, type: pressure, pressure: 1e7, time_function: {shape: smooth, duration: 2e-4}}\n"
+      "solver: {threads: 1, mass_scaling: 10, end: {time: 8e-4}}\n",
+      (cli_test::kData / "scenes" / "lame.yaml").string());
+  Solver s(scene, build_model(load_mesh(scene.mesh), scene));
+  while (s.time() < 8e-4) s.step();
+  s.sync_host();
+  const Monitors r = s.measure();
+  const Material& mat = scene.material;
+  const real a = 0.01, b = 0.03, p = 1e7, E = mat.youngs_modulus, nu = mat.poisson_ratio;
+  auto lame = [&](real radius) {
+    return (1 + nu) * p * a * a / (E * (b * b - a * a)) * ((1 - 2 * nu) * radius + b * b / radius);
+  };
+  // The mean radial displacement of the nodes on each wall (the mesh's vertices lie on the arcs).
+  for (const real radius : {a, b}) {
+    real sum = 0;
+    int count = 0;
+    const Model& m = s.model();
+    for (std::size_t n = 0; n < m.X.size(); ++n) {
+      const Vec3 X = m.X[n];
+      const real rx = std::hypot(X.x, X.y);
+      if (std::fabs(rx - radius) > 1e-9) continue;
+      const Vec3 u = s.state.x[n] - X;
+      sum += (u.x * X.x + u.y * X.y) / rx;
+      ++count;
+    }
+    ASSERT_GT(count, 10) << radius;
+    const real measured = sum / count;
+    EXPECT_NEAR(measured, lame(radius), 0.03 * lame(radius)) << "r = " << radius;
+    RecordProperty(radius == a ? "inner_ratio" : "outer_ratio", std::to_string(measured / lame(radius)));
+  }
+  // The wall's projection on the x = 0 plane is h a, faceted or not: the pressure's x force.
+  EXPECT_NEAR(reaction(r, 4, 0), p * 0.005 * a, 0.01 * p * 0.005 * a);
+  EXPECT_LT(r.kinetic, 1e-4 * r.strain) << "at rest (its breathing mode is the slowest to settle)";
+  EXPECT_LT(r.energy_error, 5e-3);
 }
