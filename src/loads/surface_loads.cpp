@@ -1,7 +1,5 @@
 #include "loads/surface_loads.hpp"
 
-#include <cmath>
-
 namespace fdem {
 
 namespace {
@@ -19,12 +17,7 @@ std::vector<char> lateral_faces(const Model& m) {
   return lateral;
 }
 
-bool face_load(ConditionType t) {
-  return t == ConditionType::pressure || t == ConditionType::traction || t == ConditionType::absorbing;
-}
-
-/// A condition's value at scale 1: the pressure, the traction, or the two impedances of the
-/// rock (with its mass-scaled density, which sets the waves' speed in the run).
+/// A condition's value at scale 1: the pressure, the traction, or the rock's two impedances.
 Vec3 face_value(const BoundaryCondition& c, const Scene& scene) {
   const Material& mat = scene.material;
   const real rho = scene.solver.mass_scaling * mat.density;
@@ -34,7 +27,7 @@ Vec3 face_value(const BoundaryCondition& c, const Scene& scene) {
     case ConditionType::traction:
       return c.traction;
     default:
-      return Vec3{std::sqrt(rho * (mat.lame_lambda() + 2 * mat.lame_mu())), std::sqrt(rho * mat.lame_mu()), 0};
+      return Vec3{p_impedance(rho, mat.lame_lambda(), mat.lame_mu()), s_impedance(rho, mat.lame_mu()), 0};
   }
 }
 
@@ -50,7 +43,7 @@ void SurfaceLoads::set_up(const Scene& scene, const Model& m, real transits) {
   bool any = false;
   for (const BoundaryCondition& c : scene.conditions) {
     type_.push_back(c.type), value_.push_back(face_value(c, scene)), time_.push_back(c.time);
-    any = any || face_load(c.type);
+    any = any || !c.kinematic();
   }
   // Surface faces in order (those of contact ghosts gathered later come last), each as a
   // lateral face of the confinement, then once per condition it carries.
@@ -58,7 +51,7 @@ void SurfaceLoads::set_up(const Scene& scene, const Model& m, real transits) {
   for (std::size_t k = 0; k < m.surface_faces.size(); ++k) {
     if (confining && lateral[k]) faces.push_back(m.surface_faces[k]), face_condition.push_back(-1);
     for (std::size_t c = 0; any && c < scene.conditions.size(); ++c)
-      if ((m.conditions_of(k) >> c & 1) && face_load(scene.conditions[c].type))
+      if ((m.conditions_of(k) >> c & 1) && !scene.conditions[c].kinematic())
         faces.push_back(m.surface_faces[k]), face_condition.push_back(int(c));
   }
   if (any)

@@ -61,8 +61,8 @@ void mark_group(const Mesh& mesh, const Scene& scene, std::size_t i, const std::
   }
 }
 
-/// A roller's faces must be normal to one axis, the same for all.
-void check_roller(const Scene& scene, std::size_t i, const Model& m) {
+/// A roller's axis: its faces' normal, which must be one axis for all of them.
+int roller_axis(const Scene& scene, std::size_t i, const Model& m) {
   int axis = -1;
   for (std::size_t k = 0; k < m.surface_faces.size(); ++k) {
     if (!(m.surface_conditions[k] >> i & 1)) continue;
@@ -73,6 +73,7 @@ void check_roller(const Scene& scene, std::size_t i, const Model& m) {
                        "' is not one plane normal to x, y or z; split it into such planes, or use type: fixed");
     axis = a.axis;
   }
+  return axis;
 }
 
 /// Two conditions fight over a mesh vertex's component when both prescribe it, unless both hold
@@ -88,7 +89,7 @@ void check_conflicts(const Scene& scene, const Model& m) {
     for (std::size_t i = 0; i < scene.conditions.size(); ++i) {
       if (!(m.surface_conditions[k] >> i & 1)) continue;
       const BoundaryCondition& c = scene.conditions[i];
-      const int mask = prescribed_components(c, m, m.surface_faces[k]);
+      const int mask = prescribed_components(c, m.condition_axis[i]);
       for (int n : m.surface_faces[k])
         for (int d = 0; d < 3; ++d) {
           if (!(mask >> d & 1)) continue;
@@ -106,6 +107,19 @@ void check_conflicts(const Scene& scene, const Model& m) {
     }
 }
 
+/// m.node_conditions: each kinematic condition's bit on every node at a vertex of its faces.
+void mark_held_nodes(const Scene& scene, Model& m) {
+  std::uint32_t kinematic = 0;
+  for (std::size_t i = 0; i < scene.conditions.size(); ++i)
+    if (scene.conditions[i].kinematic()) kinematic |= std::uint32_t(1) << i;
+  if (kinematic == 0) return;
+  std::vector<std::uint32_t> at_vertex(m.X.size(), 0);  // (by vertex: node_vertex < nodes)
+  for (std::size_t k = 0; k < m.surface_faces.size(); ++k)
+    for (int n : m.surface_faces[k]) at_vertex[m.node_vertex[n]] |= m.surface_conditions[k] & kinematic;
+  m.node_conditions.resize(m.X.size());
+  for (std::size_t n = 0; n < m.X.size(); ++n) m.node_conditions[n] = at_vertex[m.node_vertex[n]];
+}
+
 }  // namespace
 
 FaceAxis face_axis(const Model& m, const std::array<int, 3>& q) {
@@ -118,10 +132,6 @@ FaceAxis face_axis(const Model& m, const std::array<int, 3>& q) {
     if (d != a.axis) off = std::max(off, std::fabs(n[d]));
   a.aligned = off <= 1e-6 * std::fabs(n[a.axis]);
   return a;
-}
-
-int prescribed_components(const BoundaryCondition& c, const Model& m, const std::array<int, 3>& q) {
-  return prescribed_components(c, c.type == ConditionType::roller ? face_axis(m, q).axis : -1);
 }
 
 int prescribed_components(const BoundaryCondition& c, int axis) {
@@ -149,32 +159,6 @@ std::string describe_conditions(const Scene& scene, const Model& m, const std::s
   return out;
 }
 
-namespace {
-
-/// m.condition_axis, and m.node_conditions: each kinematic condition's bit on every node at a
-/// vertex of its faces.
-void mark_held_nodes(const Scene& scene, Model& m) {
-  std::uint32_t kinematic = 0;
-  for (std::size_t i = 0; i < scene.conditions.size(); ++i) {
-    if (scene.conditions[i].kinematic()) kinematic |= std::uint32_t(1) << i;
-    std::int8_t axis = -1;
-    for (std::size_t k = 0; k < m.surface_faces.size() && scene.conditions[i].type == ConditionType::roller; ++k)
-      if (m.surface_conditions[k] >> i & 1) {
-        axis = std::int8_t(face_axis(m, m.surface_faces[k]).axis);
-        break;
-      }
-    m.condition_axis.push_back(axis);
-  }
-  if (kinematic == 0) return;
-  std::vector<std::uint32_t> at_vertex(m.X.size(), 0);  // (by vertex: node_vertex < nodes)
-  for (std::size_t k = 0; k < m.surface_faces.size(); ++k)
-    for (int n : m.surface_faces[k]) at_vertex[m.node_vertex[n]] |= m.surface_conditions[k] & kinematic;
-  m.node_conditions.resize(m.X.size());
-  for (std::size_t n = 0; n < m.X.size(); ++n) m.node_conditions[n] = at_vertex[m.node_vertex[n]];
-}
-
-}  // namespace
-
 void mark_condition_faces(const Mesh& mesh, const Scene& scene, Model& m) {
   m.surface_conditions.clear(), m.node_conditions.clear(), m.condition_axis.clear();
   if (scene.conditions.empty()) return;
@@ -186,7 +170,8 @@ void mark_condition_faces(const Mesh& mesh, const Scene& scene, Model& m) {
   }
   for (std::size_t i = 0; i < scene.conditions.size(); ++i) {
     mark_group(mesh, scene, i, surface_face_of, m);
-    if (scene.conditions[i].type == ConditionType::roller) check_roller(scene, i, m);
+    m.condition_axis.push_back(
+        std::int8_t(scene.conditions[i].type == ConditionType::roller ? roller_axis(scene, i, m) : -1));
   }
   check_conflicts(scene, m);
   mark_held_nodes(scene, m);

@@ -23,10 +23,8 @@ FaceAxis face_axis(const Model& m, const std::array<int, 3>& q);
 /// (`where`: said after the count, e.g. " (this rank)").
 std::string describe_conditions(const Scene& scene, const Model& m, const std::string& where);
 
-/// The velocity components (bit d: component d) condition c prescribes on its nodes, on face q
-/// (none for a face load).
-int prescribed_components(const BoundaryCondition& c, const Model& m, const std::array<int, 3>& q);
-/// The same for condition c of a roller's axis `axis` (Model::condition_axis).
+/// The velocity components (bit d: component d) condition c prescribes on its nodes, with `axis`
+/// a roller's (Model::condition_axis); none for a face load.
 int prescribed_components(const BoundaryCondition& c, int axis);
 
 }  // namespace fdem

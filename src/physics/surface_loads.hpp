@@ -3,6 +3,8 @@
 // follower pressure the `pressure` condition shares): a fixed traction on the reference area,
 // and viscous dashpots that absorb waves leaving the model (Lysmer and Kuhlemeyer: a plane wave
 // meeting the boundary head-on is absorbed whole). Each gives a face's force per corner.
+#include <cmath>
+
 #include "core/vec.hpp"
 
 namespace fdem {
@@ -11,6 +13,15 @@ namespace fdem {
 /// area0 (m^2): a dead load that does not turn with the face.
 FDEM_HD Vec3 face_traction_force(Vec3 t, real area0) {
   return (area0 / 3) * t;
+}
+
+/// Pa s/m, the rock's P and S impedances rho c_p and rho c_s: the dashpots' coefficients per unit
+/// area. rho (kg/m^3) is the mass-scaled density, which sets the waves' speed in the run.
+FDEM_HD real p_impedance(real rho, real lambda, real mu) {
+  return std::sqrt(rho * (lambda + 2 * mu));
+}
+FDEM_HD real s_impedance(real rho, real mu) {
+  return std::sqrt(rho * mu);
 }
 
 /// N, each corner's share of the dashpots on the face with corners a, b, c (m, ordered so that

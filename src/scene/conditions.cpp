@@ -1,6 +1,7 @@
 // The scene's boundary_conditions: a list of conditions on the mesh's surface groups, each with
-// its type and, where it moves its surface, a velocity and a time function. Which groups exist
-// is known only with the mesh: build_model checks the names (model/conditions.cpp).
+// its type and, where it has one, its value (a velocity, pressure or traction) and a time
+// function. Which groups exist is known only with the mesh: build_model checks the names
+// (model/conditions.cpp).
 #include "scene/conditions.hpp"
 
 namespace fdem::scene_reading {

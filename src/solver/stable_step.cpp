@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "core/format.hpp"
+#include "physics/surface_loads.hpp"
 #include "physics/tet4.hpp"
 #include "physics/time_step.hpp"
 
@@ -22,7 +23,7 @@ std::vector<real> dashpot_damping(const Model& m, const Scene& scene, const Elem
   for (std::size_t i = 0; i < scene.conditions.size(); ++i)
     if (scene.conditions[i].type == ConditionType::absorbing) absorbing |= std::uint32_t(1) << i;
   if (absorbing == 0) return c;
-  const real zp = std::sqrt(rho * (laws.lambda + 2 * laws.mu));
+  const real zp = p_impedance(rho, laws.lambda, laws.mu);
   for (std::size_t k = 0; k < m.surface_faces.size(); ++k) {
     const int faces = __builtin_popcount(m.conditions_of(k) & absorbing);
     if (faces == 0) continue;
