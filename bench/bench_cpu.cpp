@@ -97,7 +97,7 @@ Traffic step_traffic(const Solver& s) {
   double reached_nodes = 0;
   for (char r : reached) reached_nodes += r;
   double carrying = 0, damaged = 0;
-  const fdem::Ce6Params p = s.ce6_params();
+  const fdem::Ce6Params p = s.laws().ce6[0];
   for (const fdem::Ce6Damage& c : s.state.ce6.damage) {
     const bool carries = fdem::ce6_carries_force(p, c);
     carrying += carries;

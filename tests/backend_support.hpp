@@ -32,8 +32,8 @@ inline Scene backend_elastic_scene(const std::string& backend) {
 inline Scene backend_fracture_scene(const std::string& backend) {
   Scene s = backend_elastic_scene(backend);
   s.platens.velocity = 4.0;
-  s.material.tensile_strength = 0.3e6;
-  s.material.cohesion = 1.0e6;
+  s.material().tensile_strength = 0.3e6;
+  s.material().cohesion = 1.0e6;
   s.contact.activation = Activation::adaptive;
   s.confinement.enabled = true;
   s.confinement.pressure = 0.2e6;

@@ -31,7 +31,7 @@ class ReferenceStepper {
  public:
   /// The scene and model of a solver, and its time step dt (s).
   ReferenceStepper(const Scene& scene, const Model& model, real dt) : s_(scene), m_(model), dt_(dt) {
-    const Material& mat = s_.material;
+    const Material& mat = s_.material();
     lambda_ = mat.lame_lambda();
     mu_ = mat.lame_mu();
     ce6p_ = make_ce6_params(mat);
@@ -125,10 +125,10 @@ class ReferenceStepper {
     for (std::size_t i = 0; i < m_.platen_nodes.size(); ++i) {
       const int n = m_.platen_nodes[i];
       const bool near_top = x[n].z > 0.5 * (ztop + zbot);  // a node meets the nearer platen only
-      const real k = s_.material.contact_penalty * m_.platen_node_area[i] / m_.platen_node_h[i];
+      const real k = s_.material().contact_penalty * m_.platen_node_area[i] / m_.platen_node_h[i];
       const PlatenEval e =
           platen_node_force(x[n] - Vec3{0, 0, near_top ? ztop : zbot}, Vec3{0, 0, near_top ? -1.0 : 1.0}, k,
-                            s_.material.friction_platen, platen_anchor[i]);
+                            s_.material().friction_platen, platen_anchor[i]);
       f[n] += e.force;
       (near_top ? force_top : force_bottom) += e.force.z;
     }
@@ -321,7 +321,7 @@ class ReferenceStepper {
       PairHistory& h = history[k];
       const ContactEval e =
           held ? ContactEval{}
-               : contact_tet_pair(s_.contact.law, xa, xb, s_.material.contact_penalty, fa, fb, h.overlap_zero);
+               : contact_tet_pair(s_.contact.law, xa, xb, s_.material().contact_penalty, fa, fb, h.overlap_zero);
       if (held) {
         h = new_pair_history();  // its first evaluation after the break sets its zero
       } else if (h.overlap_zero = next_overlap_zero(h.overlap_zero, e); !(e.weight > 0)) {
@@ -330,8 +330,8 @@ class ReferenceStepper {
         ++touching;
         Vec3 ga[4], gb[4];
         for (int i = 0; i < 4; ++i) ga[i] = gb[i] = Vec3{0, 0, 0};
-        const real k_t = contact_tangential_stiffness(xa, xb, s_.material.contact_penalty);
-        contact_friction(xa, xb, va, vb, e, s_.material.friction_rock, k_t, dt_, h.spring, ga, gb);
+        const real k_t = contact_tangential_stiffness(xa, xb, s_.material().contact_penalty);
+        contact_friction(xa, xb, va, vb, e, s_.material().friction_rock, k_t, dt_, h.spring, ga, gb);
         for (int i = 0; i < 4; ++i) fa[i] += ga[i], fb[i] += gb[i];
       }
       for (int i = 0; i < 4; ++i) {

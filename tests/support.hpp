@@ -4,6 +4,7 @@
 #include <string>
 #include <vector>
 
+#include "core/error.hpp"
 #include "model/model.hpp"
 #include "scene/scene.hpp"
 #include "solver/solver.hpp"
@@ -26,6 +27,17 @@ inline Scene test_scene() {
   s.output.progress_interval = 0;
   s.output.plot = false;
   return s;
+}
+
+/// The InputError text of parsing scene text `yaml` (labelled `file`) and building `mesh` with
+/// it, or "" when both succeed.
+inline std::string build_error(const std::string& yaml, const std::string& file, const Mesh& mesh) {
+  try {
+    build_model(mesh, parse_scene(yaml, file));
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
 }
 
 /// A gmsh cylinder (axis z) of the given diameter, height and element size, m.

@@ -64,7 +64,7 @@ int run_series_command(const std::string& scene_path, const std::vector<fdem::Se
       fdem::write_file_atomically(mc, o.str());
       std::cout << "  Mohr-Coulomb envelope: c = " << f.cohesion / 1e6 << " +- " << f.cohesion_se / 1e6
                 << " MPa, phi = " << f.friction_angle << " +- " << f.friction_angle_se << " deg (" << mc << ")\n";
-      const fdem::Material& mat = scene.material;
+      const fdem::Material& mat = scene.material();
       plot_args.insert(plot_args.end(), {"--mohr", mc, "--input",
                                          fdem::fmt(mat.cohesion, 10) + "," + fdem::fmt(mat.friction_angle, 10)});
     } catch (const fdem::InputError& e) {

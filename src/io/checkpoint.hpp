@@ -26,7 +26,7 @@ namespace fdem {
 // contact energy, and each contact pair its overlap zero. 6: a tet's contact flags hold its
 // opened faces too (contact/bonded.hpp). Rank files stay at 3: their content did not change.
 constexpr std::uint32_t kCheckpointVersion = 7;
-constexpr std::uint32_t kRankFileVersion = 4;
+constexpr std::uint32_t kRankFileVersion = 5;
 
 /// Collects values for a checkpoint payload.
 class CheckpointOut {

@@ -8,13 +8,13 @@ void PlatenLoad::set_up(const Scene& scene, const Model& m, real transits) {
   enabled = scene.platens.enabled;
   speed = scene.platens.velocity;
   ramp = scene.platens.ramp_time > 0 ? scene.platens.ramp_time : transits;
-  friction = scene.material.friction_platen;
+  friction = scene.material().friction_platen;
   top_z0 = m.box_max.z;
   bottom_z0 = m.box_min.z;
   k.resize(m.platen_nodes.size());
   anchor.resize(m.platen_nodes.size());
   for (std::size_t i = 0; i < m.platen_nodes.size(); ++i) {
-    k[i] = scene.material.contact_penalty * m.platen_node_area[i] / m.platen_node_h[i];
+    k[i] = scene.material().contact_penalty * m.platen_node_area[i] / m.platen_node_h[i];
     const Vec3 X = m.X[m.platen_nodes[i]];
     anchor[i] = {X.x, X.y, 0};
   }

@@ -17,18 +17,23 @@ std::vector<char> lateral_faces(const Model& m) {
   return lateral;
 }
 
-/// A condition's value at scale 1: the pressure, the traction, or the rock's two impedances.
-Vec3 face_value(const BoundaryCondition& c, const Scene& scene) {
-  const Material& mat = scene.material;
-  const real rho = scene.solver.mass_scaling * mat.density;
+/// A condition's value at scale 1: the pressure or the traction (none for the others).
+Vec3 face_value(const BoundaryCondition& c) {
   switch (c.type) {
     case ConditionType::pressure:
       return Vec3{c.pressure, 0, 0};
     case ConditionType::traction:
       return c.traction;
     default:
-      return Vec3{p_impedance(rho, mat.lame_lambda(), mat.lame_mu()), s_impedance(rho, mat.lame_mu()), 0};
+      return Vec3{0, 0, 0};
   }
+}
+
+/// The P and S impedances (Pa s/m) of the material of surface face k's tet, mass scaling included.
+Vec3 rock_impedance(const Scene& scene, const Model& m, std::size_t k) {
+  const Material& mat = scene.materials[m.tet_material[m.surface_tet[k]]];
+  const real rho = scene.solver.mass_scaling * mat.density;
+  return Vec3{p_impedance(rho, mat.lame_lambda(), mat.lame_mu()), s_impedance(rho, mat.lame_mu()), 0};
 }
 
 }  // namespace
@@ -38,21 +43,27 @@ void SurfaceLoads::set_up(const Scene& scene, const Model& m, real transits) {
   hydrostatic = confining && scene.confinement.path == ConfinementPath::hydrostatic;
   target = confining ? scene.confinement.pressure : 0;
   ramp = scene.confinement.ramp_time > 0 ? scene.confinement.ramp_time : transits;
-  faces.clear(), face_condition.clear(), face_area0.clear();
+  faces.clear(), face_condition.clear(), face_area0.clear(), face_impedance.clear();
   type_.clear(), value_.clear(), time_.clear();
-  bool any = false;
+  bool any = false, absorbing = false;
   for (const BoundaryCondition& c : scene.conditions) {
-    type_.push_back(c.type), value_.push_back(face_value(c, scene)), time_.push_back(c.time);
+    type_.push_back(c.type), value_.push_back(face_value(c)), time_.push_back(c.time);
     any = any || !c.kinematic();
+    absorbing = absorbing || c.type == ConditionType::absorbing;
   }
   // Surface faces in order (those of contact ghosts gathered later come last), each as a
   // lateral face of the confinement, then once per condition it carries.
   const std::vector<char> lateral = confining ? lateral_faces(m) : std::vector<char>{};
   for (std::size_t k = 0; k < m.surface_faces.size(); ++k) {
-    if (confining && lateral[k]) faces.push_back(m.surface_faces[k]), face_condition.push_back(-1);
+    if (confining && lateral[k]) {
+      faces.push_back(m.surface_faces[k]), face_condition.push_back(-1);
+      if (absorbing) face_impedance.push_back(Vec3{0, 0, 0});
+    }
     for (std::size_t c = 0; any && c < scene.conditions.size(); ++c)
-      if ((m.conditions_of(k) >> c & 1) && !scene.conditions[c].kinematic())
+      if ((m.conditions_of(k) >> c & 1) && !scene.conditions[c].kinematic()) {
         faces.push_back(m.surface_faces[k]), face_condition.push_back(int(c));
+        if (absorbing) face_impedance.push_back(rock_impedance(scene, m, k));
+      }
   }
   if (any)
     for (const auto& q : faces) face_area0.push_back(0.5 * norm(cross(m.X[q[1]] - m.X[q[0]], m.X[q[2]] - m.X[q[0]])));
@@ -117,6 +128,7 @@ void SurfaceLoads::place(const Model& m, bool held) {
   fdem::place(b_, faces_, reinterpret_cast<const int*>(faces.data()), 3 * faces.size());
   fdem::place(b_, cond_, face_condition);
   fdem::place(b_, area0_, face_area0);
+  fdem::place(b_, impedance_, face_impedance);
   std::vector<std::array<int, 2>> nf;
   for (int i = 0; i < int(faces.size()); ++i)
     for (int n : faces[i]) nf.push_back({n, i});

@@ -24,8 +24,8 @@
 namespace fdem {
 
 /// Each scene condition's face law at one evaluation, passed to the pass by value: its type and
-/// its value there (pressure: value.x in Pa; traction: the vector in Pa; absorbing: value.x and
-/// value.y the P and S impedances in Pa s/m). Conditions that are not face loads are unused.
+/// its value there (pressure: value.x in Pa; traction: the vector in Pa; absorbing: none, each
+/// face has its rock's impedances). Conditions that are not face loads are unused.
 struct FaceLaws {
   ConditionType type[BoundaryCondition::kMax];
   Vec3 value[BoundaryCondition::kMax];
@@ -65,8 +65,10 @@ struct HeldFaceForces {
       for (int j = ptr[li]; j < ptr[li + 1]; ++j) fe += force[face[j]];
   }
 };
-/// Face i's force per node: the confining pressure pr where its condition c < 0, else its law.
-FDEM_HD Vec3 face_force(int c, real pr, const FaceLaws& laws, real area0, const int* q, const Vec3* x, const Vec3* v) {
+/// Face i's force per node: the confining pressure pr where its condition c < 0, else its law;
+/// z: an absorbing face's P and S impedances (z.x, z.y, Pa s/m).
+FDEM_HD Vec3 face_force(int c, real pr, const FaceLaws& laws, real area0, Vec3 z, const int* q, const Vec3* x,
+                        const Vec3* v) {
   if (c < 0) return face_pressure_force(pr, x[q[0]], x[q[1]], x[q[2]]);
   switch (laws.type[c]) {
     case ConditionType::pressure:
@@ -75,7 +77,7 @@ FDEM_HD Vec3 face_force(int c, real pr, const FaceLaws& laws, real area0, const 
       return face_traction_force(laws.value[c], area0);
     default: {  // absorbing
       const Vec3 vm = (real(1) / 3) * (v[q[0]] + v[q[1]] + v[q[2]]);
-      return face_dashpot_force(laws.value[c].x, laws.value[c].y, x[q[0]], x[q[1]], x[q[2]], vm);
+      return face_dashpot_force(z.x, z.y, x[q[0]], x[q[1]], x[q[2]], vm);
     }
   }
 }
@@ -91,6 +93,9 @@ class SurfaceLoads : SumSlots {
   std::vector<std::array<int, 3>> faces;  // the lateral surface's faces, then the conditions'
   std::vector<int> face_condition;        // per face: its scene condition, -1 for the confinement's
   std::vector<real> face_area0;           // per face, its reference area, m^2 (with conditions only)
+  // Per face, its tet's P and S impedances (x, y; Pa s/m, mass scaling included); with absorbing
+  // conditions only.
+  std::vector<Vec3> face_impedance;
   // State: each face's force per node at the last evaluation, the pressure then and its power;
   // with conditions, each face's power then (W) and work so far (J).
   std::vector<Vec3> face_force;
@@ -123,7 +128,7 @@ class SurfaceLoads : SumSlots {
   void set_backend(Backend b) {
     b_ = b;
     auto set = [&](auto&... a) { (a.set_backend(b), ...); };
-    set(faces_, cond_, node_, ptr_, face_, held_of_, area0_, power_, work_, force_);
+    set(faces_, cond_, node_, ptr_, face_, held_of_, area0_, power_, work_, force_, impedance_);
   }
   /// The faces and, per node, the faces it sums in face order (the reference stepper's order, so
   /// the sums agree bit for bit). `held`: where the fused pass integrates, each node's place in
@@ -149,6 +154,7 @@ class SurfaceLoads : SumSlots {
     const int* lf = faces_.data();
     const int* fc = cond_.size() ? cond_.data() : nullptr;
     const real* fa = area0_.data();
+    const Vec3* fz = impedance_.size() ? impedance_.data() : nullptr;
     real* fp = power_.size() ? power_.data() : nullptr;
     Vec3* lforce = force_.data();
     Exec::template sum_to<1>(
@@ -160,7 +166,8 @@ class SurfaceLoads : SumSlots {
             const real axial = hydro ? mean_axial_stress(sums[kTop], sums[kBottom], area0) : 0;
             pr = confining_pressure(hydro, goal, ramped, axial);
           }
-          lforce[i] = device_pass::face_force(c, pr, laws, fc ? fa[i] : 0, lf + 3 * i, x, v);
+          lforce[i] =
+              device_pass::face_force(c, pr, laws, fc ? fa[i] : 0, fz ? fz[i] : Vec3{0, 0, 0}, lf + 3 * i, x, v);
           const real p = device_pass::face_power(lforce[i], lf + 3 * i, v, own_n);
           acc[0] += p;
           if (fp) fp[i] = p;
@@ -195,7 +202,8 @@ class SurfaceLoads : SumSlots {
   std::vector<TimeFunction> time_;  // per scene condition
   DeviceArray<int> faces_, cond_, node_, ptr_, face_, held_of_;
   DeviceArray<real> area0_, power_, work_;
-  DeviceArray<Vec3> force_;  // per face, on each of its nodes
+  DeviceArray<Vec3> force_;      // per face, on each of its nodes
+  DeviceArray<Vec3> impedance_;  // face_impedance
 };
 
 }  // namespace fdem

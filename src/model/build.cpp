@@ -7,6 +7,8 @@
 
 #include "core/error.hpp"
 #include "model/conditions.hpp"
+#include "model/laws.hpp"
+#include "model/materials.hpp"
 #include "model/model.hpp"
 #include "physics/tet4.hpp"
 #include "physics/time_step.hpp"
@@ -82,6 +84,7 @@ void number_ce6_in_colour_order(Model& m) {
   reorder(m.ce6_nodes);
   reorder(m.ce6_tets);
   reorder(m.ce6_h);
+  reorder(m.ce6_law);
   std::iota(m.ce6_colours.order.begin(), m.ce6_colours.order.end(), 0);
 }
 
@@ -229,14 +232,12 @@ void number_nodes(const Mesh& mesh, const TetVertices& tv, std::vector<int>& cor
     }
 }
 
-/// Per-tet constants (inverse reference shape, volume, damping) and the lumped node masses.
-/// Returns each tet's smallest altitude. Rejects tets of near-zero volume.
+/// Per-tet constants (inverse reference shape, volume, damping) and the lumped node masses, each
+/// from the tet's material. Returns each tet's smallest altitude. Rejects tets of near-zero volume.
 std::vector<real> set_tet_constants(const Mesh& mesh, const Scene& scene, Model& m) {
-  const Material& mat = scene.material;
   const SolverSettings& sol = scene.solver;
   const int nt = int(m.tet_nodes.size());
   const real vol_floor = 1e-9 * m.mean_edge * m.mean_edge * m.mean_edge;
-  const real density = sol.mass_scaling * mat.density;
   m.mass.assign(m.X.size(), 0);
   m.tet_Xinv.resize(nt);
   m.tet_V0.resize(nt);
@@ -244,6 +245,8 @@ std::vector<real> set_tet_constants(const Mesh& mesh, const Scene& scene, Model&
   std::vector<real> tet_hmin(nt);
   m.min_altitude = 1e300;
   for (int t = 0; t < nt; ++t) {
+    const Material& mat = scene.materials[m.tet_material[t]];
+    const real density = sol.mass_scaling * mat.density;
     Vec3 X[4];
     for (int i = 0; i < 4; ++i) X[i] = m.X[m.tet_nodes[t][i]];
     const Tet4Reference ref = tet4_reference(X);
@@ -277,9 +280,10 @@ std::array<int, 3> outward_vertices(const Mesh& mesh, const std::array<int, 3>& 
 }
 
 /// The CE6s: the A side (the lower tet) ordered so that its normal points into B, the B side at
-/// the same vertices, and the characteristic length h, the face's mean edge.
-void insert_ce6(const Mesh& mesh, const TetVertices& tv, const FaceSplit& split, const std::vector<Vec3>& centroid,
-                Model& m) {
+/// the same vertices, the characteristic length h (the face's mean edge) and the law between
+/// the two tets' materials.
+void insert_ce6(const Mesh& mesh, const Scene& scene, const TetVertices& tv, const FaceSplit& split,
+                const std::vector<Vec3>& centroid, Model& m) {
   m.ce6_nodes.reserve(split.cohesive.size());
   for (const FaceSplit::CohesivePair& p : split.cohesive) {
     const std::array<int, 3> v = outward_vertices(mesh, p.key, centroid[p.a]);
@@ -287,6 +291,7 @@ void insert_ce6(const Mesh& mesh, const TetVertices& tv, const FaceSplit& split,
     auto b_node = [&](int k) { return node_at(tv, m, p.b, v[k]); };
     m.ce6_nodes.push_back({a_node(0), a_node(1), a_node(2), b_node(0), b_node(1), b_node(2)});
     m.ce6_tets.push_back({p.a, p.b});
+    m.ce6_law.push_back(ce6_law_between(scene, m.tet_material[p.a], m.tet_material[p.b]));
     const Vec3 a = mesh.vertices[p.key[0]], b = mesh.vertices[p.key[1]], c = mesh.vertices[p.key[2]];
     m.ce6_h.push_back((norm(b - a) + norm(c - b) + norm(a - c)) / 3);
   }
@@ -406,8 +411,11 @@ Model build_model(const Mesh& mesh, const Scene& scene) {
   }
   FaceSplit split = split_faces(mesh, tv, sorted_faces(tv), region);
   number_nodes(mesh, tv, split.corner_parent, m);
+  const std::vector<std::uint8_t> material = material_of_mesh_tets(mesh, scene);
+  m.tet_material.resize(nt);
+  for (int t = 0; t < nt; ++t) m.tet_material[t] = material[m.tet_input[t]];
   const std::vector<real> tet_hmin = set_tet_constants(mesh, scene, m);
-  insert_ce6(mesh, tv, split, centroid, m);
+  insert_ce6(mesh, scene, tv, split, centroid, m);
   set_bounds(m);
   const SurfaceNodes surface = add_surface_faces(mesh, tv, split, centroid, tet_hmin, m);
   set_nominal_area(surface, m);

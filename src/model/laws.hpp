@@ -1,6 +1,10 @@
 #pragma once
-// The element laws' parameters (src/physics, which knows no scene) from a scene's material.
+// The element laws' parameters (src/physics, which knows no scene) from a scene's materials:
+// one TET4 law per material, and one CE6 law per material followed by one per interface.
 #include <cmath>
+#include <cstdint>
+#include <string>
+#include <vector>
 
 #include "physics/cohesive6.hpp"
 #include "scene/scene.hpp"
@@ -26,20 +30,49 @@ inline Ce6Params make_ce6_params(const Material& m) {
   return p;
 }
 
-/// The element laws' constants of a run: the TET4's Lame constants and the CE6 law's parameters.
-struct ElementLaws {
-  real lambda = 0, mu = 0;  // Pa
-  Ce6Params ce6{};
+/// A TET4's Lamé constants (Pa) and its material's density with mass scaling (kg/m^3).
+struct Tet4Law {
+  real lambda, mu;
+  real density;
 };
 
-/// The laws of `scene`'s material; tet-tet contact, where the scene has it, takes over broken
-/// CE6 faces (Ce6Params::broken_inert).
+/// The element laws of a run: per material its TET4 law (Model::tet_material indexes it), and
+/// the CE6 laws (Model::ce6_law indexes them): each material's own, then each interface's.
+struct ElementLaws {
+  std::vector<Tet4Law> tet4;
+  std::vector<Ce6Params> ce6;
+  std::vector<std::string> ce6_names;  // "granite", "granite|dyke": for listings
+};
+
+/// The CE6 law of a face between tets of materials a and b (indices into scene.materials): a's
+/// own where they are the same; else the interface that names the two; else the law of the one
+/// with the lower tensile strength (the lower index on a tie).
+inline std::uint8_t ce6_law_between(const Scene& scene, int a, int b) {
+  if (a == b) return std::uint8_t(a);
+  const std::string& na = scene.materials[a].name;
+  const std::string& nb = scene.materials[b].name;
+  for (std::size_t i = 0; i < scene.interfaces.size(); ++i) {
+    const auto& w = scene.interfaces[i].between;
+    if ((w[0] == na && w[1] == nb) || (w[0] == nb && w[1] == na)) return std::uint8_t(scene.materials.size() + i);
+  }
+  const real fa = scene.materials[a].tensile_strength, fb = scene.materials[b].tensile_strength;
+  return std::uint8_t(fb < fa || (fb == fa && b < a) ? b : a);
+}
+
+/// The laws of `scene`'s materials and interfaces; tet-tet contact, where the scene has it,
+/// takes over broken CE6 faces (Ce6Params::broken_inert).
 inline ElementLaws make_element_laws(const Scene& scene) {
   ElementLaws l;
-  l.lambda = scene.material.lame_lambda();
-  l.mu = scene.material.lame_mu();
-  l.ce6 = make_ce6_params(scene.material);
-  l.ce6.broken_inert = scene.contact.enabled() ? 1 : 0;
+  for (const Material& m : scene.materials) {
+    l.tet4.push_back({m.lame_lambda(), m.lame_mu(), scene.solver.mass_scaling * m.density});
+    l.ce6.push_back(make_ce6_params(m));
+    l.ce6_names.push_back(m.name);
+  }
+  for (const MaterialInterface& i : scene.interfaces) {
+    l.ce6.push_back(make_ce6_params(i.law));
+    l.ce6_names.push_back(i.between[0] + "|" + i.between[1]);
+  }
+  for (Ce6Params& p : l.ce6) p.broken_inert = scene.contact.enabled() ? 1 : 0;
   return l;
 }
 

@@ -33,6 +33,7 @@ struct Model {
   std::vector<Mat3> tet_Xinv;                 // inverse reference edge matrix
   std::vector<real> tet_V0;                   // reference volume, m^3
   std::vector<real> tet_eta;                  // viscous damping coefficient, Pa s
+  std::vector<std::uint8_t> tet_material;     // index into scene.materials (ElementLaws::tet4)
   Colouring tet_colours;
 
   // CE6: nodes 0-2 on tet A's face, 3-5 the paired nodes of tet B (same vertices, same
@@ -41,7 +42,8 @@ struct Model {
   // that pair cannot open, which pins the crack's edge to the region.
   std::vector<std::array<int, 6>> ce6_nodes;
   std::vector<std::array<int, 2>> ce6_tets;
-  std::vector<real> ce6_h;  // characteristic size (reference mean edge length), m
+  std::vector<real> ce6_h;            // characteristic size (reference mean edge length), m
+  std::vector<std::uint8_t> ce6_law;  // index into ElementLaws::ce6 (model/laws.hpp)
   Colouring ce6_colours;
 
   // Boundary: faces on the outer surface (node ids, normal outward) and node groups.

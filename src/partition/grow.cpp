@@ -59,6 +59,7 @@ struct Ce6Rec {
   long id = 0, a = 0, b = 0;  // global ids of the CE6 and its tets (A side, B side)
   std::array<long, 6> nodes{};
   real h = 0;
+  std::uint8_t law = 0;  // Model::ce6_law
   Ce6State state{};
 };
 struct TetRec {
@@ -66,6 +67,7 @@ struct TetRec {
   int input = 0;
   Mat3 Xinv{};
   real V0 = 0, eta = 0;
+  std::uint8_t material = 0;  // Model::tet_material
   std::uint8_t active = 0;
   std::vector<int> holders;  // every rank holding it once this growth is done, ascending
   std::array<long, 4> nodes{};
@@ -213,6 +215,7 @@ void put_ghost_record(CheckpointOut& o, const Model& m, const Decomposition& dd,
                       const RecordIndex& ix, long g, int t, const std::vector<int>& h) {
   const bool flags = !now.active.empty();
   o.put(g), o.put(m.tet_input[t]), o.put(m.tet_Xinv[t]), o.put(m.tet_V0[t]), o.put(m.tet_eta[t]);
+  o.put(m.tet_material[t]);
   o.put(std::uint8_t(flags ? now.active[t] : 0)), o.put(h);
   for (int n : m.tet_nodes[t]) {
     o.put(dd.node_global[n]), o.put(m.X[n]), o.put(m.mass[n]), o.put(now.x[n]);
@@ -223,7 +226,7 @@ void put_ghost_record(CheckpointOut& o, const Model& m, const Decomposition& dd,
   for (int c : ce6s) {
     o.put(dd.ce6_global[c]), o.put(dd.tet_global[m.ce6_tets[c][0]]), o.put(dd.tet_global[m.ce6_tets[c][1]]);
     for (int n : m.ce6_nodes[c]) o.put(dd.node_global[n]);
-    o.put(m.ce6_h[c]), o.put(now.ce6[c]);
+    o.put(m.ce6_h[c]), o.put(m.ce6_law[c]), o.put(now.ce6[c]);
   }
   const std::vector<int>& faces = ix.faces_of.at(t);
   o.put(std::uint64_t(faces.size()));
@@ -285,7 +288,8 @@ struct Arrivals {
 
 void read_ghost_record(CheckpointIn& rd, Arrivals& a) {
   TetRec t;
-  rd.get(t.id), rd.get(t.input), rd.get(t.Xinv), rd.get(t.V0), rd.get(t.eta), rd.get(t.active), rd.get(t.holders);
+  rd.get(t.id), rd.get(t.input), rd.get(t.Xinv), rd.get(t.V0), rd.get(t.eta), rd.get(t.material);
+  rd.get(t.active), rd.get(t.holders);
   for (long& nid : t.nodes) {
     NodeRec nr;
     rd.get(nr.id), rd.get(nr.X), rd.get(nr.mass), rd.get(nr.x), rd.get(nr.v), rd.get(nr.groups);
@@ -298,7 +302,7 @@ void read_ghost_record(CheckpointIn& rd, Arrivals& a) {
     Ce6Rec c;
     rd.get(c.id), rd.get(c.a), rd.get(c.b);
     for (long& nid : c.nodes) rd.get(nid);
-    rd.get(c.h), rd.get(c.state);
+    rd.get(c.h), rd.get(c.law), rd.get(c.state);
     a.ce6s.emplace(c.id, c);
   }
   std::uint64_t kf = 0;
@@ -402,7 +406,7 @@ void append_ghost_tets(std::vector<TetRec>& tets, const std::unordered_map<long,
     tet_local[t.id] = i;
     std::array<int, 4> q;
     for (int k = 0; k < 4; ++k) q[k] = node_local.at(t.nodes[k]);
-    append_tet(gm, q, t.input, t.Xinv, t.V0, t.eta);
+    append_tet(gm, q, t.input, t.Xinv, t.V0, t.eta, t.material);
     gd.tet_global.push_back(t.id);
     gd.tet_owned.push_back(0);
     holders.push_back(std::move(t.holders));
@@ -431,6 +435,7 @@ void append_ghost_ce6s(const std::map<long, Ce6Rec>& ce6s, const Model& m, const
     gm.ce6_nodes.push_back(q);
     gm.ce6_tets.push_back({tet_local.at(c.a), tet_local.at(c.b)});
     gm.ce6_h.push_back(c.h);
+    gm.ce6_law.push_back(c.law);
     gd.ce6_global.push_back(g);
     gd.ce6_owned.push_back(0);
     out.added.ce6.push_back(c.state);

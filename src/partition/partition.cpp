@@ -118,12 +118,14 @@ std::vector<int> partition_tets(const Model& m, int parts, PartitionWeights weig
   return part;
 }
 
-void append_tet(Model& m, const std::array<int, 4>& nodes, int input, const Mat3& Xinv, real V0, real eta) {
+void append_tet(Model& m, const std::array<int, 4>& nodes, int input, const Mat3& Xinv, real V0, real eta,
+                std::uint8_t material) {
   m.tet_nodes.push_back(nodes);
   m.tet_input.push_back(input);
   m.tet_Xinv.push_back(Xinv);
   m.tet_V0.push_back(V0);
   m.tet_eta.push_back(eta);
+  m.tet_material.push_back(material);
 }
 
 real default_reach(const Model& m, const Scene& s) {
@@ -306,6 +308,7 @@ void cut_elements(const Model& g, const HeldParts& h, Model& m) {
   m.tet_Xinv = pick(g.tet_Xinv, tets);
   m.tet_V0 = pick(g.tet_V0, tets);
   m.tet_eta = pick(g.tet_eta, tets);
+  m.tet_material = pick(g.tet_material, tets);
   m.ce6_nodes.resize(ce6s.size());
   m.ce6_tets.resize(ce6s.size());
   for (std::size_t i = 0; i < ce6s.size(); ++i) {
@@ -313,6 +316,7 @@ void cut_elements(const Model& g, const HeldParts& h, Model& m) {
     for (int k = 0; k < 2; ++k) m.ce6_tets[i][k] = h.tet_local[g.ce6_tets[ce6s[i]][k]];
   }
   m.ce6_h = pick(g.ce6_h, ce6s);
+  m.ce6_law = pick(g.ce6_law, ce6s);
   for (std::size_t i = 0; i < g.surface_faces.size(); ++i)
     if (h.tet_local[g.surface_tet[i]] >= 0) {
       const auto& q = g.surface_faces[i];
@@ -472,6 +476,7 @@ void model_fields(F&& f, M& m) {
   f(m.top_nodes), f(m.bottom_nodes), f(m.lateral_nodes);
   f(m.box_min), f(m.box_max), f(m.axis_point), f(m.height0), f(m.area0), f(m.line_loaded), f(m.min_altitude);
   f(m.mean_edge), f(m.source), f(m.surface_conditions), f(m.node_conditions), f(m.condition_axis);
+  f(m.tet_material), f(m.ce6_law);
 }
 
 constexpr std::uint64_t kRankFileMagic = 0x4644454d52414e4bull;  // "FDEMRANK"
@@ -505,7 +510,7 @@ void Decomposition::load(CheckpointIn& in) {
 
 std::uint64_t model_key(const Scene& s) {
   const MeshSpec& g = s.mesh;
-  const Material& a = s.material;
+  const Material& a = s.material();
   const real v[] = {g.diameter,
                     g.height,
                     g.size.x,
@@ -523,6 +528,20 @@ std::uint64_t model_key(const Scene& s) {
   for (const auto& b : s.fracture.boxes) {
     const real c[] = {b.min.x, b.min.y, b.min.z, b.max.x, b.max.y, b.max.z};
     h = fnv1a64(c, sizeof c, h);
+  }
+  // Each tet's material sets its mass and damping; each CE6's law is a material's or an interface's.
+  if (s.materials.size() > 1 || !s.interfaces.empty()) {
+    for (const Material& m : s.materials) {
+      const real c[] = {m.density, m.youngs_modulus, m.poisson_ratio, m.tensile_strength};
+      h = fnv1a64(c, sizeof c, h);
+      std::string w = m.name;
+      for (const std::string& g : m.groups) w += "|" + g;
+      h = fnv1a64(w.data(), w.size() + 1, h);
+    }
+    for (const MaterialInterface& f : s.interfaces) {
+      const std::string w = f.between[0] + "|" + f.between[1];
+      h = fnv1a64(w.data(), w.size() + 1, h);
+    }
   }
   // The conditions mark faces and nodes, and whether a velocity is zero decides their conflicts
   // (model/conditions.cpp); their values are read at the run.
@@ -580,9 +599,9 @@ RankModel get_rank_model(CheckpointIn& in, std::uint64_t key) {
   };
   if (m.mass.size() != nn || m.node_vertex.size() != nn || rm.dd.node_global.size() != nn ||
       rm.dd.node_owned.size() != nn || rm.dd.tet_global.size() != nt || rm.dd.tet_owned.size() != nt ||
-      m.tet_Xinv.size() != nt || m.tet_V0.size() != nt || m.tet_eta.size() != nt ||
+      m.tet_Xinv.size() != nt || m.tet_V0.size() != nt || m.tet_eta.size() != nt || m.tet_material.size() != nt ||
       m.ce6_tets.size() != m.ce6_nodes.size() || m.ce6_h.size() != m.ce6_nodes.size() ||
-      rm.dd.ce6_owned.size() != m.ce6_nodes.size() ||
+      m.ce6_law.size() != m.ce6_nodes.size() || rm.dd.ce6_owned.size() != m.ce6_nodes.size() ||
       (!m.surface_conditions.empty() && m.surface_conditions.size() != m.surface_faces.size()) ||
       (!m.node_conditions.empty() && m.node_conditions.size() != nn))
     bad("array sizes differ");

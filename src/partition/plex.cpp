@@ -115,6 +115,7 @@ Lookup make_lookup(const Model& g) {
 std::string tet_record(const Model& g, const PartitionPlan& plan, const Lookup& lk, int t) {
   CheckpointOut o;
   o.put(long(t)), o.put(g.tet_input[t]), o.put(g.tet_Xinv[t]), o.put(g.tet_V0[t]), o.put(g.tet_eta[t]);
+  o.put(g.tet_material[t]);
   o.put(plan.part[t]), o.put(plan.held[t]), o.put(lk.tet_colour[t]), o.put(lk.tet_pos[t]);
   for (int n : g.tet_nodes[t]) {
     const int p = lk.platen_of[n];
@@ -125,7 +126,8 @@ std::string tet_record(const Model& g, const PartitionPlan& plan, const Lookup& 
   o.put(lk.ce6_ptr[t + 1] - lk.ce6_ptr[t]);
   for (int j = lk.ce6_ptr[t]; j < lk.ce6_ptr[t + 1]; ++j) {
     const int c = lk.ce6_list[j];
-    o.put(c), o.put(g.ce6_nodes[c]), o.put(g.ce6_tets[c][1]), o.put(g.ce6_h[c]), o.put(lk.ce6_colour[c]);
+    o.put(c), o.put(g.ce6_nodes[c]), o.put(g.ce6_tets[c][1]), o.put(g.ce6_h[c]), o.put(g.ce6_law[c]);
+    o.put(lk.ce6_colour[c]);
     o.put(lk.ce6_pos[c]);
   }
   o.put(lk.face_ptr[t + 1] - lk.face_ptr[t]);
@@ -173,6 +175,7 @@ struct TetRec {
   int input = 0, part = 0, colour = 0, pos = 0;
   Mat3 Xinv{};
   real V0 = 0, eta = 0;
+  std::uint8_t material = 0;  // Model::tet_material
   std::vector<int> held;
   std::array<int, 4> nodes{};
 };
@@ -180,6 +183,7 @@ struct Ce6Rec {
   int id = 0, a = 0, b = 0, colour = 0, pos = 0;
   std::array<int, 6> nodes{};
   real h = 0;
+  std::uint8_t law = 0;  // Model::ce6_law
 };
 struct FaceRec {
   int id = 0, tet = 0;
@@ -197,7 +201,8 @@ struct Piece {
 void read_record(const char* bytes, std::size_t n, Piece& p) {
   CheckpointIn in(std::string(bytes, n), "a tet record of the DMPlex distribution");
   TetRec t;
-  in.get(t.id), in.get(t.input), in.get(t.Xinv), in.get(t.V0), in.get(t.eta), in.get(t.part), in.get(t.held);
+  in.get(t.id), in.get(t.input), in.get(t.Xinv), in.get(t.V0), in.get(t.eta), in.get(t.material);
+  in.get(t.part), in.get(t.held);
   in.get(t.colour), in.get(t.pos);
   for (int& id : t.nodes) {
     in.get(id);
@@ -211,7 +216,7 @@ void read_record(const char* bytes, std::size_t n, Piece& p) {
   in.get(k);
   for (int j = 0; j < k; ++j) {
     Ce6Rec c;
-    in.get(c.id), in.get(c.nodes), in.get(c.b), in.get(c.h), in.get(c.colour), in.get(c.pos);
+    in.get(c.id), in.get(c.nodes), in.get(c.b), in.get(c.h), in.get(c.law), in.get(c.colour), in.get(c.pos);
     c.a = int(t.id);
     p.ce6s.push_back(c);
   }
@@ -270,7 +275,7 @@ RankModel cut_piece(Piece& p, const Header& h, int rank) {
     ids.tet.push_back(t.id);
     std::array<int, 4> q;
     for (int k = 0; k < 4; ++k) q[k] = node_local.at(t.nodes[k]);
-    append_tet(m, q, t.input, t.Xinv, t.V0, t.eta);
+    append_tet(m, q, t.input, t.Xinv, t.V0, t.eta, t.material);
     plan.part.push_back(t.part);
     plan.held.push_back(t.held);
   }
@@ -287,6 +292,7 @@ RankModel cut_piece(Piece& p, const Header& h, int rank) {
     m.ce6_nodes.push_back(q);
     m.ce6_tets.push_back({tet_local.at(c.a), tet_local.at(c.b)});
     m.ce6_h.push_back(c.h);
+    m.ce6_law.push_back(c.law);
   }
   m.ce6_colours = piece_colouring(ce6s, h.ce6_colours);
   std::sort(p.faces.begin(), p.faces.end(), [](const FaceRec& a, const FaceRec& b) { return a.id < b.id; });

@@ -17,6 +17,7 @@
 #include "core/error.hpp"
 #include "core/format.hpp"
 #include "scene/conditions.hpp"
+#include "scene/materials.hpp"
 #include "scene/reader.hpp"
 #include "scene/scene.hpp"
 
@@ -38,34 +39,6 @@ class Reader : public YamlReader {
   using YamlReader::YamlReader;
 
   // ---- sections -------------------------------------------------------------------------
-
-  void material(const YAML::Node& n, Material& m) {
-    const std::string p = "material";
-    if (!check_map(n, p,
-                   {"density", "youngs_modulus", "poisson_ratio", "tensile_strength", "cohesion", "friction_angle",
-                    "fracture_energy_I", "fracture_energy_II", "contact_penalty", "cohesive_penalty_open",
-                    "cohesive_penalty_tangential", "cohesive_penalty_overlap", "friction_platen", "friction_rock",
-                    "softening"}))
-      return;
-    // Upper bounds far beyond any solid (osmium 22.6e3 kg/m^3, diamond 1.2e12 Pa), so that the
-    // products in the laws stay finite: density 1e300 gave a time step of 1e141 s and NaN forces.
-    auto up_to = [](double hi) { return Range{0, hi, true, false}; };
-    number(n, p, "density", up_to(1e5), m.density);
-    number(n, p, "youngs_modulus", up_to(1e13), m.youngs_modulus);
-    number(n, p, "poisson_ratio", Range{0, 0.5, false, true}, m.poisson_ratio);
-    number(n, p, "tensile_strength", up_to(1e11), m.tensile_strength);
-    number(n, p, "cohesion", up_to(1e11), m.cohesion);
-    number(n, p, "friction_angle", Range{0, 90, false, true}, m.friction_angle);
-    number(n, p, "fracture_energy_I", up_to(1e9), m.fracture_energy_I);
-    number(n, p, "fracture_energy_II", up_to(1e9), m.fracture_energy_II);
-    number(n, p, "contact_penalty", up_to(1e17), m.contact_penalty);
-    number(n, p, "cohesive_penalty_open", up_to(1e17), m.cohesive_penalty_open);
-    number(n, p, "cohesive_penalty_tangential", up_to(1e17), m.cohesive_penalty_tangential);
-    number(n, p, "cohesive_penalty_overlap", up_to(1e17), m.cohesive_penalty_overlap);
-    number(n, p, "friction_platen", closed(0, 10), m.friction_platen);
-    number(n, p, "friction_rock", closed(0, 10), m.friction_rock);
-    choice(n, p, "softening", m.softening);
-  }
 
   void mesh(const YAML::Node& n, const std::string& scene_dir, MeshSpec& m) {
     const std::string p = "mesh";
@@ -307,28 +280,21 @@ class Reader : public YamlReader {
     number(n, p, "checkpoint_wall_interval", at_least(0), o.checkpoint_wall_interval);
   }
 
-  /// Cross-checks between sections, run only when the values involved are valid.
-  void cohesive_law(const Scene& s) {
-    if (!s.mesh.generated()) return;  // mesh from a file: no element size known here
-    const Material& m = s.material;
-    const double h = s.mesh.element_size;
-    const double o_p = 2 * h * m.tensile_strength / m.cohesive_penalty_open;
-    const double gi_min = 2.0 / 3.0 * m.tensile_strength * o_p;
-    if (!(m.fracture_energy_I > gi_min))
-      error("material.fracture_energy_I",
-            fmt(m.fracture_energy_I) +
-                " J/m^2 is too small for the cohesive law: need > (2/3)*tensile_strength*o_p = " + fmt(gi_min) +
-                " J/m^2, o_p = 2*element_size*tensile_strength/cohesive_penalty_open",
-            "raise fracture_energy_I or cohesive_penalty_open, or lower mesh.generate.element_size or "
-            "tensile_strength");
-    const double s_p = 2 * h * m.cohesion / m.cohesive_penalty_tangential;
-    const double gii_min = 2.0 / 3.0 * m.cohesion * s_p;
-    if (!(m.fracture_energy_II > gii_min))
-      error("material.fracture_energy_II",
-            fmt(m.fracture_energy_II) + " J/m^2 is too small for the cohesive law: need > (2/3)*cohesion*s_p = " +
-                fmt(gii_min) + " J/m^2, s_p = 2*element_size*cohesion/cohesive_penalty_tangential",
-            "raise fracture_energy_II or cohesive_penalty_tangential, or lower mesh.generate.element_size or "
-            "cohesion");
+  /// `material` (one, every tet) or `materials` (on volume groups) with their `interfaces`.
+  void rock(const YAML::Node& root, Scene& s) {
+    const bool one = root["material"] && !root["material"].IsNull(), many = bool(root["materials"]);
+    if (one && many)
+      error("materials", "given with material",
+            "give material (one for every tet) or materials (each on its volume groups), not both");
+    if (one && check_map(root["material"], "material", scene_reading::material_keys()))
+      read_material_keys(*this, root["material"], "material", s.material());
+    if (many) read_materials(*this, root["materials"], s);
+    if (root["interfaces"]) {
+      if (!many)
+        error("interfaces", "given without materials", "interfaces join two of the materials listed under materials");
+      else
+        read_interfaces(*this, root["interfaces"], s);
+    }
   }
 
   /// The name is the default output folder out/<name>: one folder name (summary.csv quotes it
@@ -376,22 +342,22 @@ class Reader : public YamlReader {
     s.name = stem.empty() || stem == "." || stem == ".." ? "scene" : stem;
     strange_yaml(root, "");
     if (!check_map(root, "",
-                   {"name", "material", "mesh", "fracture_regions", "platens", "confinement", "contact", "gravity",
-                    "boundary_conditions", "solver", "output"}))
+                   {"name", "material", "materials", "interfaces", "mesh", "fracture_regions", "platens", "confinement",
+                    "contact", "gravity", "boundary_conditions", "solver", "output"}))
       return s;
     const std::string scene_dir = fs::path(file).parent_path().string();
     if (text(root, "", "name", s.name, "give a short name for the run")) name_check(s.name);
     const size_t before = errors_.size();
     // A section left empty (`material:` with nothing under it) keeps its defaults.
     auto given = [&](const char* key) { return root[key] && !root[key].IsNull(); };
-    if (given("material")) material(root["material"], s.material);
+    rock(root, s);
     if (root["mesh"])
       mesh(root["mesh"], scene_dir, s.mesh);
     else
       error("mesh", "missing",
             "give mesh.generate (e.g. {shape: cylinder, diameter: 0.02, height: 0.04, "
             "element_size: 0.004}) or mesh.file");
-    if (errors_.size() == before) cohesive_law(s);
+    if (errors_.size() == before) check_materials(*this, s);
     if (root["fracture_regions"]) fracture_regions(root["fracture_regions"], s.fracture);
     if (given("platens")) platens(root["platens"], s.platens);
     if (given("confinement")) confinement(root["confinement"], s.confinement, s.platens.enabled);

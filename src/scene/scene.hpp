@@ -36,6 +36,8 @@ struct ChoiceNames<Activation> {
 
 /// Rock and interface parameters. Defaults are the reference paper's Table 2 limestone.
 struct Material {
+  std::string name;                           // materials[i].name; "" for the one-material shorthand
+  std::vector<std::string> groups;            // volume groups it fills (name or tag); none: every tet no other names
   real density = 1800;                        // kg/m^3
   real youngs_modulus = 12.2e9;               // Pa
   real poisson_ratio = 0.25;                  // -
@@ -162,6 +164,16 @@ struct BoundaryCondition {
   static std::string key(std::size_t i) { return "boundary_conditions[" + std::to_string(i) + "]"; }
 };
 
+/// A CE6 law between two materials (scene `interfaces`): their names and the law's keys (those
+/// not given are the weaker material's). Without one, a CE6 between two materials takes the
+/// law of the one with the lower tensile strength.
+struct MaterialInterface {
+  std::array<std::string, 2> between;
+  Material law;  // only its CE6 keys are read
+  /// "interfaces[i]", for messages.
+  static std::string key(std::size_t i) { return "interfaces[" + std::to_string(i) + "]"; }
+};
+
 struct EndCondition {
   real time = 0;                // s; 0 = not used
   long steps = 0;               // 0 = not used
@@ -205,7 +217,14 @@ struct OutputSettings {
 struct Scene {
   std::string file;  // the scene file, for messages
   std::string name;
-  Material material;
+  /// The rock's materials, at least one: `material` (one, for every tet) or `materials` (each
+  /// on its volume groups). Tet-tet contact and the platens use the first one's contact_penalty,
+  /// friction_platen and friction_rock, which every material must share.
+  std::vector<Material> materials{Material{}};
+  std::vector<MaterialInterface> interfaces;  // CE6 laws between two materials
+  Material& material() { return materials.front(); }
+  const Material& material() const { return materials.front(); }
+  static constexpr std::size_t kMaxMaterials = 64;  // materials plus interfaces: a byte per element
   MeshSpec mesh;
   FractureRegions fracture;
   Platens platens;

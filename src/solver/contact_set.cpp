@@ -12,9 +12,9 @@ namespace fdem {
 ContactSet::ContactSet(const Model& m, const Scene& s) {
   enabled_ = s.contact.enabled();
   if (!enabled_) return;
-  penalty_ = s.material.contact_penalty;
+  penalty_ = s.material().contact_penalty;
   law_ = s.contact.law;
-  mu_ = s.material.friction_rock;
+  mu_ = s.material().friction_rock;
   buffer_ = s.contact.buffer > 0 ? s.contact.buffer : 0.1 * m.mean_edge;
   const int nt = int(m.tet_nodes.size());
 

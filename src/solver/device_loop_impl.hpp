@@ -75,7 +75,7 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
   void place_constants(const LoopParts& s) {
     const Model& m = s.model;
     place(b_, mass_, m.mass);  // (1/m: divided where needed, no array read for it)
-    elements_.place(m, s.layout, s.laws.ce6, s.scene.solver.mass_scaling * s.scene.material.density);
+    elements_.place(m, s.layout, s.laws);
     place(b_, X_, m.X);
     place(b_, lateral_nodes_, m.lateral_nodes);
     place(b_, own_node_, s.layout.own_node);
@@ -357,8 +357,8 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
   /// What the element passes read of the node state.
   ElementInputs element_inputs(const LoopParts& s) {
     const GravityLoad& gravity = s.loads.gravity;
-    return ElementInputs{x_.data(),       v_.data(), f_.data(),     mass_.data(), own_tet_.data(),
-                         gravity.enabled, gravity.g, s.laws.lambda, s.laws.mu,    sums_.data()};
+    return ElementInputs{x_.data(),       v_.data(),       f_.data(), mass_.data(),
+                         own_tet_.data(), gravity.enabled, gravity.g, sums_.data()};
   }
   /// The forces held for the fused pass that integrates.
   HeldForces held_forces() const {
@@ -685,7 +685,7 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     MonitorSums out;
     lateral_strain(s.model, out);
     out.kinetic = 0.5 * kinetic2();
-    elements_.measure(x_.data(), v_.data(), own_tet_.data(), mid_third_.data(), s.laws.lambda, s.laws.mu, out);
+    elements_.measure(x_.data(), v_.data(), own_tet_.data(), mid_third_.data(), out);
     if (s.loads.platens.enabled) out.platen_stored = s.loads.platens.stored<Exec>(x_.data());
     if (s.contacts.enabled()) contact_.measure(own_tet_.data(), out);
     t_.monitor += seconds_since(t0);

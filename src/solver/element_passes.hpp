@@ -11,9 +11,10 @@
 #include <vector>
 
 #include "core/forall.hpp"
-#include "loads/surface_loads.hpp"
 #include "loads/gravity.hpp"
 #include "loads/prescribed.hpp"
+#include "loads/surface_loads.hpp"
+#include "model/laws.hpp"
 #include "physics/cohesive6.hpp"
 #include "physics/tet4.hpp"
 #include "solver/device_loop.hpp"
@@ -47,6 +48,20 @@ FDEM_HD void ce6_element(const Ce6Params& p, const Vec3 (&xe)[6], const Vec3 (&v
   if (own && !was_broken) acc[0] += ev.power;
   if (!was_broken && ce6_broken(d)) *broke = 1, acc[2] += 1;
 }
+/// The TET4 laws a pass reads: one for every tet, or (several materials) each tet's material's.
+struct Tet4Laws {
+  Tet4Law one;
+  const Tet4Law* table;    // null: every tet has `one`
+  const std::uint8_t* of;  // per tet, its entry in table
+  FDEM_HD_INLINE Tet4Law at(int t) const { return of ? table[of[t]] : one; }
+};
+/// The CE6 laws a pass reads: one for every CE6, or each CE6's (Model::ce6_law), by slot.
+struct Ce6Laws {
+  Ce6Params one;
+  const Ce6Params* table;  // null: every CE6 has `one`
+  const std::uint8_t* of;  // per CE6 slot, its entry in table
+  FDEM_HD_INLINE const Ce6Params& at(int slot) const { return of ? table[of[slot]] : one; }
+};
 }  // namespace device_pass
 
 /// What the element passes read of the node state and write to, besides their own state.
@@ -58,7 +73,6 @@ struct ElementInputs {
   const std::uint8_t* own_tet;  // per tet, 1 where this rank owns it
   bool gravity;                 // gravity starts each node's force
   Vec3 g;                       // m/s^2
-  real lambda, mu;              // Pa, Lamé constants
   real* sums;                   // the loop's sums (SumSlots)
 };
 
@@ -143,7 +157,7 @@ struct FusedCe6s {
   const std::uint8_t* flag_read;
   std::uint8_t* flag_write;
   std::uint8_t* broke;
-  Ce6Params p;
+  Ce6Laws laws;
   /// Each CE6 on tet k's faces (nodes q) in colour order, evaluated from the state at the start
   /// of the pass, its forces on the tet's own nodes added to fe; the writer side keeps the new
   /// state, its powers and its break (acc[0] to acc[2]: ce6_element's).
@@ -154,6 +168,7 @@ struct FusedCe6s {
       const int c = code >> 2, side = code >> 1 & 1;
       const bool writer = code & 1;
       const std::uint8_t fl = flag_read[c];
+      const Ce6Params& p = laws.at(c);
       Ce6Damage d = fl & 2 ? d_read[c] : Ce6Damage{};  // intact: its 32 bytes not read
       if (!ce6_carries_force(p, d)) {                  // broken, its faces left to contact: its state is
         // frozen, so once the other copy holds the break too the two are the same
@@ -191,7 +206,8 @@ class ElementPasses : SumSlots {
     blocks_ = fused_ ? plan.blocks_per_sm : 1;
     plan_ = std::move(plan);
     auto set = [&](auto&... a) { (a.set_backend(b), ...); };
-    set(tet_nodes_, tet_order_, ce6_nodes_, ce6_slot_, fused_ce6_, Xinv_, V0_, eta_, ce6_h_);
+    set(tet_nodes_, tet_order_, ce6_nodes_, ce6_slot_, fused_ce6_, Xinv_, V0_, eta_, ce6_h_, tet4_table_, ce6_table_,
+        tet_material_, ce6_law_);
     set(dmg_, slip_, dmg_next_, slip_next_, dmg_model_, slip_model_, ce6_flag_, ce6_flag_next_, ce6_sides_, broke_,
         own_ce6_, tet_assigns_);
   }
@@ -199,13 +215,13 @@ class ElementPasses : SumSlots {
   int blocks_per_sm() const { return blocks_; }
 
   /// The elements' constants: connectivity, colour order, the CE6 slots, the shape constants,
-  /// this rank's CE6s and first touches, and the fused pass's lists. `density`: kg/m^3 with mass
-  /// scaling.
-  void place(const Model& m, const RankLayout& layout, const Ce6Params& ce6, real density) {
+  /// the laws, this rank's CE6s and first touches, and the fused pass's lists.
+  void place(const Model& m, const RankLayout& layout, const ElementLaws& laws) {
     fdem::place(b_, tet_nodes_, reinterpret_cast<const int*>(m.tet_nodes.data()), 4 * m.tet_nodes.size());
     fdem::place(b_, tet_order_, m.tet_colours.order);
     place_slots(m);
-    ce6p_ = ce6;
+    place_laws(m, laws);
+    const real density = laws.tet4[0].density;
     place_in_slots(ce6_nodes_, m.ce6_nodes);
     fdem::place(b_, Xinv_, m.tet_Xinv);
     fdem::place(b_, V0_, m.tet_V0);
@@ -283,10 +299,19 @@ class ElementPasses : SumSlots {
   /// Each node's mass is rho V0 / 4 of its one tet (the fused pass computes it).
   bool mass_from_volume() const { return mass_from_volume_; }
 
+  /// The laws the passes read: one table entry each where the scene has one material.
+  device_pass::Tet4Laws tet4_laws() const {
+    return device_pass::Tet4Laws{tet4_one_, tet4_table_.data(), tet_material_.size() ? tet_material_.data() : nullptr};
+  }
+  device_pass::Ce6Laws ce6_laws() const {
+    return device_pass::Ce6Laws{ce6_one_, ce6_table_.data(), ce6_law_.size() ? ce6_law_.data() : nullptr};
+  }
+
   /// TET4 colour by colour, then CE6 colour by colour (stored in colour order: slot b + k; no
   /// two elements of a colour share a node), each colour one launch; laps into `tet4`, `ce6`.
   void colour_forces(const Model& m, const ElementInputs& in, PassClock<Exec>& clock, DeviceTimes& t) {
     const Tet4Arrays tets = tet4_arrays(in.gravity);
+    const device_pass::Tet4Laws tl = tet4_laws();
     for (int c = 0; c < m.tet_colours.colours(); ++c) {
       const int b = m.tet_colours.offsets[c], e = m.tet_colours.offsets[c + 1];
       Exec::template sum_to<2>(
@@ -296,7 +321,8 @@ class ElementPasses : SumSlots {
             const int* q = tets.nodes + 4 * t;
             Vec3 xe[4], ve[4], fe[4];
             for (int i = 0; i < 4; ++i) xe[i] = in.x[q[i]], ve[i] = in.v[q[i]];
-            device_pass::tet4_element(xe, ve, tets.Xinv[t], tets.V0[t], in.lambda, in.mu, tets.eta[t], in.own_tet[t],
+            const Tet4Law law = tl.at(t);
+            device_pass::tet4_element(xe, ve, tets.Xinv[t], tets.V0[t], law.lambda, law.mu, tets.eta[t], in.own_tet[t],
                                       acc, fe);
             device_pass::tet4_start(in.f, q, tets.assigns ? tets.assigns[t] : 0, fe);
             for (int i = 0; i < 4; ++i) in.f[q[i]] = fe[i];
@@ -310,13 +336,14 @@ class ElementPasses : SumSlots {
     Ce6Anchors* sl = slip_.data();
     std::uint8_t* broke = broke_.data();
     const std::uint8_t* own_c = own_ce6_.data();
-    const Ce6Params p = ce6p_;
+    const device_pass::Ce6Laws cl = ce6_laws();
     for (int c = 0; c < m.ce6_colours.colours(); ++c) {
       const int b = m.ce6_colours.offsets[c], e = m.ce6_colours.offsets[c + 1];
       Exec::template sum_to<3>(
           e - b,
           [=] FDEM_LAMBDA(int k, real* acc) {
             const int i = b + k;
+            const Ce6Params& p = cl.at(i);
             if (!ce6_carries_force(p, st[i])) return;  // broken, its faces left to contact
             const int* q = cn + 6 * i;
             Vec3 xe[6], ve[6], fe[6];
@@ -354,7 +381,7 @@ class ElementPasses : SumSlots {
     const std::uint8_t* own_t = in.own_tet;
     const bool gravity = in.gravity;
     const Vec3 g = in.g;
-    const real lambda = in.lambda, mu = in.mu;
+    const device_pass::Tet4Laws tl = tet4_laws();
     const device_pass::FusedCe6s ce6s = fused_ce6s();
     // kOwn: each node's mass rho V0 / 4 where every node's is (mass_from_volume_), else read.
     const real rho = node_density_;
@@ -379,7 +406,9 @@ class ElementPasses : SumSlots {
           if (gravity) acc[0] += dot(start[i], ve[i]);  // (one rank: every node owned)
         }
       }
-      device_pass::tet4_element(xe, ve, tets.Xinv[t], tets.V0[t], lambda, mu, tets.eta[t], own_t[t], acc + base, fe);
+      const Tet4Law law = tl.at(t);
+      device_pass::tet4_element(xe, ve, tets.Xinv[t], tets.V0[t], law.lambda, law.mu, tets.eta[t], own_t[t], acc + base,
+                                fe);
       if (kOwn)
         for (int i = 0; i < 4; ++i) fe[i] = start[i] + fe[i];
       else
@@ -403,9 +432,9 @@ class ElementPasses : SumSlots {
 
   /// The fused pass's CE6 arrays: it reads dmg_, slip_ and ce6_flag_ and writes the next copies.
   device_pass::FusedCe6s fused_ce6s() {
-    return device_pass::FusedCe6s{
-        fused_ce6_.data(), ce6_nodes_.data(), ce6_h_.data(),         dmg_.data(),   slip_.data(), dmg_next_.data(),
-        slip_next_.data(), ce6_flag_.data(),  ce6_flag_next_.data(), broke_.data(), ce6p_};
+    return device_pass::FusedCe6s{fused_ce6_.data(),     ce6_nodes_.data(), ce6_h_.data(),     dmg_.data(),
+                                  slip_.data(),          dmg_next_.data(),  slip_next_.data(), ce6_flag_.data(),
+                                  ce6_flag_next_.data(), broke_.data(),     ce6_laws()};
   }
 
   /// After a kStep pass found an inverted TET4: the CE6 state it read is the state again, so
@@ -419,14 +448,16 @@ class ElementPasses : SumSlots {
   /// A monitor row's element sums at x, v: the TET4 strain energy, the middle third's lateral
   /// stress by volume (`mid`: per tet), and the CE6s' stored energies and counts, in the
   /// model's CE6 order (the host's), so that the sums agree bit for bit.
-  void measure(const Vec3* x, const Vec3* v, const std::uint8_t* own_t, const std::uint8_t* mid, real lambda, real mu,
+  void measure(const Vec3* x, const Vec3* v, const std::uint8_t* own_t, const std::uint8_t* mid,
                MonitorSums& out) const {
     const Tet4Arrays tets = tet4_arrays(true);
+    const device_pass::Tet4Laws tl = tet4_laws();
     const auto te = Exec::template sum<3>(int(V0_.size()), [=] FDEM_LAMBDA(int t, real* acc) {
       if (!own_t[t]) return;
       Vec3 xe[4], ve[4], fe[4];
       for (int i = 0; i < 4; ++i) xe[i] = x[tets.nodes[4 * t + i]], ve[i] = v[tets.nodes[4 * t + i]];
-      const Tet4Eval e = tet4_forces(xe, ve, tets.Xinv[t], tets.V0[t], lambda, mu, tets.eta[t], fe);
+      const Tet4Law law = tl.at(t);
+      const Tet4Eval e = tet4_forces(xe, ve, tets.Xinv[t], tets.V0[t], law.lambda, law.mu, tets.eta[t], fe);
       acc[0] += e.strain_energy;
       if (mid[t]) {
         const real vol = dot(cross(xe[1] - xe[0], xe[2] - xe[0]), xe[3] - xe[0]) / 6;
@@ -441,7 +472,7 @@ class ElementPasses : SumSlots {
     const Ce6Anchors* sl = slip_.data();
     const int* slot = ce6_slot_.data();
     const std::uint8_t* own_c = own_ce6_.data();
-    const Ce6Params p = ce6p_;
+    const device_pass::Ce6Laws cl = ce6_laws();
     const auto ce = Exec::template sum<7>(int(dmg_.size()), [=] FDEM_LAMBDA(int c, real* acc) {
       const int i = slot ? slot[c] : c;
       if (!own_c[i]) return;
@@ -449,7 +480,7 @@ class ElementPasses : SumSlots {
       for (int j = 0; j < 6; ++j) xe[j] = x[cn[6 * i + j]], ve[j] = v[cn[6 * i + j]];
       Ce6Damage copy = st[i];  // measuring must not advance the state
       Ce6Anchors anchors = sl[i];
-      const real stored = cohesive6_forces(p, xe, ve, h[i], copy, anchors.a, fe).stored;
+      const real stored = cohesive6_forces(cl.at(i), xe, ve, h[i], copy, anchors.a, fe).stored;
       const int mode = st[i].mode;
       if (mode != 0) {
         acc[1] += stored;
@@ -491,6 +522,25 @@ class ElementPasses : SumSlots {
     else
       ce6_slot_.upload(slot);
     ce6_coloured_ = int(m.ce6_colours.order.size());
+  }
+
+  /// The laws: where the scene has several, the tables and per tet its material, per CE6 slot
+  /// its law (one byte each); else the one law, passed by value.
+  void place_laws(const Model& m, const ElementLaws& laws) {
+    tet4_one_ = laws.tet4[0];
+    ce6_one_ = laws.ce6[0];
+    if (laws.tet4.size() > 1) {
+      tet4_table_.upload(laws.tet4);
+      fdem::place(b_, tet_material_, m.tet_material);
+    } else {
+      tet4_table_.release(), tet_material_.release();
+    }
+    if (laws.ce6.size() > 1) {
+      ce6_table_.upload(laws.ce6);
+      place_in_slots(ce6_law_, m.ce6_law);
+    } else {
+      ce6_table_.release(), ce6_law_.release();
+    }
   }
 
   /// The fused pass's lists to the device (the plan made with the loop; the model's
@@ -548,20 +598,20 @@ class ElementPasses : SumSlots {
   /// model); with `fused`, the same counted per computed side and the flagged ones.
   std::array<real, 2> carrying() const {
     const Ce6Damage* st = dmg_.data();
-    const Ce6Params p = ce6p_;
+    const device_pass::Ce6Laws cl = ce6_laws();
     return Exec::template sum<2>(ce6_coloured_, [=] FDEM_LAMBDA(int i, real* acc) {
-      const bool carries = ce6_carries_force(p, st[i]);
+      const bool carries = ce6_carries_force(cl.at(i), st[i]);
       acc[0] += carries;
       acc[1] += carries && ce6_max_damage(st[i]) > 0;
     });
   }
   std::array<real, 4> carrying_sides() const {
     const Ce6Damage* st = dmg_.data();
-    const Ce6Params p = ce6p_;
+    const device_pass::Ce6Laws cl = ce6_laws();
     const std::uint8_t* sides = ce6_sides_.data();
     const std::uint8_t* flags = ce6_flag_.data();
     return Exec::template sum<4>(ce6_coloured_, [=] FDEM_LAMBDA(int i, real* acc) {
-      const bool carries = ce6_carries_force(p, st[i]);
+      const bool carries = ce6_carries_force(cl.at(i), st[i]);
       acc[0] += sides[i];
       acc[1] += carries ? sides[i] : 0;
       acc[2] += carries && ce6_max_damage(st[i]) > 0 ? sides[i] : 0;
@@ -614,7 +664,12 @@ class ElementPasses : SumSlots {
   bool ce6_by_id_ = false;  // CE6 slot k is CE6 k (one rank): no slot map, no reordered copies
   std::vector<int> ce6_perm_;
   int ce6_coloured_ = 0;  // slots [0, ce6_coloured_) are in the colours (computed on this rank)
-  Ce6Params ce6p_{};
+  // The laws (place_laws): the one law, or the tables with per tet and per CE6 slot an entry.
+  Tet4Law tet4_one_{};
+  Ce6Params ce6_one_{};
+  DeviceArray<Tet4Law> tet4_table_;
+  DeviceArray<Ce6Params> ce6_table_;
+  DeviceArray<std::uint8_t> tet_material_, ce6_law_;
 };
 
 template <class Exec>
@@ -626,15 +681,18 @@ double ElementPasses<Exec>::bytes_per_step(bool gravity, bool integrates) const 
   // and read too where the corner does not assign (gravity: every corner; none where the fused
   // pass integrates, which starts each force itself); fused, its list of CE6s.
   const double read_f = integrates ? 0 : gravity ? 4 * nt : 4 * nt - assigned_corners_;
-  const double tet = nt * (5 * sizeof(int) + sizeof(Mat3) + 2 * sizeof(real) + 1 + (integrates ? 2 : 3) * 4 * vec) +
-                     read_f * vec + (fused_ ? nt * 4 * sizeof(int) : 0);
+  const double laws = tet_material_.size() ? 1 : 0;  // the material byte, with several materials
+  const double tet =
+      nt * (5 * sizeof(int) + sizeof(Mat3) + 2 * sizeof(real) + 1 + laws + (integrates ? 2 : 3) * 4 * vec) +
+      read_f * vec + (fused_ ? nt * 4 * sizeof(int) : 0);
   // CE6 (those this rank computes, in the state as it is now): connectivity, h, damage and the
   // own flag read (the break flags: read by activation only where one broke); where it carries
   // force, x and v of 6 nodes read and f read and written; where damaged (or broken and
   // carrying force), the damage written (an upper bound: only when it rises) and the anchors
   // read and written.
   const auto k = carrying();
-  double ce6 = ce6_coloured_ * (6 * sizeof(int) + sizeof(real) + sizeof(Ce6Damage) + 1) + k[0] * 6 * 4 * vec +
+  const double law = ce6_law_.size() ? 1 : 0;  // the law byte, with several laws
+  double ce6 = ce6_coloured_ * (6 * sizeof(int) + sizeof(real) + sizeof(Ce6Damage) + 1 + law) + k[0] * 6 * 4 * vec +
                k[1] * (sizeof(Ce6Damage) + 2 * sizeof(Ce6Anchors));
   if (fused_) {
     // Fused, each side that computes the CE6: its flags read (own, damaged), and its damage
@@ -644,7 +702,7 @@ double ElementPasses<Exec>::bytes_per_step(bool gravity, bool integrates) const 
     // damage, anchors and flags written; where not (broken, inert), the writer reads the other
     // copy's damage.
     const auto e = carrying_sides();
-    ce6 = e[0] + e[3] * sizeof(Ce6Damage) + e[1] * (6 * sizeof(int) + sizeof(real) + 6 * 2 * vec) +
+    ce6 = e[0] * (1 + law) + e[3] * sizeof(Ce6Damage) + e[1] * (6 * sizeof(int) + sizeof(real) + 6 * 2 * vec) +
           e[2] * sizeof(Ce6Anchors) + k[1] * (sizeof(Ce6Damage) + sizeof(Ce6Anchors) + 1) +
           (ce6_coloured_ - k[0]) * sizeof(Ce6Damage);
   }

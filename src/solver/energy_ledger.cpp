@@ -30,12 +30,16 @@ void EnergyLedger::load(CheckpointIn& in) {
 std::string instability_advice(const Scene& scene, const StableStep& stable, real dt, const EnergyLedger& e,
                                long touching) {
   const SolverSettings& s = scene.solver;
-  const Material& mat = scene.material;
+  const Material& mat = scene.material();
   const real bound = stable.dt / scene.solver.time_step_safety;
   const real ratio = dt / bound;
   const real E = mat.youngs_modulus;
-  const real p_ce6 =
-      std::max({mat.cohesive_penalty_open, mat.cohesive_penalty_tangential, mat.cohesive_penalty_overlap});
+  // The CE6 penalty furthest above its material's E.
+  real p_ce6 = 0, E_ce6 = E;
+  for (const Material& m : scene.materials) {
+    const real p = std::max({m.cohesive_penalty_open, m.cohesive_penalty_tangential, m.cohesive_penalty_overlap});
+    if (p / m.youngs_modulus > p_ce6 / E_ce6) p_ce6 = p, E_ce6 = m.youngs_modulus;
+  }
   std::string cause;
   if (ratio > 1)
     cause = "the time step " + fmt(dt, 3) + " s is " + fmt(ratio, 3) + " x the stable-step bound " + fmt(bound, 3) +
@@ -52,8 +56,8 @@ std::string instability_advice(const Scene& scene, const StableStep& stable, rea
                    "whatever the time step; contact.law: volume is conservative (docs/physics.md)"
                  : ": the contact law is conservative, so the time step is too long for the touching pairs' "
                    "stiffness (docs/stability.md)");
-  else if (p_ce6 > 1000 * E)
-    cause = "the cohesive penalty " + fmt(p_ce6, 3) + " Pa (" + fmt(p_ce6 / E, 3) + " E)";
+  else if (p_ce6 > 1000 * E_ce6)
+    cause = "the cohesive penalty " + fmt(p_ce6, 3) + " Pa (" + fmt(p_ce6 / E_ce6, 3) + " E)";
   else
     cause = "large deformation or fragment overlap beyond the stable-step bound " + fmt(bound, 3) + " s (limited by " +
             stable.limit + "); the time step is " + fmt(ratio, 3) + " of it";

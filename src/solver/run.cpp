@@ -25,6 +25,7 @@
 #include "io/fields.hpp"
 #include "io/run_lock.hpp"
 #include "model/conditions.hpp"
+#include "model/materials.hpp"
 #include "solver/frames.hpp"
 #include "solver/run_folder.hpp"
 #include "solver/run_observers.hpp"
@@ -68,6 +69,7 @@ void report_model(const Solver& solver, std::ostream& out) {
         << "  tets " << m.tet_nodes.size() << ", CE6 " << m.ce6_nodes.size() << ", nodes " << m.X.size()
         << ", surface faces " << m.surface_faces.size() << "\n";
   }
+  out << describe_materials(solver.scene(), m, dd.distributed() ? " (this rank)" : "");
   out << describe_conditions(solver.scene(), m, dd.distributed() ? " (this rank)" : "");
   out << "  height " << m.height0 << " m, loaded area " << m.area0 << " m^2, mean edge " << m.mean_edge
       << " m, minimum altitude " << m.min_altitude << " m\n"

@@ -3,6 +3,7 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <sstream>
 
@@ -39,7 +40,6 @@ LoopParts Solver::loop_parts() {
 }
 
 void Solver::setup(Decomposition dd) {
-  const Material& mat = scene_.material;
   const SolverSettings& sol = scene_.solver;
   if (sol.threads > 0) omp_set_num_threads(sol.threads);
   laws_ = make_element_laws(scene_);
@@ -48,8 +48,11 @@ void Solver::setup(Decomposition dd) {
   contacts = ContactSet(model_, scene_);
   if (layout_.distributed()) contacts.set_ownership(&layout_.own_tet, layout_.dd.reach, model_.X);
 
-  const real rho = sol.mass_scaling * mat.density;
-  loads_ = make_loads(scene_, model_, std::sqrt((laws_.lambda + 2 * laws_.mu) / rho));
+  check_law_indices();
+  // The loads' automatic ramps last ten transits of the slowest P wave (the longest transit).
+  real wave_speed = 1e300;
+  for (const Tet4Law& l : laws_.tet4) wave_speed = std::min(wave_speed, std::sqrt((l.lambda + 2 * l.mu) / l.density));
+  loads_ = make_loads(scene_, model_, wave_speed);
   stable_ = stable_step_bound(model_, scene_, laws_, loads_.platens.k, layout_);
   stable_.dt = sol.time_step_safety * stable_.dt;
   dt_ = sol.time_step > 0 ? sol.time_step : stable_.dt;
@@ -58,7 +61,23 @@ void Solver::setup(Decomposition dd) {
   real volume = 0;
   for (std::size_t t = 0; t < model_.tet_V0.size(); ++t) volume += layout_.own_tet[t] * model_.tet_V0[t];
   layout_.sum(&volume, 1);
-  energy_.floor = 1e-3 * mat.tensile_strength * mat.tensile_strength / (2 * mat.youngs_modulus) * volume;
+  // The noise floor: a thousandth of the elastic energy at the tensile strength, the least of
+  // the materials'.
+  real energy_density = 1e300;  // J/m^3
+  for (const Material& mat : scene_.materials)
+    energy_density = std::min(energy_density, mat.tensile_strength * mat.tensile_strength / (2 * mat.youngs_modulus));
+  energy_.floor = 1e-3 * energy_density * volume;
+}
+
+void Solver::check_law_indices() const {
+  const Model& m = model_;
+  bool ok = m.tet_material.size() == m.tet_nodes.size() && m.ce6_law.size() == m.ce6_nodes.size();
+  for (std::uint8_t k : m.tet_material) ok = ok && k < laws_.tet4.size();
+  for (std::uint8_t k : m.ce6_law) ok = ok && k < laws_.ce6.size();
+  if (!ok)
+    throw InputError(m.source + ": the model's materials do not match the scene's " +
+                     std::to_string(laws_.tet4.size()) + " materials and " + std::to_string(laws_.ce6.size()) +
+                     " CE6 laws. Fix: build the model (or run fdem partition) again with this scene");
 }
 
 void Solver::grow_contact_ghosts() {
@@ -117,7 +136,8 @@ void Solver::report_inverted() const {
     Vec3 xe[4], ve[4], fe[4];
     gather(state.x, m.tet_nodes[t], xe);
     gather(state.v, m.tet_nodes[t], ve);
-    const Tet4Eval r = tet4_forces(xe, ve, m.tet_Xinv[t], m.tet_V0[t], laws_.lambda, laws_.mu, m.tet_eta[t], fe);
+    const Tet4Law& l = laws_.tet4[m.tet_material[t]];
+    const Tet4Eval r = tet4_forces(xe, ve, m.tet_Xinv[t], m.tet_V0[t], l.lambda, l.mu, m.tet_eta[t], fe);
     if (!(r.J > 0))
       throw RunError("step " + std::to_string(state.step) + " (t = " + fmt(state.time, 3) + " s): TET4 #" +
                      std::to_string(model_.tet_input[t] + 1) + " inverted (J = " + fmt(r.J, 3) +
@@ -378,7 +398,8 @@ void Solver::tet_stress(const std::vector<Vec3>& xs, const std::vector<Vec3>& vs
     Vec3 xe[4], ve[4], fe[4];
     gather(xs, m.tet_nodes[t], xe);
     gather(vs, m.tet_nodes[t], ve);
-    stress[t] = tet4_forces(xe, ve, m.tet_Xinv[t], m.tet_V0[t], laws_.lambda, laws_.mu, m.tet_eta[t], fe).stress;
+    const Tet4Law& l = laws_.tet4[m.tet_material[t]];
+    stress[t] = tet4_forces(xe, ve, m.tet_Xinv[t], m.tet_V0[t], l.lambda, l.mu, m.tet_eta[t], fe).stress;
     von_mises[t] = fdem::von_mises(stress[t]);
   }
 }
@@ -433,6 +454,39 @@ void Solver::broken_faces(std::vector<std::array<Vec3, 3>>& corners, std::vector
 
 namespace {
 
+/// A material's values in the fingerprint's order.
+std::array<real, 14> material_values(const Material& a) {
+  return {a.density,
+          a.youngs_modulus,
+          a.poisson_ratio,
+          a.tensile_strength,
+          a.cohesion,
+          a.friction_angle,
+          a.fracture_energy_I,
+          a.fracture_energy_II,
+          a.contact_penalty,
+          a.cohesive_penalty_open,
+          a.cohesive_penalty_tangential,
+          a.cohesive_penalty_overlap,
+          a.friction_platen,
+          a.friction_rock};
+}
+
+/// The materials after the first, the interfaces, and which tets and CE6s have which.
+std::uint64_t hash_materials(const Scene& s, const Model& m, std::uint64_t h) {
+  auto add = [&](const Material& a) {
+    const std::array<real, 14> v = material_values(a);
+    const real softening = real(a.softening);
+    h = fnv1a64(v.data(), sizeof v, h);
+    h = fnv1a64(&softening, sizeof softening, h);
+    h = fnv1a64(a.name.data(), a.name.size(), h);
+  };
+  for (std::size_t i = 1; i < s.materials.size(); ++i) add(s.materials[i]);
+  for (const MaterialInterface& f : s.interfaces) add(f.law);
+  h = fnv1a64(m.tet_material.data(), m.tet_material.size(), h);
+  return fnv1a64(m.ce6_law.data(), m.ce6_law.size(), h);
+}
+
 /// What a checkpoint must agree with: the model (reference positions, connectivity, masses),
 /// the time step, and every scene value the equations of motion use.
 std::uint64_t physics_fingerprint(const Scene& s, const Model& m, real dt) {
@@ -440,22 +494,10 @@ std::uint64_t physics_fingerprint(const Scene& s, const Model& m, real dt) {
   h = fnv1a64(m.tet_nodes.data(), m.tet_nodes.size() * sizeof(m.tet_nodes[0]), h);
   h = fnv1a64(m.ce6_nodes.data(), m.ce6_nodes.size() * sizeof(m.ce6_nodes[0]), h);
   h = fnv1a64(m.mass.data(), m.mass.size() * sizeof(real), h);
-  const Material& a = s.material;
-  const real values[] = {a.density,
-                         a.youngs_modulus,
-                         a.poisson_ratio,
-                         a.tensile_strength,
-                         a.cohesion,
-                         a.friction_angle,
-                         a.fracture_energy_I,
-                         a.fracture_energy_II,
-                         a.contact_penalty,
-                         a.cohesive_penalty_open,
-                         a.cohesive_penalty_tangential,
-                         a.cohesive_penalty_overlap,
-                         a.friction_platen,
-                         a.friction_rock,
-                         real(s.platens.enabled),
+  const Material& a = s.material();
+  const std::array<real, 14> first = material_values(a);  // (one stream with the values after it)
+  h = fnv1a64(first.data(), sizeof first, h);
+  const real values[] = {real(s.platens.enabled),
                          s.platens.velocity,
                          s.platens.ramp_time,
                          real(s.confinement.enabled),
@@ -469,6 +511,7 @@ std::uint64_t physics_fingerprint(const Scene& s, const Model& m, real dt) {
                          s.solver.damping_scale,
                          dt};
   h = fnv1a64(values, sizeof values, h);
+  if (s.materials.size() > 1 || !s.interfaces.empty()) h = hash_materials(s, m, h);
   for (const BoundaryCondition& c : s.conditions) {
     const real v[] = {real(c.type), c.velocity.x, c.velocity.y, c.velocity.z,       real(c.components), c.traction.x,
                       c.traction.y, c.traction.z, c.pressure,   real(c.time.shape), c.time.duration};

@@ -78,8 +78,8 @@ class Solver : private StepBookkeeping {
 
   const Model& model() const { return model_; }
   const Scene& scene() const { return scene_; }
-  /// The CE6 law's parameters (from the scene's material).
-  const Ce6Params& ce6_params() const { return laws_.ce6; }
+  /// The element laws: per material its TET4 law, and the CE6 laws (model/laws.hpp).
+  const ElementLaws& laws() const { return laws_; }
   /// The loads with their state (platen anchors and travel, the confining pressure's forces):
   /// the host copy, as `state` below.
   const Loads& loads() const { return loads_; }
@@ -187,6 +187,9 @@ class Solver : private StepBookkeeping {
   /// beyond kMaxSafety times the stable-step bound, or an end that takes more than 1e12 steps:
   /// values beyond a rock's scale or a slip of units.
   void check_step_count() const;
+  /// Every tet's material and CE6's law has an entry among the laws (a rank file of another scene
+  /// must not index past them).
+  void check_law_indices() const;
   /// Throws RunError when the kinetic energy ke (J) far exceeds the work put in.
   void check_runaway(real ke) const;
   /// "step n (t = ... s)": where a check stopped the run.

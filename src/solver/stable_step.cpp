@@ -17,16 +17,17 @@ namespace {
 /// Per node, the damping rate (1/s) the dashpots of absorbing faces add: (A/3) z_p / m per face,
 /// the row sum of the face's three coupled corners (each takes a third of the face's mean
 /// velocity). It adds to the TET4s' damping in the bound, as Weyl's inequality allows.
-std::vector<real> dashpot_damping(const Model& m, const Scene& scene, const ElementLaws& laws, real rho) {
+std::vector<real> dashpot_damping(const Model& m, const Scene& scene, const ElementLaws& laws) {
   std::vector<real> c(m.X.size(), 0);
   std::uint32_t absorbing = 0;
   for (std::size_t i = 0; i < scene.conditions.size(); ++i)
     if (scene.conditions[i].type == ConditionType::absorbing) absorbing |= std::uint32_t(1) << i;
   if (absorbing == 0) return c;
-  const real zp = p_impedance(rho, laws.lambda, laws.mu);
   for (std::size_t k = 0; k < m.surface_faces.size(); ++k) {
     const int faces = __builtin_popcount(m.conditions_of(k) & absorbing);
     if (faces == 0) continue;
+    const Tet4Law& l = laws.tet4[m.tet_material[m.surface_tet[k]]];
+    const real zp = p_impedance(l.density, l.lambda, l.mu);
     const auto& q = m.surface_faces[k];
     const real area = 0.5 * norm(cross(m.X[q[1]] - m.X[q[0]], m.X[q[2]] - m.X[q[0]]));
     for (int n : q) c[n] += faces * area * zp / (3 * m.mass[n]);
@@ -43,21 +44,25 @@ StableStep stable_step_bound(const Model& m, const Scene& scene, const ElementLa
   // (exact per element) plus, for every CE6 node pair and platen spring at the node, the
   // row sum of its stiffness over the node's mass. A split node sits in up to three CE6s,
   // so a one-pair estimate would overstate the stable step by up to sqrt(3).
-  const Material& mat = scene.material;
-  const real rho = scene.solver.mass_scaling * mat.density;
+  const Material& mat = scene.material();  // (the contact penalty: every material's)
   const std::size_t nn = m.X.size();
   std::vector<real> w2_tet(nn, 0), c_tet(nn, 0), g_ce6(nn, 0), g_platen(nn, 0);
   for (std::size_t t = 0; t < m.tet_nodes.size(); ++t) {
-    const real w2 = tet4_max_eigenvalue(m.tet_Xinv[t], laws.lambda, laws.mu, rho);
-    const real c = tet4_max_eigenvalue(m.tet_Xinv[t], 0, 0.5 * m.tet_eta[t], rho);
+    const Tet4Law& l = laws.tet4[m.tet_material[t]];
+    const real w2 = tet4_max_eigenvalue(m.tet_Xinv[t], l.lambda, l.mu, l.density);
+    const real c = tet4_max_eigenvalue(m.tet_Xinv[t], 0, 0.5 * m.tet_eta[t], l.density);
     for (int n : m.tet_nodes[t]) {
       w2_tet[n] = std::max(w2_tet[n], w2);
       c_tet[n] = std::max(c_tet[n], c);
     }
   }
-  const real P = std::max({mat.cohesive_penalty_open, mat.cohesive_penalty_tangential, mat.cohesive_penalty_overlap});
+  // Each CE6 law's largest penalty; the message names the largest of all.
+  std::vector<real> penalty;
+  for (const Ce6Params& p : laws.ce6) penalty.push_back(std::max({p.P_open, p.P_tan, p.P_overlap}));
+  const real P_max = *std::max_element(penalty.begin(), penalty.end());
   for (std::size_t c = 0; c < m.ce6_nodes.size(); ++c) {
     const auto& q = m.ce6_nodes[c];
+    const real P = penalty[m.ce6_law[c]];
     const real area = 0.5 * norm(cross(m.X[q[1]] - m.X[q[0]], m.X[q[2]] - m.X[q[0]]));
     const real k = P * area / (3 * m.ce6_h[c]);  // row sum of the pair's relative stiffness
     for (int i = 0; i < 3; ++i)
@@ -84,7 +89,7 @@ StableStep stable_step_bound(const Model& m, const Scene& scene, const ElementLa
     for (std::size_t i = 0; i < m.platen_nodes.size(); ++i)
       g_platen[m.platen_nodes[i]] += platen_k[i] / m.mass[m.platen_nodes[i]];
 
-  const std::vector<real> c_dash = dashpot_damping(m, scene, laws, rho);
+  const std::vector<real> c_dash = dashpot_damping(m, scene, laws);
 
   StableStep st;
   st.dt = st.dt_tet = st.dt_ce6 = st.dt_platen = st.dt_contact = 1e300;
@@ -103,8 +108,8 @@ StableStep stable_step_bound(const Model& m, const Scene& scene, const ElementLa
     auto pct = [&](real part) { return std::to_string(int(std::lround(100 * part / w2))) + " %"; };
     const long lim_id = layout.dd.distributed() ? layout.dd.node_global[lim] : long(lim);
     st.limit = "node " + std::to_string(lim_id + 1) + " (its squared frequency: TET4 " + pct(w2_tet[lim]) +
-               ", CE6 penalty " + fmt(P, 3) + " Pa " + pct(g_ce6[lim]) + ", platen " + pct(g_platen[lim]) +
-               ", contact " + pct(g_con[lim]) + ")";
+               ", CE6 penalty " + std::string(laws.ce6.size() > 1 ? "up to " : "") + fmt(P_max, 3) + " Pa " +
+               pct(g_ce6[lim]) + ", platen " + pct(g_platen[lim]) + ", contact " + pct(g_con[lim]) + ")";
   }
   if (layout.dd.distributed()) {  // the smallest over the ranks, and the limit named by the rank that has it
     struct {

@@ -26,7 +26,7 @@ bool finite_positive(double v) {
 }
 
 void check(const fdem::Scene& s) {
-  const fdem::Material& m = s.material;
+  const fdem::Material& m = s.material();
   for (double v :
        {m.density, m.youngs_modulus, m.tensile_strength, m.cohesion, m.fracture_energy_I, m.fracture_energy_II,
         m.contact_penalty, m.cohesive_penalty_open, m.cohesive_penalty_tangential, m.cohesive_penalty_overlap})

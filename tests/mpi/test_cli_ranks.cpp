@@ -88,6 +88,17 @@ TEST(CliRanks, TwoRanksWriteTheOneRankResults) {
   EXPECT_EQ(tets(r0) + tets(r1), tets(slurp(one / "fields.xdmf")));
 }
 
+/// `scene` run on two ranks from the rank files fdem partition writes under dir: its monitors.
+Csv run_from_rank_files(const std::string& scene, const fs::path& dir) {
+  const fs::path parts = dir / "parts", files = dir / "files";
+  const Outcome p = run_fdem("partition " + quote(scene) + " -n 2 -o " + quote(parts.string()));
+  EXPECT_EQ(p.code, 0) << p.text;
+  const Outcome f = run_cmd(mpiexec(2) + quote(kExe) + " run " + quote(scene) + " --partitioned " +
+                            quote(parts.string()) + " -q -o " + quote(files.string()));
+  EXPECT_EQ(f.code, 0) << f.text;
+  return read_csv(files / "monitors.csv");
+}
+
 TEST(CliRanks, BoundaryConditionsOnTwoRanksGiveTheOneRankReactions) {
   // Rollers, a fixed face, a pressed end, a pressure and dashpots on a box cut in two: each
   // node's force is counted by its owner once, so the forces and works match the one-rank run
@@ -112,17 +123,41 @@ TEST(CliRanks, BoundaryConditionsOnTwoRanksGiveTheOneRankReactions) {
   EXPECT_LT(c1.rows.back()[wx], 0) << "the dashpots take energy out";
   // Rank 0's cut and the rank files carry the faces' and nodes' conditions too: the same run.
   const fs::path root = tmp.path / "root";
-  const Outcome o = run_cmd(mpiexec(2) + quote(kExe) + " run " + quote(scene) + " --distribute root -q -o " +
-                            quote(root.string()));
+  const Outcome o =
+      run_cmd(mpiexec(2) + quote(kExe) + " run " + quote(scene) + " --distribute root -q -o " + quote(root.string()));
   ASSERT_EQ(o.code, 0) << o.text;
   EXPECT_LT(monitor_difference(c1, read_csv(root / "monitors.csv")), 1e-9);
-  const fs::path parts = tmp.path / "parts", files = tmp.path / "files";
-  const Outcome p = run_fdem("partition " + quote(scene) + " -n 2 -o " + quote(parts.string()));
-  ASSERT_EQ(p.code, 0) << p.text;
-  const Outcome f = run_cmd(mpiexec(2) + quote(kExe) + " run " + quote(scene) + " --partitioned " +
-                            quote(parts.string()) + " -q -o " + quote(files.string()));
-  ASSERT_EQ(f.code, 0) << f.text;
-  EXPECT_LT(monitor_difference(c1, read_csv(files / "monitors.csv")), 1e-9);
+  EXPECT_LT(monitor_difference(c1, run_from_rank_files(scene, tmp.path)), 1e-9);
+}
+
+TEST(CliRanks, MaterialsOnTwoRanksGiveTheOneRankRun) {
+  // Two layers of different stiffness and density joined by a weak interface that breaks: each
+  // tet's material and each CE6's law travel with the cut (DMPlex, rank 0's, the rank files).
+  if (mpiexec(2).empty()) GTEST_SKIP() << "mpiexec not found";
+  TempDir tmp("ranks_materials");
+  const std::string scene = (kData / "cli" / "materials_box.yaml").string();
+  const Outcome c = run_fdem("check " + quote(scene));
+  ASSERT_EQ(c.code, 0) << c.text;
+  EXPECT_TRUE(cli_test::has(c.text, "material 'stiff' (volume groups upper): ")) << c.text;
+  EXPECT_TRUE(cli_test::has(c.text, "interface 'soft' | 'stiff': ")) << c.text;
+  const fs::path one = tmp.path / "one";
+  const Outcome a = run_fdem("run " + quote(scene) + " -q -o " + quote(one.string()));
+  ASSERT_EQ(a.code, 0) << a.text;
+  const Csv c1 = read_csv(one / "monitors.csv");
+  const int broken = column(c1, "broken_ce6");
+  ASSERT_GE(broken, 0);
+  EXPECT_GT(c1.rows.back()[broken], 0) << "the interface broke";
+  for (const char* how : {"", " --distribute root"}) {
+    SCOPED_TRACE(how);
+    const fs::path two = tmp.path / (std::string("two") + (*how ? "_root" : ""));
+    const Outcome b =
+        run_cmd(mpiexec(2) + quote(kExe) + " run " + quote(scene) + how + " -q -o " + quote(two.string()));
+    ASSERT_EQ(b.code, 0) << b.text;
+    const Csv c2 = read_csv(two / "monitors.csv");
+    EXPECT_LT(monitor_difference(c1, c2), 1e-6);
+    EXPECT_EQ(c1.rows.back()[broken], c2.rows.back()[broken]);
+  }
+  EXPECT_LT(monitor_difference(c1, run_from_rank_files(scene, tmp.path)), 1e-6);
 }
 
 // The first job's ranks (the launcher's children) are stopped while the second job tries the

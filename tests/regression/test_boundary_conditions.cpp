@@ -61,13 +61,7 @@ real work(const Monitors& r, int c) {
 
 /// The InputError text of building the box model with scene text `yaml`, or "".
 std::string model_error(const std::string& yaml, const Mesh& mesh = box_mesh()) {
-  try {
-    const Scene s = parse_scene(yaml, "bc.yaml");
-    build_model(mesh, s);
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "";
+  return test::build_error(yaml, "bc.yaml", mesh);
 }
 
 /// The box with CE6s on every face and the conditions `extra` added, 1500 steps on the cpu's
@@ -108,7 +102,7 @@ TEST(BoundaryConditions, RollersAndAPressedEndGiveEATimesTheStrainAtRest) {
   while (s->time() < 3e-4) s->step();
   const Monitors r = s->measure();
   ASSERT_EQ(r.condition_columns, 16);
-  const Material& m = scene.material;
+  const Material& m = scene.material();
   const real d = 0.05 * (1e-5 + 4e-5 + 1e-5), force = m.youngs_modulus * 1e-4 * d / 0.02;
   EXPECT_NEAR(reaction(r, 2, 2), force, 1e-3 * force) << "the rollers at zmin push up";
   EXPECT_NEAR(reaction(r, 3, 2), -force, 1e-3 * force) << "the pressed end pushes down";
@@ -304,7 +298,7 @@ TEST(BoundaryConditions, ATractionOrAPressureOnTheEndIsCarriedByTheRollersAtRest
     auto s = box_solver(scene);
     while (s->time() < 3e-4) s->step();
     const Monitors r = s->measure();
-    const real E = scene.material.youngs_modulus;
+    const real E = scene.material().youngs_modulus;
     EXPECT_NEAR(reaction(r, 2, 2), sigma * A, 1e-3 * sigma * A) << "the rollers at zmin push up";
     EXPECT_NEAR(reaction(r, 3, 2), -sigma * A, 1e-3 * sigma * A) << "the load on the end";
     EXPECT_LT(std::fabs(reaction(r, 3, 0)) + std::fabs(reaction(r, 3, 1)), 1e-3 * sigma * A);
@@ -412,7 +406,7 @@ TEST(BoundaryConditions, AThickWalledCylinderUnderInternalPressureWidensAsLameSa
   while (s.time() < 8e-4) s.step();
   s.sync_host();
   const Monitors r = s.measure();
-  const Material& mat = scene.material;
+  const Material& mat = scene.material();
   const real a = 0.01, b = 0.03, p = 1e7, E = mat.youngs_modulus, nu = mat.poisson_ratio;
   auto lame = [&](real radius) {
     return (1 + nu) * p * a * a / (E * (b * b - a * a)) * ((1 - 2 * nu) * radius + b * b / radius);

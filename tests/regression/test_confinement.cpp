@@ -25,14 +25,14 @@ TEST(Confinement, LateralPressureGivesTheAnalyticRadialStrain) {
   scene.solver.mass_scaling = 10;
   Solver s(scene, build_model(generate_mesh(test::cylinder(0.02, 0.04, 0.003)), scene));
   // Ramp over the automatic 10 transits, then hold as long again for the vibration to settle.
-  const real c = std::sqrt((scene.material.lame_lambda() + 2 * scene.material.lame_mu()) /
-                           (scene.solver.mass_scaling * scene.material.density));
+  const real c = std::sqrt((scene.material().lame_lambda() + 2 * scene.material().lame_mu()) /
+                           (scene.solver.mass_scaling * scene.material().density));
   const real ramp = 10 * s.model().height0 / c;
   Monitors row;
   while (s.time() < 3 * ramp) s.step();
   row = s.measure();
   EXPECT_DOUBLE_EQ(row.confining_pressure, 5e6);
-  const Material& mat = scene.material;
+  const Material& mat = scene.material();
   const real expect = 5e6 * (1 - mat.poisson_ratio) / mat.youngs_modulus;
   EXPECT_NEAR(row.lateral_strain, expect, 0.02 * expect) << "measured " << row.lateral_strain;
   EXPECT_LT(row.energy_error, 0.01);
@@ -43,7 +43,7 @@ TEST(Confinement, HydrostaticPathThenHeldWhileTheAxialLoadGrows) {
   Scene scene = test::test_scene();
   scene.fracture.everywhere = false;
   scene.contact.activation = Activation::none;
-  scene.material.friction_platen = 0;  // no end restraint: the hydrostatic stage is uniform
+  scene.material().friction_platen = 0;  // no end restraint: the hydrostatic stage is uniform
   scene.confinement.enabled = true;
   scene.confinement.path = ConfinementPath::hydrostatic;
   scene.confinement.pressure = 2e6;

@@ -65,7 +65,7 @@ Body body(const Solver& s, bool upper, int cells) {
 TEST(ContactBlocks, BlockBouncesOffABlockConservingEnergy) {
   Scene scene = block_scene();
   scene.solver.damping_scale = 0;  // undamped: all the energy must come back
-  scene.material.friction_rock = 0;
+  scene.material().friction_rock = 0;
   const real gap = 2e-5, v0 = 1.0;  // m, m/s
   Solver s(scene, build_model(two_blocks({0, 0, gap}, 2), scene));
   const Model& m = s.model();
@@ -111,7 +111,7 @@ struct Slide {
 
 Slide incline(real angle, real g, real mu) {
   Scene scene = block_scene();
-  scene.material.friction_rock = mu;
+  scene.material().friction_rock = mu;
   scene.gravity = {g * std::sin(angle), 0, -g * std::cos(angle)};
   // Blocks of one Kuhn cell each (6 tets): the upper one starts just touching the lower one.
   Solver s(scene, build_model(two_blocks({0, 0, 0}, 1), scene));
@@ -377,7 +377,7 @@ int shear_break_handover(const std::string& activation) {
     for (std::size_t k = 0; k < mid.size(); ++k) {
       const int c = mid[k];
       if (broke_at[k] >= 0 && s.step_count() == broke_at[k] + 1) {
-        EXPECT_FALSE(ce6_carries_force(s.ce6_params(), s.state.ce6[c])) << "CE6 #" << c;
+        EXPECT_FALSE(ce6_carries_force(s.laws().ce6[0], s.state.ce6[c])) << "CE6 #" << c;
         evaluated[k] = joint_zero(c) >= 0;
       }
       if (broke_at[k] >= 0 && s.step_count() > broke_at[k]) pushed[k] |= joint_force(c) > 0;

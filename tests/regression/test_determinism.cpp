@@ -17,8 +17,8 @@ std::unique_ptr<Solver> run_steps(int threads, int steps) {
   Scene scene = test::test_scene();
   scene.solver.threads = threads;
   scene.platens.velocity = 2.0;  // fast, so CE6s damage and break within the run
-  scene.material.tensile_strength = 0.3e6;
-  scene.material.cohesion = 1.0e6;
+  scene.material().tensile_strength = 0.3e6;
+  scene.material().cohesion = 1.0e6;
   // Violent on purpose; contact puts about 15 % of the work in by step 6000 (docs/stability.md),
   // which the energy watch would stop. This test is about the thread count only.
   scene.solver.max_energy_error = 0;

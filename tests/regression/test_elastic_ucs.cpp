@@ -28,7 +28,7 @@ const Mesh& cylinder() {
 /// (uniaxial stress, so the slope is E itself).
 Scene elastic_scene(real penalty_factor, real mass_scaling) {
   Scene s = test::test_scene();
-  Material& m = s.material;
+  Material& m = s.material();
   m.tensile_strength = m.cohesion = 1e9;
   m.fracture_energy_I = m.fracture_energy_II = 1e6;
   m.friction_platen = 0;
@@ -51,7 +51,7 @@ real measured_modulus(const Scene& scene, std::vector<Monitors>* rows_out = null
 TEST(ElasticUcs, ModulusWithinThreePercentOfEAtHundredE) {
   const Scene scene = elastic_scene(100, 5);
   const real E = measured_modulus(scene);
-  EXPECT_NEAR(E / scene.material.youngs_modulus, 1.0, 0.03) << "effective modulus " << E / 1e9 << " GPa";
+  EXPECT_NEAR(E / scene.material().youngs_modulus, 1.0, 0.03) << "effective modulus " << E / 1e9 << " GPa";
   RecordProperty("effective_modulus_GPa", std::to_string(E / 1e9));
 }
 

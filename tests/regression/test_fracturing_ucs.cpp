@@ -30,11 +30,11 @@ TEST(FracturingUcs, PeakThenFailureWithTheEnergyBalanceClosed) {
   EXPECT_EQ(row.broken, row.broken_I + row.broken_II + row.broken_mixed);
   // The peak is a compressive failure: far above the tensile strength, and well past the
   // linear range: the secant modulus at the peak is below E.
-  EXPECT_GT(peak.axial_stress, 5 * scene.material.tensile_strength);
-  EXPECT_LT(peak.axial_stress / peak.axial_strain, scene.material.youngs_modulus);
+  EXPECT_GT(peak.axial_stress, 5 * scene.material().tensile_strength);
+  EXPECT_LT(peak.axial_stress / peak.axial_strain, scene.material().youngs_modulus);
   // Dilation after the peak: the lateral strain (compression positive) is negative and its
   // magnitude has grown past the elastic nu * axial strain.
-  EXPECT_LT(row.lateral_strain, -scene.material.poisson_ratio * 0.5 * row.axial_strain);
+  EXPECT_LT(row.lateral_strain, -scene.material().poisson_ratio * 0.5 * row.axial_strain);
   EXPECT_GT(row.cohesive_dissipated, 0);
   EXPECT_LT(row.energy_error, 0.01) << "external " << row.external_work << " J";
   RecordProperty("peak_MPa", std::to_string(peak.axial_stress / 1e6));

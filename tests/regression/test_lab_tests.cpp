@@ -142,7 +142,7 @@ TEST(LabTests, BrazilianDiscSplitsThroughTheCentreNearTheTensileStrength) {
   Solver solver(scene, build_model(load_mesh(scene.mesh), scene));
   std::ostringstream log;
   const RunSummary r = run_scene(solver, log);
-  const real ft = scene.material.tensile_strength;
+  const real ft = scene.material().tensile_strength;
   std::cout << "BTS " << r.peak_indirect_tensile / 1e6 << " MPa (f_t " << ft / 1e6 << "), " << r.fracture.broken
             << " broken, plane " << r.fracture.plane_angle_deg << " deg, planarity " << r.fracture.planarity << "\n";
   EXPECT_NEAR(r.peak_indirect_tensile, ft, 0.3 * ft);

@@ -41,7 +41,7 @@ TEST(WaveSpeed, PWaveInConstrainedBarMatchesTheory) {
     const bool end = s.model().X[n].x == 0;
     s.prescribe(int(n), end ? 7 : 6, {end ? v0 : 0, 0, 0});  // uniaxial strain: lateral motion blocked
   }
-  const Material& mat = scene.material;
+  const Material& mat = scene.material();
   const real c = std::sqrt((mat.lame_lambda() + 2 * mat.lame_mu()) / mat.density);
   auto run_until = [&](real t) {
     while (s.time() < t) s.step();

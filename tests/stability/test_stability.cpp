@@ -157,7 +157,7 @@ TEST(Stability, TimeStepAtPointNineAndOnePointOneOfTheTrueLimit) {
   scene.solver.end = {0, 100000, 0, 0};
   scene.solver.threads = 1;
   const Model model = build_model(structured_box_mesh({0.01, 0.01, 0.02}, 3, 3, 6), scene);
-  const real dt_true = 2 / std::sqrt(highest_omega2(model, scene.material));
+  const real dt_true = 2 / std::sqrt(highest_omega2(model, scene.material()));
   const real bound = Solver(scene, model).stable_step().dt;
   std::printf("[stability] true limit %.4g s, bound %.4g s (%.3f of it)\n", dt_true, bound, bound / dt_true);
   EXPECT_LE(bound, dt_true);
@@ -269,10 +269,10 @@ TEST(Stability, CohesivePenaltyTenThousandEAndContactPenaltyTenE) {
   Solver s0(base, build_model(mesh, base));
   const Outcome o0 = run(s0, 0.006, 1000000);
   Scene c10 = box_scene();
-  const real E = c10.material.youngs_modulus;
-  c10.material.cohesive_penalty_open = c10.material.cohesive_penalty_tangential =
-      c10.material.cohesive_penalty_overlap = 1e4 * E;
-  c10.material.contact_penalty = 10 * E;
+  const real E = c10.material().youngs_modulus;
+  c10.material().cohesive_penalty_open = c10.material().cohesive_penalty_tangential =
+      c10.material().cohesive_penalty_overlap = 1e4 * E;
+  c10.material().contact_penalty = 10 * E;
   Solver s1(c10, build_model(mesh, c10));
   const Outcome o1 = run(s1, 0.006, 1000000);
   report("default penalties", o0);
@@ -377,8 +377,8 @@ TEST_P(HeavyFragmentation, OneMetrePerSecond) {
   Scene s = box_scene();
   s.platens.velocity = 1.0;
   s.solver.mass_scaling = 1;
-  s.material.tensile_strength /= 4;
-  s.material.cohesion /= 4;
+  s.material().tensile_strength /= 4;
+  s.material().cohesion /= 4;
   s.contact.law = GetParam();
   Solver solver(s, build_model(box_mesh(), s));
   const Outcome o = run(solver, 0.03, 1000000);

@@ -206,7 +206,7 @@ TEST(ModelBuildKuhn, MassIsScaledDensityTimesVolume) {
     }
     for (real v : m.tet_V0) vol += v;
     EXPECT_NEAR(vol, V, 1e-12 * V);
-    EXPECT_NEAR(total, 5 * s.material.density * V, 1e-12 * 5 * s.material.density * V);
+    EXPECT_NEAR(total, 5 * s.material().density * V, 1e-12 * 5 * s.material().density * V);
     if (everywhere) {
       // Each node carries a quarter of its one tet's mass.
       for (std::size_t t = 0; t < m.tet_nodes.size(); ++t)

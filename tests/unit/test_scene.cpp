@@ -71,10 +71,10 @@ TEST(Scene, DefaultSceneParses) {
   const Scene s = load_scene(std::string(FDEM_SOURCE_DIR) + "/scenes/ucs_small.yaml");
   EXPECT_EQ(s.name, "ucs_small");
   const Material def;
-  EXPECT_DOUBLE_EQ(s.material.density, def.density);
-  EXPECT_DOUBLE_EQ(s.material.youngs_modulus, 12.2e9);
-  EXPECT_DOUBLE_EQ(s.material.cohesive_penalty_overlap, 12200e9);
-  EXPECT_EQ(s.material.softening, Softening::munjiza);
+  EXPECT_DOUBLE_EQ(s.material().density, def.density);
+  EXPECT_DOUBLE_EQ(s.material().youngs_modulus, 12.2e9);
+  EXPECT_DOUBLE_EQ(s.material().cohesive_penalty_overlap, 12200e9);
+  EXPECT_EQ(s.material().softening, Softening::munjiza);
   EXPECT_EQ(s.mesh.shape, MeshShape::cylinder);
   EXPECT_TRUE(s.mesh.file.empty());
   EXPECT_DOUBLE_EQ(s.mesh.diameter, 0.02);
@@ -103,7 +103,7 @@ TEST(Scene, DefaultSceneParses) {
 TEST(Scene, MinimalSceneGetsTable2Defaults) {
   const Scene s = load_scene(kData + "/scenes/minimal.yaml");
   EXPECT_EQ(s.name, "minimal");  // the file stem
-  const Material& m = s.material;
+  const Material& m = s.material();
   EXPECT_DOUBLE_EQ(m.density, 1800);
   EXPECT_DOUBLE_EQ(m.youngs_modulus, 12.2e9);
   EXPECT_DOUBLE_EQ(m.poisson_ratio, 0.25);
@@ -433,7 +433,7 @@ TEST(Scene, CohesiveCheckSkippedForMeshFiles) {
   const std::string dir = kData + "/scenes/";
   const Scene s = parse_scene(
       "material: {fracture_energy_I: 1e-6}\nmesh: {file: tiny.msh}\nsolver: {end: {steps: 1}}\n", dir + "inline.yaml");
-  EXPECT_DOUBLE_EQ(s.material.fracture_energy_I, 1e-6);
+  EXPECT_DOUBLE_EQ(s.material().fracture_energy_I, 1e-6);
   const std::string msg = parse_error(
       "material: {fracture_energy_I: 1e-6}\n"
       "mesh: {generate: {shape: cylinder, diameter: 0.02, height: 0.04, element_size: 0.004}}\n"
@@ -448,7 +448,7 @@ TEST(Scene, EmptySectionsKeepDefaults) {
       "mesh: {generate: {shape: box, size: [0.01, 0.01, 0.02], element_size: 0.002}}\n"
       "solver: {end: {axial_strain: 0.01}}\n",
       "x.yaml");
-  EXPECT_DOUBLE_EQ(s.material.density, 1800);
+  EXPECT_DOUBLE_EQ(s.material().density, 1800);
   EXPECT_TRUE(s.platens.enabled);
   EXPECT_EQ(s.output.folder, "out/empty_sections");
   const std::string msg = parse_error("mesh:\nsolver:\n");
