@@ -24,8 +24,10 @@ namespace fdem {
 // so a model built now numbers its CE6s, their states and broken_ce6.csv's ids anew. 4: each
 // part of the state writes its own section (Solver::save_state). 5: the ledger keeps the
 // contact energy, and each contact pair its overlap zero. 6: a tet's contact flags hold its
-// opened faces too (contact/bonded.hpp). Rank files stay at 3: their content did not change.
-constexpr std::uint32_t kCheckpointVersion = 7;
+// opened faces too (contact/bonded.hpp). 7: boundary conditions' reactions, works and face
+// loads. 8: a grown rank model (saved with the state) holds each tet's material and CE6's law.
+// Rank files: 4 boundary conditions, 5 materials.
+constexpr std::uint32_t kCheckpointVersion = 8;
 constexpr std::uint32_t kRankFileVersion = 5;
 
 /// Collects values for a checkpoint payload.

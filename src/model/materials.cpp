@@ -78,7 +78,7 @@ std::vector<std::uint8_t> material_of_mesh_tets(const Mesh& mesh, const Scene& s
 }
 
 std::string describe_materials(const Scene& scene, const Model& m, const std::string& where) {
-  if (scene.materials.size() == 1 && scene.interfaces.empty()) return "";
+  if (scene.materials.size() == 1 && scene.materials[0].name.empty()) return "";  // (the shorthand)
   const std::size_t nm = scene.materials.size(), nl = nm + scene.interfaces.size();
   std::vector<long> tets(nm, 0), ce6s(nl, 0);
   for (std::uint8_t k : m.tet_material) ++tets[k];

@@ -34,11 +34,18 @@ std::string instability_advice(const Scene& scene, const StableStep& stable, rea
   const real bound = stable.dt / scene.solver.time_step_safety;
   const real ratio = dt / bound;
   const real E = mat.youngs_modulus;
-  // The CE6 penalty furthest above its material's E.
+  // The CE6 penalty furthest above its material's E (an interface's: the softer side's E).
   real p_ce6 = 0, E_ce6 = E;
-  for (const Material& m : scene.materials) {
-    const real p = std::max({m.cohesive_penalty_open, m.cohesive_penalty_tangential, m.cohesive_penalty_overlap});
-    if (p / m.youngs_modulus > p_ce6 / E_ce6) p_ce6 = p, E_ce6 = m.youngs_modulus;
+  auto consider = [&](const Material& law, real youngs) {
+    const real p = std::max({law.cohesive_penalty_open, law.cohesive_penalty_tangential, law.cohesive_penalty_overlap});
+    if (p / youngs > p_ce6 / E_ce6) p_ce6 = p, E_ce6 = youngs;
+  };
+  for (const Material& m : scene.materials) consider(m, m.youngs_modulus);
+  for (const MaterialInterface& f : scene.interfaces) {
+    real youngs = 1e300;
+    for (const Material& m : scene.materials)
+      if (m.name == f.between[0] || m.name == f.between[1]) youngs = std::min(youngs, m.youngs_modulus);
+    consider(f.law, youngs);
   }
   std::string cause;
   if (ratio > 1)

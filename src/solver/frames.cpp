@@ -56,6 +56,11 @@ void write_frame(FieldWriter& w, const Solver& s, real time, long step, const st
     for (std::uint8_t f : *flags) active.push_back((f & TetFlag::kCandidate) ? 1 : 0);
     fr.extra.push_back({"active", &active});
   }
+  std::vector<real> material;  // with several materials: each tet's index in scene.materials
+  if (s.laws().tet4.size() > 1) {
+    material.assign(s.model().tet_material.begin(), s.model().tet_material.end());
+    fr.extra.push_back({"material", &material});
+  }
   fr.extra.insert(fr.extra.end(), more.begin(), more.end());
   if (!s.distributed()) {
     w.write(fr);

@@ -147,6 +147,8 @@ TEST(CliRanks, MaterialsOnTwoRanksGiveTheOneRankRun) {
   const int broken = column(c1, "broken_ce6");
   ASSERT_GE(broken, 0);
   EXPECT_GT(c1.rows.back()[broken], 0) << "the interface broke";
+  EXPECT_TRUE(cli_test::has(slurp(one / "fields.xdmf"), "<Attribute Name=\"material\""))
+      << "each tet's material as a field";
   for (const char* how : {"", " --distribute root"}) {
     SCOPED_TRACE(how);
     const fs::path two = tmp.path / (std::string("two") + (*how ? "_root" : ""));
