@@ -1,11 +1,13 @@
 #pragma once
 // Shared helpers for the regression tests: scenes built in code, quasi-static loading runs.
+#include <algorithm>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "core/error.hpp"
 #include "model/model.hpp"
+#include "model/structured.hpp"
 #include "scene/scene.hpp"
 #include "solver/solver.hpp"
 
@@ -38,6 +40,27 @@ inline std::string build_error(const std::string& yaml, const std::string& file,
     return e.what();
   }
   return "";
+}
+
+/// A 10 x 10 x 20 mm box (structured, 4 x 4 x 8 cells) whose volume groups 'lower' (z < 10 mm,
+/// tag 1) and 'upper' (tag 2) split it at mid-height, on a plane of mesh faces.
+inline Mesh layered_box() {
+  Mesh mesh = structured_box_mesh({0.01, 0.01, 0.02}, 4, 4, 8);
+  MeshGroup lower{"lower", 3, 1, {}, {}}, upper{"upper", 3, 2, {}, {}};
+  for (int t = 0; t < int(mesh.tets.size()); ++t) {
+    real z = 0;
+    for (int v : mesh.tets[t]) z += 0.25 * mesh.vertices[v].z;
+    (z < 0.01 ? lower : upper).tets.push_back(t);
+  }
+  mesh.groups.insert(mesh.groups.begin(), {lower, upper});
+  return mesh;
+}
+
+/// The largest distance between the same node in two lists of positions, m.
+inline real largest_distance(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
+  real worst = 0;
+  for (std::size_t n = 0; n < a.size(); ++n) worst = std::max(worst, norm(a[n] - b[n]));
+  return worst;
 }
 
 /// A gmsh cylinder (axis z) of the given diameter, height and element size, m.

@@ -7,6 +7,7 @@
 
 #include "core/error.hpp"
 #include "model/conditions.hpp"
+#include "model/heterogeneity.hpp"
 #include "model/laws.hpp"
 #include "model/materials.hpp"
 #include "model/model.hpp"
@@ -424,6 +425,7 @@ Model build_model(const Mesh& mesh, const Scene& scene) {
   m.tet_colours = colour_elements(m.tet_nodes, m.X.size(), "TET4");
   m.ce6_colours = colour_elements(m.ce6_nodes, m.X.size(), "CE6");
   number_ce6_in_colour_order(m);
+  m.ce6_strength = draw_ce6_strengths(scene, m);  // (by the CE6s' final ids)
   return m;
 }
 

@@ -78,7 +78,8 @@ std::vector<std::uint8_t> material_of_mesh_tets(const Mesh& mesh, const Scene& s
 }
 
 std::string describe_materials(const Scene& scene, const Model& m, const std::string& where) {
-  if (scene.materials.size() == 1 && scene.materials[0].name.empty()) return "";  // (the shorthand)
+  const Material& only = scene.materials[0];
+  if (scene.materials.size() == 1 && only.name.empty() && !only.heterogeneity.on()) return "";  // (the shorthand)
   const std::size_t nm = scene.materials.size(), nl = nm + scene.interfaces.size();
   std::vector<long> tets(nm, 0), ce6s(nl, 0);
   for (std::uint8_t k : m.tet_material) ++tets[k];
@@ -88,8 +89,18 @@ std::string describe_materials(const Scene& scene, const Model& m, const std::st
     const Material& a = scene.materials[i];
     std::string groups;
     for (const std::string& g : a.groups) groups += (groups.empty() ? "" : ", ") + g;
-    out += "  material '" + a.name + "' (" + (groups.empty() ? "every other tet" : "volume groups " + groups) +
-           "): " + std::to_string(tets[i]) + " tets, " + std::to_string(ce6s[i]) + " CE6s with its law" + where + "\n";
+    const Heterogeneity& h = a.heterogeneity;
+    const std::string spread = h.distribution == StrengthSpread::weibull ? ", strengths Weibull m = " + fmt(h.modulus)
+                               : h.distribution == StrengthSpread::normal
+                                   ? ", strengths normal, deviation " + fmt(h.deviation) + " of the mean"
+                                   : "";
+    const std::string label = a.name.empty() ? "material" : "material '" + a.name + "'";
+    out += "  " + label + " (" +
+           (!groups.empty() ? "volume groups " + groups
+            : nm == 1       ? "every tet"
+                            : "every other tet") +
+           "): " + std::to_string(tets[i]) + " tets, " + std::to_string(ce6s[i]) + " CE6s with its law" + spread +
+           where + "\n";
   }
   for (std::size_t i = nm; i < nl; ++i) {
     const auto& w = scene.interfaces[i - nm].between;

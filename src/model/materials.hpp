@@ -18,7 +18,7 @@ std::vector<std::uint8_t> material_of_mesh_tets(const Mesh& mesh, const Scene& s
 
 /// One line per material and interface law, with the tets and CE6s that have it: "  material
 /// 'granite' (volume groups rock): 1200 tets, 2100 CE6s with its law" (`where`: after the counts). Empty for
-/// the one-material shorthand, `material`.
+/// the one-material shorthand, `material`, unless it is heterogeneous.
 std::string describe_materials(const Scene& scene, const Model& m, const std::string& where);
 
 }  // namespace fdem

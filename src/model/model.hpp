@@ -44,6 +44,7 @@ struct Model {
   std::vector<std::array<int, 2>> ce6_tets;
   std::vector<real> ce6_h;            // characteristic size (reference mean edge length), m
   std::vector<std::uint8_t> ce6_law;  // index into ElementLaws::ce6 (model/laws.hpp)
+  std::vector<real> ce6_strength;     // factor on its strengths (heterogeneous rock); empty: all 1
   Colouring ce6_colours;
 
   // Boundary: faces on the outer surface (node ids, normal outward) and node groups.

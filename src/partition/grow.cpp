@@ -60,6 +60,7 @@ struct Ce6Rec {
   std::array<long, 6> nodes{};
   real h = 0;
   std::uint8_t law = 0;  // Model::ce6_law
+  real strength = 1;     // Model::ce6_strength
   Ce6State state{};
 };
 struct TetRec {
@@ -226,7 +227,8 @@ void put_ghost_record(CheckpointOut& o, const Model& m, const Decomposition& dd,
   for (int c : ce6s) {
     o.put(dd.ce6_global[c]), o.put(dd.tet_global[m.ce6_tets[c][0]]), o.put(dd.tet_global[m.ce6_tets[c][1]]);
     for (int n : m.ce6_nodes[c]) o.put(dd.node_global[n]);
-    o.put(m.ce6_h[c]), o.put(m.ce6_law[c]), o.put(now.ce6[c]);
+    o.put(m.ce6_h[c]), o.put(m.ce6_law[c]), o.put(m.ce6_strength.empty() ? real(1) : m.ce6_strength[c]);
+    o.put(now.ce6[c]);
   }
   const std::vector<int>& faces = ix.faces_of.at(t);
   o.put(std::uint64_t(faces.size()));
@@ -302,7 +304,7 @@ void read_ghost_record(CheckpointIn& rd, Arrivals& a) {
     Ce6Rec c;
     rd.get(c.id), rd.get(c.a), rd.get(c.b);
     for (long& nid : c.nodes) rd.get(nid);
-    rd.get(c.h), rd.get(c.law), rd.get(c.state);
+    rd.get(c.h), rd.get(c.law), rd.get(c.strength), rd.get(c.state);
     a.ce6s.emplace(c.id, c);
   }
   std::uint64_t kf = 0;
@@ -436,6 +438,7 @@ void append_ghost_ce6s(const std::map<long, Ce6Rec>& ce6s, const Model& m, const
     gm.ce6_tets.push_back({tet_local.at(c.a), tet_local.at(c.b)});
     gm.ce6_h.push_back(c.h);
     gm.ce6_law.push_back(c.law);
+    if (!gm.ce6_strength.empty()) gm.ce6_strength.push_back(c.strength);
     gd.ce6_global.push_back(g);
     gd.ce6_owned.push_back(0);
     out.added.ce6.push_back(c.state);

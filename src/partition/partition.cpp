@@ -317,6 +317,7 @@ void cut_elements(const Model& g, const HeldParts& h, Model& m) {
   }
   m.ce6_h = pick(g.ce6_h, ce6s);
   m.ce6_law = pick(g.ce6_law, ce6s);
+  if (!g.ce6_strength.empty()) m.ce6_strength = pick(g.ce6_strength, ce6s);
   for (std::size_t i = 0; i < g.surface_faces.size(); ++i)
     if (h.tet_local[g.surface_tet[i]] >= 0) {
       const auto& q = g.surface_faces[i];
@@ -476,7 +477,7 @@ void model_fields(F&& f, M& m) {
   f(m.top_nodes), f(m.bottom_nodes), f(m.lateral_nodes);
   f(m.box_min), f(m.box_max), f(m.axis_point), f(m.height0), f(m.area0), f(m.line_loaded), f(m.min_altitude);
   f(m.mean_edge), f(m.source), f(m.surface_conditions), f(m.node_conditions), f(m.condition_axis);
-  f(m.tet_material), f(m.ce6_law);
+  f(m.tet_material), f(m.ce6_law), f(m.ce6_strength);
 }
 
 constexpr std::uint64_t kRankFileMagic = 0x4644454d52414e4bull;  // "FDEMRANK"
@@ -543,6 +544,13 @@ std::uint64_t model_key(const Scene& s) {
       h = fnv1a64(w.data(), w.size() + 1, h);
     }
   }
+  // A heterogeneous material's draws are part of the model.
+  for (const Material& m : s.materials)
+    if (m.heterogeneity.on()) {
+      const real c[] = {real(m.heterogeneity.distribution), m.heterogeneity.modulus, m.heterogeneity.deviation,
+                        real(m.heterogeneity.seed)};
+      h = fnv1a64(c, sizeof c, h);
+    }
   // The conditions mark faces and nodes, and whether a velocity is zero decides their conflicts
   // (model/conditions.cpp); their values are read at the run.
   for (const BoundaryCondition& c : s.conditions) {
@@ -601,7 +609,9 @@ RankModel get_rank_model(CheckpointIn& in, std::uint64_t key) {
       rm.dd.node_owned.size() != nn || rm.dd.tet_global.size() != nt || rm.dd.tet_owned.size() != nt ||
       m.tet_Xinv.size() != nt || m.tet_V0.size() != nt || m.tet_eta.size() != nt || m.tet_material.size() != nt ||
       m.ce6_tets.size() != m.ce6_nodes.size() || m.ce6_h.size() != m.ce6_nodes.size() ||
-      m.ce6_law.size() != m.ce6_nodes.size() || rm.dd.ce6_owned.size() != m.ce6_nodes.size() ||
+      m.ce6_law.size() != m.ce6_nodes.size() ||
+      (!m.ce6_strength.empty() && m.ce6_strength.size() != m.ce6_nodes.size()) ||
+      rm.dd.ce6_owned.size() != m.ce6_nodes.size() ||
       (!m.surface_conditions.empty() && m.surface_conditions.size() != m.surface_faces.size()) ||
       (!m.node_conditions.empty() && m.node_conditions.size() != nn))
     bad("array sizes differ");

@@ -127,6 +127,7 @@ std::string tet_record(const Model& g, const PartitionPlan& plan, const Lookup& 
   for (int j = lk.ce6_ptr[t]; j < lk.ce6_ptr[t + 1]; ++j) {
     const int c = lk.ce6_list[j];
     o.put(c), o.put(g.ce6_nodes[c]), o.put(g.ce6_tets[c][1]), o.put(g.ce6_h[c]), o.put(g.ce6_law[c]);
+    o.put(g.ce6_strength.empty() ? real(1) : g.ce6_strength[c]);
     o.put(lk.ce6_colour[c]);
     o.put(lk.ce6_pos[c]);
   }
@@ -184,6 +185,7 @@ struct Ce6Rec {
   std::array<int, 6> nodes{};
   real h = 0;
   std::uint8_t law = 0;  // Model::ce6_law
+  real strength = 1;     // Model::ce6_strength
 };
 struct FaceRec {
   int id = 0, tet = 0;
@@ -216,7 +218,8 @@ void read_record(const char* bytes, std::size_t n, Piece& p) {
   in.get(k);
   for (int j = 0; j < k; ++j) {
     Ce6Rec c;
-    in.get(c.id), in.get(c.nodes), in.get(c.b), in.get(c.h), in.get(c.law), in.get(c.colour), in.get(c.pos);
+    in.get(c.id), in.get(c.nodes), in.get(c.b), in.get(c.h), in.get(c.law), in.get(c.strength);
+    in.get(c.colour), in.get(c.pos);
     c.a = int(t.id);
     p.ce6s.push_back(c);
   }
@@ -293,8 +296,11 @@ RankModel cut_piece(Piece& p, const Header& h, int rank) {
     m.ce6_tets.push_back({tet_local.at(c.a), tet_local.at(c.b)});
     m.ce6_h.push_back(c.h);
     m.ce6_law.push_back(c.law);
+    m.ce6_strength.push_back(c.strength);
   }
   m.ce6_colours = piece_colouring(ce6s, h.ce6_colours);
+  // (All 1, as without heterogeneity: none held, as on the root's path.)
+  if (std::all_of(m.ce6_strength.begin(), m.ce6_strength.end(), [](real f) { return f == 1; })) m.ce6_strength.clear();
   std::sort(p.faces.begin(), p.faces.end(), [](const FaceRec& a, const FaceRec& b) { return a.id < b.id; });
   for (const FaceRec& f : p.faces) {
     m.surface_faces.push_back({node_local.at(f.nodes[0]), node_local.at(f.nodes[1]), node_local.at(f.nodes[2])});

@@ -188,8 +188,10 @@ FDEM_HD void ce6_friction(real tmax, real k_t, Vec3 n, Vec3 sv, bool anchor_stor
 
 /// Forces on the six nodes (overwritten), damage and mode update of `s` and of the friction
 /// anchors (damaged or broken CE6s only), power and stored energy. h is the element's characteristic size.
+/// `strength` scales the tensile strength and the cohesion of this element (a heterogeneous
+/// rock's draw); its fracture energies stay, so it still dissipates G A.
 FDEM_HD Ce6Eval cohesive6_forces(const Ce6Params& p, const Vec3 (&x)[6], const Vec3 (&v)[6], real h, Ce6Damage& s,
-                                 Vec3 (&anchors)[3], Vec3 (&f)[6]) {
+                                 Vec3 (&anchors)[3], Vec3 (&f)[6], real strength = 1) {
   using namespace ce6_detail;
   for (int i = 0; i < 6; ++i) f[i] = Vec3{0, 0, 0};
   Ce6Eval out{0, 0};
@@ -206,8 +208,9 @@ FDEM_HD Ce6Eval cohesive6_forces(const Ce6Params& p, const Vec3 (&x)[6], const V
 
   const real k_ov = p.P_overlap / h;  // overlap stiffness per unit area
   const real k_t = p.P_tan / h;       // tangential (friction spring) stiffness per unit area
-  const real o_p = p.P_open > 0 ? 2 * h * p.ft / p.P_open : real(0);
-  const real w_n = softening_width(p.GI, p.ft, o_p, p.Z);
+  const real ft = strength * p.ft, cohesion = strength * p.cohesion;
+  const real o_p = p.P_open > 0 ? 2 * h * ft / p.P_open : real(0);
+  const real w_n = softening_width(p.GI, ft, o_p, p.Z);
 
   Vec3 d[3], dd[3];
   for (int i = 0; i < 3; ++i) {
@@ -228,7 +231,7 @@ FDEM_HD Ce6Eval cohesive6_forces(const Ce6Params& p, const Vec3 (&x)[6], const V
     sv[k] = dk - o[k] * n;
     sl[k] = norm(sv[k]);
     const real sig_ov = o[k] < 0 ? k_ov * o[k] : real(0);
-    fs[k] = p.cohesion + (-sig_ov) * p.tan_phi;
+    fs[k] = cohesion + (-sig_ov) * p.tan_phi;
     sp[k] = p.P_tan > 0 ? 2 * h * fs[k] / p.P_tan : real(0);
     Dn[k] = past_peak(o[k], o_p, w_n);
     Ds[k] = past_peak(sl[k], sp[k], softening_width(p.GII, fs[k], sp[k], p.Z));
@@ -262,8 +265,8 @@ FDEM_HD Ce6Eval cohesive6_forces(const Ce6Params& p, const Vec3 (&x)[6], const V
       const real z = softening_z(s.D[k], p.softening);
       if (damaged) anchors[k] = sv[k];  // the anchor follows until the break
       if (o[k] >= 0) {
-        t = (z * prepeak(o[k], o_p, p.ft)) * n;
-        e = z * prepeak_energy(o[k], o_p, p.ft);
+        t = (z * prepeak(o[k], o_p, ft)) * n;
+        e = z * prepeak_energy(o[k], o_p, ft);
       }
       if (sl[k] > 0) {
         t += (z * prepeak(sl[k], sp[k], fs[k]) / sl[k]) * sv[k];
@@ -284,8 +287,8 @@ FDEM_HD Ce6Eval cohesive6_forces(const Ce6Params& p, const Vec3 (&x)[6], const V
 
 /// The same for a whole Ce6State (damage and anchors together).
 FDEM_HD Ce6Eval cohesive6_forces(const Ce6Params& p, const Vec3 (&x)[6], const Vec3 (&v)[6], real h, Ce6State& s,
-                                 Vec3 (&f)[6]) {
-  return cohesive6_forces(p, x, v, h, s, s.slip, f);
+                                 Vec3 (&f)[6], real strength = 1) {
+  return cohesive6_forces(p, x, v, h, s, s.slip, f, strength);
 }
 
 }  // namespace fdem

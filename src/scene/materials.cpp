@@ -96,12 +96,32 @@ void cohesive_law(YamlReader& r, const Material& m, const std::string& p, double
             "cohesion");
 }
 
+/// heterogeneity: {distribution: weibull, modulus: m, seed: k} or {distribution: normal,
+/// deviation: s, seed: k}.
+void read_heterogeneity(YamlReader& r, const YAML::Node& n, const std::string& p, Heterogeneity& h) {
+  if (!r.check_map(n, p, {"distribution", "modulus", "deviation", "seed"})) return;
+  if (!n["distribution"]) r.error(p + ".distribution", "missing", "give distribution: weibull or normal");
+  if (!r.choice(n, p, "distribution", h.distribution)) return;
+  const bool weibull = h.distribution == StrengthSpread::weibull, normal = h.distribution == StrengthSpread::normal;
+  const char* key = weibull ? "modulus" : "deviation";
+  if ((weibull || normal) && !n[key])
+    r.error(p + "." + key, "missing",
+            weibull ? "give the Weibull modulus m (e.g. 6; larger is more uniform)"
+                    : "give the standard deviation over the mean (e.g. 0.2)");
+  for (const char* other : {"modulus", "deviation"})
+    if (n[other] && (std::string(other) != key || !(weibull || normal)))
+      r.error(p + "." + other, std::string("is not read for distribution ") + name_of(h.distribution), "remove it");
+  r.number(n, p, "modulus", Range{0.5, 1000, false, false}, h.modulus);
+  r.number(n, p, "deviation", Range{0, 0.3, true, false}, h.deviation);
+  r.number(n, p, "seed", count_at_least(0, 4e15), h.seed);
+}
+
 }  // namespace
 
 std::vector<std::string> material_keys() {
   std::vector<std::string> k = {"density", "youngs_modulus", "poisson_ratio"};
   k.insert(k.end(), kCe6Keys.begin(), kCe6Keys.end());
-  k.insert(k.end(), {"contact_penalty", "friction_platen", "friction_rock"});
+  k.insert(k.end(), {"contact_penalty", "friction_platen", "friction_rock", "heterogeneity"});
   return k;
 }
 
@@ -124,6 +144,7 @@ void read_material_keys(YamlReader& r, const YAML::Node& n, const std::string& p
   r.number(n, p, "friction_platen", closed(0, 10), m.friction_platen);
   r.number(n, p, "friction_rock", closed(0, 10), m.friction_rock);
   r.choice(n, p, "softening", m.softening);
+  if (n["heterogeneity"]) read_heterogeneity(r, n["heterogeneity"], p + ".heterogeneity", m.heterogeneity);
 }
 
 void read_materials(YamlReader& r, const YAML::Node& n, Scene& s) {
@@ -193,6 +214,7 @@ void read_interfaces(YamlReader& r, const YAML::Node& n, Scene& s) {
     f.between = {s.materials[a].name, s.materials[b].name};
     f.law = s.materials[weaker(s, a, b)];  // the keys not given: the weaker material's
     f.law.name = f.between[0] + "|" + f.between[1], f.law.groups.clear();
+    f.law.heterogeneity = Heterogeneity{};  // (the materials' spread is their own CE6s')
     read_material_keys(r, n[i], pi, f.law);
     s.interfaces.push_back(f);
   }

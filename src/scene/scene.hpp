@@ -1,6 +1,7 @@
 #pragma once
 // A validated scene: everything a run needs, in SI units. Parsed by scene/parse.cpp.
 #include <array>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -34,6 +35,24 @@ struct ChoiceNames<Activation> {
   static constexpr std::array<const char*, 3> words{"adaptive", "full", "none"};
 };
 
+/// How a heterogeneous rock's CE6 strengths spread about the material's (Heterogeneity).
+enum class StrengthSpread { none, weibull, normal };
+template <>
+struct ChoiceNames<StrengthSpread> {
+  static constexpr std::array<const char*, 3> words{"none", "weibull", "normal"};
+};
+
+/// Each CE6 of a material scales its tensile strength and cohesion by one factor drawn from a
+/// distribution of mean 1: Weibull of modulus m, or normal of relative deviation s. The draws
+/// depend on the seed and the CE6 alone, so any rank count and backend gets the same ones.
+struct Heterogeneity {
+  StrengthSpread distribution = StrengthSpread::none;
+  real modulus = 0;        // Weibull modulus m (weibull)
+  real deviation = 0;      // standard deviation over the mean (normal)
+  std::uint64_t seed = 1;  // the draws' seed
+  bool on() const { return distribution != StrengthSpread::none; }
+};
+
 /// Rock and interface parameters. Defaults are the reference paper's Table 2 limestone.
 struct Material {
   std::string name;                           // materials[i].name; "" for the one-material shorthand
@@ -53,6 +72,7 @@ struct Material {
   real friction_platen = 0.1;                 // platen-rock Coulomb coefficient
   real friction_rock = 0.5;                   // rock-rock (broken CE6 faces)
   Softening softening = Softening::munjiza;
+  Heterogeneity heterogeneity;  // of its CE6 strengths (not an interface's)
 
   real lame_lambda() const { return youngs_modulus * poisson_ratio / ((1 + poisson_ratio) * (1 - 2 * poisson_ratio)); }
   real lame_mu() const { return youngs_modulus / (2 * (1 + poisson_ratio)); }

@@ -39,10 +39,11 @@ FDEM_HD void tet4_start(const Vec3* f, const int* q, int first, Vec3 (&fe)[4]) {
 /// A CE6 that carries force, on its nodes at xe, ve (fe), with its damage d and anchors a
 /// updated. Where `counts` (the one evaluation of it that keeps its results): its power into
 /// acc[0] (intact) or acc[1] (broken) when owned, and a break into acc[2] and its flag.
-FDEM_HD void ce6_element(const Ce6Params& p, const Vec3 (&xe)[6], const Vec3 (&ve)[6], real h, Ce6Damage& d,
-                         Vec3 (&a)[3], bool counts, bool own, real* acc, std::uint8_t* broke, Vec3 (&fe)[6]) {
+FDEM_HD void ce6_element(const Ce6Params& p, real strength, const Vec3 (&xe)[6], const Vec3 (&ve)[6], real h,
+                         Ce6Damage& d, Vec3 (&a)[3], bool counts, bool own, real* acc, std::uint8_t* broke,
+                         Vec3 (&fe)[6]) {
   const bool was_broken = ce6_broken(d);
-  const Ce6Eval ev = cohesive6_forces(p, xe, ve, h, d, a, fe);
+  const Ce6Eval ev = cohesive6_forces(p, xe, ve, h, d, a, fe, strength);
   if (!counts) return;
   if (own && was_broken) acc[1] += ev.power;  // constant indices: acc stays in registers
   if (own && !was_broken) acc[0] += ev.power;
@@ -55,12 +56,15 @@ struct Tet4Laws {
   const std::uint8_t* of;  // per tet, its entry in table
   FDEM_HD_INLINE Tet4Law at(int t) const { return of ? table[of[t]] : one; }
 };
-/// The CE6 laws a pass reads: one for every CE6, or each CE6's (Model::ce6_law), by slot.
+/// The CE6 laws a pass reads: one for every CE6, or each CE6's (Model::ce6_law), by slot; and
+/// in a heterogeneous rock each CE6's strength factor (Model::ce6_strength).
 struct Ce6Laws {
   Ce6Params one;
   const Ce6Params* table;  // null: every CE6 has `one`
   const std::uint8_t* of;  // per CE6 slot, its entry in table
+  const real* strength;    // per CE6 slot, its factor; null: 1
   FDEM_HD_INLINE const Ce6Params& at(int slot) const { return of ? table[of[slot]] : one; }
+  FDEM_HD_INLINE real strength_of(int slot) const { return strength ? strength[slot] : real(1); }
 };
 }  // namespace device_pass
 
@@ -180,7 +184,7 @@ struct FusedCe6s {
       const int* cq = nodes + 6 * c;
       Vec3 xc[6], vc[6], fc[6];
       for (int i = 0; i < 6; ++i) xc[i] = x[cq[i]], vc[i] = v[cq[i]];
-      ce6_element(p, xc, vc, h[c], d, an.a, writer, fl & 1, acc, broke + c, fc);
+      ce6_element(p, laws.strength_of(c), xc, vc, h[c], d, an.a, writer, fl & 1, acc, broke + c, fc);
       for (int i = 0; i < 3; ++i) {  // constant indices only: the arrays stay in registers
         const int n = side ? cq[3 + i] : cq[i];
         const Vec3 add = side ? fc[3 + i] : fc[i];
@@ -207,7 +211,7 @@ class ElementPasses : SumSlots {
     plan_ = std::move(plan);
     auto set = [&](auto&... a) { (a.set_backend(b), ...); };
     set(tet_nodes_, tet_order_, ce6_nodes_, ce6_slot_, fused_ce6_, Xinv_, V0_, eta_, ce6_h_, tet4_table_, ce6_table_,
-        tet_material_, ce6_law_);
+        tet_material_, ce6_law_, ce6_strength_);
     set(dmg_, slip_, dmg_next_, slip_next_, dmg_model_, slip_model_, ce6_flag_, ce6_flag_next_, ce6_sides_, broke_,
         own_ce6_, tet_assigns_);
   }
@@ -304,7 +308,8 @@ class ElementPasses : SumSlots {
     return device_pass::Tet4Laws{tet4_one_, tet4_table_.data(), tet_material_.size() ? tet_material_.data() : nullptr};
   }
   device_pass::Ce6Laws ce6_laws() const {
-    return device_pass::Ce6Laws{ce6_one_, ce6_table_.data(), ce6_law_.size() ? ce6_law_.data() : nullptr};
+    return device_pass::Ce6Laws{ce6_one_, ce6_table_.data(), ce6_law_.size() ? ce6_law_.data() : nullptr,
+                                ce6_strength_.size() ? ce6_strength_.data() : nullptr};
   }
 
   /// TET4 colour by colour, then CE6 colour by colour (stored in colour order: slot b + k; no
@@ -348,7 +353,8 @@ class ElementPasses : SumSlots {
             const int* q = cn + 6 * i;
             Vec3 xe[6], ve[6], fe[6];
             for (int j = 0; j < 6; ++j) xe[j] = in.x[q[j]], ve[j] = in.v[q[j]];
-            device_pass::ce6_element(p, xe, ve, h[i], st[i], sl[i].a, true, own_c[i], acc, broke + i, fe);
+            device_pass::ce6_element(p, cl.strength_of(i), xe, ve, h[i], st[i], sl[i].a, true, own_c[i], acc, broke + i,
+                                     fe);
             for (int j = 0; j < 6; ++j) in.f[q[j]] += fe[j];
           },
           in.sums + kCoh);
@@ -480,7 +486,7 @@ class ElementPasses : SumSlots {
       for (int j = 0; j < 6; ++j) xe[j] = x[cn[6 * i + j]], ve[j] = v[cn[6 * i + j]];
       Ce6Damage copy = st[i];  // measuring must not advance the state
       Ce6Anchors anchors = sl[i];
-      const real stored = cohesive6_forces(cl.at(i), xe, ve, h[i], copy, anchors.a, fe).stored;
+      const real stored = cohesive6_forces(cl.at(i), xe, ve, h[i], copy, anchors.a, fe, cl.strength_of(i)).stored;
       const int mode = st[i].mode;
       if (mode != 0) {
         acc[1] += stored;
@@ -541,6 +547,10 @@ class ElementPasses : SumSlots {
     } else {
       ce6_table_.release(), ce6_law_.release();
     }
+    if (!m.ce6_strength.empty())
+      place_in_slots(ce6_strength_, m.ce6_strength);
+    else
+      ce6_strength_.release();
   }
 
   /// The fused pass's lists to the device (the plan made with the loop; the model's
@@ -670,6 +680,7 @@ class ElementPasses : SumSlots {
   DeviceArray<Tet4Law> tet4_table_;
   DeviceArray<Ce6Params> ce6_table_;
   DeviceArray<std::uint8_t> tet_material_, ce6_law_;
+  DeviceArray<real> ce6_strength_;  // Model::ce6_strength in slots (heterogeneous rock only)
 };
 
 template <class Exec>
@@ -691,7 +702,8 @@ double ElementPasses<Exec>::bytes_per_step(bool gravity, bool integrates) const 
   // carrying force), the damage written (an upper bound: only when it rises) and the anchors
   // read and written.
   const auto k = carrying();
-  const double law = ce6_law_.size() ? 1 : 0;  // the law byte, with several laws
+  // The law byte (several laws) and the strength factor (heterogeneous rock), read by each CE6.
+  const double law = (ce6_law_.size() ? 1 : 0) + (ce6_strength_.size() ? sizeof(real) : 0);
   double ce6 = ce6_coloured_ * (6 * sizeof(int) + sizeof(real) + sizeof(Ce6Damage) + 1 + law) + k[0] * 6 * 4 * vec +
                k[1] * (sizeof(Ce6Damage) + 2 * sizeof(Ce6Anchors));
   if (fused_) {

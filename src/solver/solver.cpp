@@ -512,6 +512,7 @@ std::uint64_t physics_fingerprint(const Scene& s, const Model& m, real dt) {
                          dt};
   h = fnv1a64(values, sizeof values, h);
   if (s.materials.size() > 1 || !s.interfaces.empty()) h = hash_materials(s, m, h);
+  h = fnv1a64(m.ce6_strength.data(), m.ce6_strength.size() * sizeof(real), h);  // (none: h as it was)
   for (const BoundaryCondition& c : s.conditions) {
     const real v[] = {real(c.type), c.velocity.x, c.velocity.y, c.velocity.z,       real(c.components), c.traction.x,
                       c.traction.y, c.traction.z, c.pressure,   real(c.time.shape), c.time.duration};

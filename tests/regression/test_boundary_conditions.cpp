@@ -80,9 +80,7 @@ Monitors every_schedule_gives_the_cpu_run(const std::string& extra) {
     for (const char* backend : {"cpu", "debug"}) {
       SCOPED_TRACE(std::string(backend) + ", " + schedule);
       const auto [y, other] = run(backend, schedule);
-      real worst = 0;
-      for (std::size_t n = 0; n < x.size(); ++n) worst = std::max(worst, norm(x[n] - y[n]));
-      EXPECT_LT(worst, 1e-18) << "m";
+      EXPECT_LT(test::largest_distance(x, y), 1e-18) << "m";
       for (int k = 0; k < row.condition_columns; ++k)
         EXPECT_NEAR(row.conditions[k], other.conditions[k], 1e-9 * std::fabs(row.conditions[k]) + 1e-15) << k;
       EXPECT_NEAR(row.external_work, other.external_work, 1e-9 * row.external_work);

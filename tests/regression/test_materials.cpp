@@ -14,26 +14,11 @@
 #include "core/error.hpp"
 #include "model/laws.hpp"
 #include "model/materials.hpp"
-#include "model/structured.hpp"
 #include "support.hpp"
 
 using namespace fdem;
 
 namespace {
-
-/// A 10 x 10 x 20 mm box (structured, 4 x 4 x 8 cells) whose volume groups 'lower' (z < 10 mm)
-/// and 'upper' split it at mid-height, on a plane of mesh faces.
-Mesh layered_box() {
-  Mesh mesh = structured_box_mesh({0.01, 0.01, 0.02}, 4, 4, 8);
-  MeshGroup lower{"lower", 3, 1, {}, {}}, upper{"upper", 3, 2, {}, {}};
-  for (int t = 0; t < int(mesh.tets.size()); ++t) {
-    real z = 0;
-    for (int v : mesh.tets[t]) z += 0.25 * mesh.vertices[v].z;
-    (z < 0.01 ? lower : upper).tets.push_back(t);
-  }
-  mesh.groups.insert(mesh.groups.begin(), {lower, upper});
-  return mesh;
-}
 
 /// The box on rollers at xmin, ymin and zmin, its top end moved by `top` (a velocity condition's
 /// value and time function); `rock`: the material keys, `fracture`: the regions.
@@ -67,11 +52,11 @@ const char* const kTwoLayers =
     "  - {name: stiff, groups: [upper], youngs_modulus: 36.6e9, density: 2700, poisson_ratio: 0}\n";
 
 std::unique_ptr<Solver> layered_solver(const Scene& s) {
-  return std::make_unique<Solver>(s, build_model(layered_box(), s));
+  return std::make_unique<Solver>(s, build_model(test::layered_box(), s));
 }
 
 /// The InputError text of building the layered box model with scene text `yaml`, or "".
-std::string model_error(const std::string& yaml, const Mesh& mesh = layered_box()) {
+std::string model_error(const std::string& yaml, const Mesh& mesh = test::layered_box()) {
   return test::build_error(yaml, "rock.yaml", mesh);
 }
 
@@ -126,9 +111,7 @@ TEST(Materials, IdenticalMaterialsGiveTheOneMaterialRunOnEverySchedule) {
     for (const char* backend : {"cpu", "debug"}) {
       SCOPED_TRACE(std::string(backend) + ", " + schedule);
       const auto [y, other] = run(two, backend, schedule);
-      real worst = 0;
-      for (std::size_t n = 0; n < x.size(); ++n) worst = std::max(worst, norm(x[n] - y[n]));
-      EXPECT_LT(worst, 1e-18) << "m";
+      EXPECT_LT(test::largest_distance(x, y), 1e-18) << "m";
       EXPECT_NEAR(row.strain, other.strain, 1e-9 * row.strain);
       EXPECT_NEAR(row.cohesive_stored, other.cohesive_stored, 1e-9 * row.cohesive_stored);
     }
@@ -177,7 +160,7 @@ TEST(Materials, ACe6BetweenTwoMaterialsTakesTheWeakerLawWithoutAnInterface) {
       "  - {name: strong, groups: [lower], tensile_strength: 5e6}\n"
       "  - {name: weak, groups: [upper], tensile_strength: 2e6}\n";
   const Scene scene = parse_scene(layered_scene(rock, kPressed, "all"), "rock.yaml");
-  const Model m = build_model(layered_box(), scene);
+  const Model m = build_model(test::layered_box(), scene);
   const ElementLaws laws = make_element_laws(scene);
   ASSERT_EQ(laws.ce6.size(), 2u);
   EXPECT_EQ(laws.ce6[1].ft, 2e6);
@@ -208,7 +191,7 @@ TEST(Materials, MaterialsThatDoNotFitTheMeshAreRefusedWithTheFix) {
   e = build("materials: [{name: a, groups: [lower, upper]}, {name: rest}]\n");
   EXPECT_TRUE(cli_test::has(e, "materials[1] ('rest'): no tet is made of it")) << e;
   // By gmsh tag where the group has no name.
-  Mesh tagged = layered_box();
+  Mesh tagged = test::layered_box();
   tagged.groups[1].name = "";
   EXPECT_EQ(
       model_error(layered_scene("materials: [{name: a, groups: [lower]}, {name: b, groups: [2]}]\n", kPressed), tagged),

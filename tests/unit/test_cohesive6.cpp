@@ -45,6 +45,7 @@ struct Driver {
   Ce6Eval ev{0, 0};
   real work = 0;  // work done on the element by the agent moving B
   real dt = 1e-4;
+  real strength = 1;  // the element's strength factor (heterogeneous rock)
 
   explicit Driver(const Material& m) : p(make_ce6_params(m)) { eval(u, {0, 0, 0}); }
 
@@ -65,7 +66,7 @@ struct Driver {
       v[i] = {0, 0, 0};
       v[i + 3] = vel;
     }
-    ev = cohesive6_forces(p, x, v, kH, s, f);
+    ev = cohesive6_forces(p, x, v, kH, s, f, strength);
   }
   /// Straight path to `target` in n increments; `each` is called after every increment.
   template <class F>
@@ -164,6 +165,26 @@ TEST(Cohesive6, ModeIDissipatesGI) {
     const real w = dr.work;
     dr.move_to(3 * orr * dr.tri.n, 10);
     EXPECT_EQ(dr.work, w);
+  }
+}
+
+// 1b. A strength factor (a heterogeneous rock's draw) scales the peak and keeps G_I A.
+TEST(Cohesive6, AStrengthFactorScalesThePeakAndKeepsTheFractureEnergy) {
+  for (const real factor : {0.5, 1.7}) {
+    SCOPED_TRACE(factor);
+    Material m;
+    Driver dr(m);
+    dr.strength = factor;
+    Ce6Params scaled = dr.p;
+    scaled.ft *= factor;
+    const real op = o_peak(scaled), orr = o_final(scaled);
+    real peak = 0;
+    dr.move_to(1.2 * orr * dr.tri.n, 40000, [&] { peak = std::max(peak, dr.sigma()); });
+    EXPECT_TRUE(ce6_broken(dr.s));
+    EXPECT_NEAR(peak, factor * m.tensile_strength, 1e-3 * factor * m.tensile_strength);
+    const real G = m.fracture_energy_I * dr.tri.area;
+    EXPECT_NEAR(dr.dissipated(), G, 0.01 * G);
+    EXPECT_GT(orr, 10 * op);
   }
 }
 
