@@ -67,6 +67,18 @@ TEST(Scene, EveryShippedSceneParsesWithSiValues) {
   EXPECT_DOUBLE_EQ(paper.solver.mass_scaling, 5);
 }
 
+TEST(Scene, TheHeterogeneousUcsIsTheDefaultSceneWithWeibullStrengths) {
+  const Scene h = load_scene(std::string(FDEM_SOURCE_DIR) + "/scenes/ucs_heterogeneous.yaml");
+  const Scene s = load_scene(std::string(FDEM_SOURCE_DIR) + "/scenes/ucs_small.yaml");
+  EXPECT_EQ(h.material().heterogeneity.distribution, StrengthSpread::weibull);
+  EXPECT_DOUBLE_EQ(h.material().heterogeneity.modulus, 6);
+  EXPECT_EQ(h.material().heterogeneity.seed, 1u);
+  EXPECT_DOUBLE_EQ(h.material().tensile_strength, s.material().tensile_strength);
+  EXPECT_DOUBLE_EQ(h.mesh.element_size, s.mesh.element_size);
+  EXPECT_DOUBLE_EQ(h.platens.velocity, s.platens.velocity);
+  EXPECT_EQ(h.output.folder, "out/ucs_heterogeneous");
+}
+
 TEST(Scene, DefaultSceneParses) {
   const Scene s = load_scene(std::string(FDEM_SOURCE_DIR) + "/scenes/ucs_small.yaml");
   EXPECT_EQ(s.name, "ucs_small");
