@@ -109,7 +109,7 @@ class ReferenceStepper {
       Vec3 xe[6], ve[6], fe[6];
       for (int j = 0; j < 6; ++j) xe[j] = x[m_.ce6_nodes[c][j]], ve[j] = v[m_.ce6_nodes[c][j]];
       const bool was_broken = ce6_broken(ce6[c]);
-      cohesive6_forces(ce6p_, xe, ve, m_.ce6_h[c], ce6[c], fe);
+      cohesive6_forces(ce6p_, xe, ve, m_.ce6_h[c], ce6[c], fe);  // (one homogeneous material only)
       for (int j = 0; j < 6; ++j) f[m_.ce6_nodes[c][j]] += fe[j];
       if (!was_broken && ce6_broken(ce6[c])) broke_[c] = 1;
     }

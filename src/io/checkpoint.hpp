@@ -26,8 +26,9 @@ namespace fdem {
 // contact energy, and each contact pair its overlap zero. 6: a tet's contact flags hold its
 // opened faces too (contact/bonded.hpp). 7: boundary conditions' reactions, works and face
 // loads. 8: a grown rank model (saved with the state) holds each tet's material and CE6's law.
-// Rank files: 4 boundary conditions, 5 materials, 6 CE6 strength factors.
-constexpr std::uint32_t kCheckpointVersion = 8;
+// 9: and each CE6's strength factor. Rank files: 4 boundary conditions, 5 materials, 6 CE6
+// strength factors.
+constexpr std::uint32_t kCheckpointVersion = 9;
 constexpr std::uint32_t kRankFileVersion = 6;
 
 /// Collects values for a checkpoint payload.

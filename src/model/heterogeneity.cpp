@@ -22,15 +22,7 @@ std::uint64_t mix(std::uint64_t z) {
 /// Uniform in (0, 1), never 0 or 1: number `k` of draw `id` of `seed`.
 real uniform(std::uint64_t seed, std::uint64_t id, std::uint64_t k) {
   const std::uint64_t z = mix(mix(mix(seed + 0x9e3779b97f4a7c15ull) ^ id) ^ k);
-  return (real(z >> 11) + real(0.5)) * real(1.0 / 9007199254740992.0);  // 2^-53
-}
-
-/// The largest factor the cohesive law takes at size h: the pre-peak energy (2/3) f o_p, with
-/// o_p = 2 h f / P, must stay below G in both modes, so f < sqrt(3 G P / (4 h)).
-real largest_factor(const Material& m, real h) {
-  const real fi = std::sqrt(3 * m.fracture_energy_I * m.cohesive_penalty_open / (4 * h)) / m.tensile_strength;
-  const real fii = std::sqrt(3 * m.fracture_energy_II * m.cohesive_penalty_tangential / (4 * h)) / m.cohesion;
-  return std::min(fi, fii);
+  return (real(z >> 12) + real(0.5)) * real(1.0 / 4503599627370496.0);  // 2^-52: 2^-53 .. 1 - 2^-53, exact
 }
 
 }  // namespace
@@ -64,7 +56,7 @@ std::vector<real> draw_ce6_strengths(const Scene& scene, const Model& m) {
     if (law >= int(scene.materials.size()) || !scene.materials[law].heterogeneity.on()) continue;
     const Material& mat = scene.materials[law];
     factor[c] = strength_draw(mat.heterogeneity, c);
-    const real limit = largest_factor(mat, m.ce6_h[c]);
+    const real limit = largest_strength_factor(make_ce6_params(mat), m.ce6_h[c]);
     if (!(factor[c] < limit))
       throw InputError(
           scene.file + ": " +

@@ -30,6 +30,15 @@ inline Ce6Params make_ce6_params(const Material& m) {
   return p;
 }
 
+/// The largest strength factor (model/heterogeneity.hpp) CE6 law p takes at size h (m): the
+/// pre-peak energy (2/3) f o_p, with o_p = 2 h f / P, must stay below G in both modes, so
+/// f < sqrt(3 G P / (4 h)).
+inline real largest_strength_factor(const Ce6Params& p, real h) {
+  const real fi = std::sqrt(3 * p.GI * p.P_open / (4 * h)) / p.ft;
+  const real fii = std::sqrt(3 * p.GII * p.P_tan / (4 * h)) / p.cohesion;
+  return fi < fii ? fi : fii;
+}
+
 /// A TET4's Lamé constants (Pa) and its material's density with mass scaling (kg/m^3).
 struct Tet4Law {
   real lambda, mu;

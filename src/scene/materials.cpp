@@ -111,9 +111,9 @@ void read_heterogeneity(YamlReader& r, const YAML::Node& n, const std::string& p
   for (const char* other : {"modulus", "deviation"})
     if (n[other] && (std::string(other) != key || !(weibull || normal)))
       r.error(p + "." + other, std::string("is not read for distribution ") + name_of(h.distribution), "remove it");
-  r.number(n, p, "modulus", Range{0.5, 1000, false, false}, h.modulus);
+  r.number(n, p, "modulus", Range{0.5, 1000, true, true}, h.modulus);
   r.number(n, p, "deviation", Range{0, 0.3, true, false}, h.deviation);
-  r.number(n, p, "seed", count_at_least(0, 4e15), h.seed);
+  r.number(n, p, "seed", count_at_least(0, 1e15), h.seed);
 }
 
 }  // namespace

@@ -74,6 +74,15 @@ void Solver::check_law_indices() const {
   bool ok = m.tet_material.size() == m.tet_nodes.size() && m.ce6_law.size() == m.ce6_nodes.size();
   for (std::uint8_t k : m.tet_material) ok = ok && k < laws_.tet4.size();
   for (std::uint8_t k : m.ce6_law) ok = ok && k < laws_.ce6.size();
+  ok = ok && (m.ce6_strength.empty() || m.ce6_strength.size() == m.ce6_nodes.size());
+  if (ok)  // (rank files: drawn at the partition, perhaps with another law than this scene's)
+    for (std::size_t c = 0; c < m.ce6_strength.size(); ++c) {
+      const real s = m.ce6_strength[c];
+      if (!(s > 0) || !(s < largest_strength_factor(laws_.ce6[m.ce6_law[c]], m.ce6_h[c])))
+        throw InputError(m.source + ": CE6 " + std::to_string(c + 1) + " has strength factor " + fmt(s, 4) +
+                         ", beyond what this scene's cohesive law takes at its size. Fix: run fdem partition "
+                         "again with this scene, or narrow the heterogeneity");
+    }
   if (!ok)
     throw InputError(m.source + ": the model's materials do not match the scene's " +
                      std::to_string(laws_.tet4.size()) + " materials and " + std::to_string(laws_.ce6.size()) +

@@ -163,6 +163,27 @@ TEST(Heterogeneity, AHeterogeneousRockRunsTheSameOnEveryScheduleAndTheDebugBacke
     }
 }
 
+TEST(Heterogeneity, AModelDrawnForOneLawIsRefusedByAScenesWeakerLaw) {
+  // Rank files keep the factors drawn at the partition: a run whose scene gives the material a
+  // fracture energy too small for the strongest draws refuses them instead of breaking those
+  // CE6s with no softening.
+  const std::string spread = "{distribution: weibull, modulus: 3, seed: 7}";
+  const Scene drawn = parse_scene(spread_scene(spread), "spread.yaml");
+  const Model m = build_model(test::layered_box(), drawn);
+  std::string yaml = spread_scene(spread);
+  yaml.replace(yaml.find("groups: [lower],"), 16, "groups: [lower], fracture_energy_I: 0.005,");
+  const Scene weaker = parse_scene(yaml, "spread.yaml");
+  ASSERT_EQ(weaker.materials[0].fracture_energy_I, 0.005);
+  try {
+    Solver s(weaker, m);
+    ADD_FAILURE() << "the factors were taken";
+  } catch (const InputError& e) {
+    EXPECT_TRUE(cli_test::has(e.what(), "beyond what this scene's cohesive law takes at its size")) << e.what();
+  }
+  Solver same(drawn, m);  // the scene it was drawn for takes them
+  EXPECT_EQ(same.model().ce6_strength, m.ce6_strength);
+}
+
 TEST(Heterogeneity, TheSceneKeysAreCheckedWithTheFix) {
   auto error_of = [](const std::string& spread) {
     try {
