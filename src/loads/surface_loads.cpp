@@ -31,9 +31,10 @@ Vec3 face_value(const BoundaryCondition& c) {
 
 /// The P and S impedances (Pa s/m) of the material of surface face k's tet, mass scaling included.
 Vec3 rock_impedance(const Scene& scene, const Model& m, std::size_t k) {
-  const Material& mat = scene.materials[m.tet_material[m.surface_tet[k]]];
-  const real rho = scene.solver.mass_scaling * mat.density;
-  return Vec3{p_impedance(rho, mat.lame_lambda(), mat.lame_mu()), s_impedance(rho, mat.lame_mu()), 0};
+  const int t = m.surface_tet[k];
+  const Material& mat = scene.materials[m.tet_material[t]];
+  const real rho = scene.solver.mass_scaling * mat.density, f = m.tet_stiffness.empty() ? 1 : m.tet_stiffness[t];
+  return Vec3{p_impedance(rho, f * mat.lame_lambda(), f * mat.lame_mu()), s_impedance(rho, f * mat.lame_mu()), 0};
 }
 
 }  // namespace

@@ -261,7 +261,8 @@ std::vector<real> set_tet_constants(const Mesh& mesh, const Scene& scene, Model&
       m.min_altitude = tet_hmin[t];
       m.min_altitude_tet = m.tet_input[t];
     }
-    m.tet_eta[t] = sol.damping_scale * critical_damping(tet_hmin[t], sol.mass_scaling, mat.density, mat.youngs_modulus);
+    const real youngs = mat.youngs_modulus * (m.tet_stiffness.empty() ? 1 : m.tet_stiffness[t]);
+    m.tet_eta[t] = sol.damping_scale * critical_damping(tet_hmin[t], sol.mass_scaling, mat.density, youngs);
     for (int i = 0; i < 4; ++i) m.mass[m.tet_nodes[t][i]] += density * ref.V0 / 4;
   }
   return tet_hmin;
@@ -415,6 +416,7 @@ Model build_model(const Mesh& mesh, const Scene& scene) {
   const std::vector<std::uint8_t> material = material_of_mesh_tets(mesh, scene);
   m.tet_material.resize(nt);
   for (int t = 0; t < nt; ++t) m.tet_material[t] = material[m.tet_input[t]];
+  m.tet_stiffness = draw_tet_stiffness(scene, m);
   const std::vector<real> tet_hmin = set_tet_constants(mesh, scene, m);
   insert_ce6(mesh, scene, tv, split, centroid, m);
   set_bounds(m);

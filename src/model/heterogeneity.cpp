@@ -25,25 +25,46 @@ real uniform(std::uint64_t seed, std::uint64_t id, std::uint64_t k) {
   return (real(z >> 12) + real(0.5)) * real(1.0 / 4503599627370496.0);  // 2^-52: 2^-53 .. 1 - 2^-53, exact
 }
 
-}  // namespace
-
-real strength_draw(const Heterogeneity& h, std::uint64_t id) {
+/// Draw `id` of distribution h from the stream of `seed` (h.seed, or one made from it).
+real draw(const Heterogeneity& h, std::uint64_t seed, std::uint64_t id) {
   constexpr real kTwoPi = real(6.283185307179586);
   switch (h.distribution) {
     case StrengthSpread::weibull: {
       // Inverse CDF, F(s) = 1 - exp(-(s/lambda)^m), with lambda = 1/Gamma(1 + 1/m) for mean 1.
       const real lambda = 1 / std::tgamma(1 + 1 / h.modulus);
-      return lambda * std::pow(-std::log(uniform(h.seed, id, 0)), 1 / h.modulus);
+      return lambda * std::pow(-std::log(uniform(seed, id, 0)), 1 / h.modulus);
     }
     case StrengthSpread::normal:
       for (std::uint64_t k = 0;; k += 2) {  // Box-Muller; a draw <= 0 is drawn again
-        const real z = std::sqrt(-2 * std::log(uniform(h.seed, id, k))) * std::cos(kTwoPi * uniform(h.seed, id, k + 1));
+        const real z = std::sqrt(-2 * std::log(uniform(seed, id, k))) * std::cos(kTwoPi * uniform(seed, id, k + 1));
         const real s = 1 + h.deviation * z;
         if (s > 0) return s;
       }
     default:
       return 1;
   }
+}
+
+}  // namespace
+
+real strength_draw(const Heterogeneity& h, std::uint64_t id) {
+  return draw(h, h.seed, id);
+}
+
+real stiffness_draw(const Heterogeneity& h, std::uint64_t id) {
+  return draw(h, mix(h.seed ^ 0x5713ff2e55c0ffeeull), id);  // another seed: another stream
+}
+
+std::vector<real> draw_tet_stiffness(const Scene& scene, const Model& m) {
+  bool any = false;
+  for (const Material& mat : scene.materials) any = any || (mat.heterogeneity.on() && mat.heterogeneity.youngs_modulus);
+  if (!any) return {};
+  std::vector<real> factor(m.tet_nodes.size(), 1);
+  for (std::size_t t = 0; t < factor.size(); ++t) {
+    const Heterogeneity& h = scene.materials[m.tet_material[t]].heterogeneity;
+    if (h.on() && h.youngs_modulus) factor[t] = stiffness_draw(h, t);
+  }
+  return factor;
 }
 
 std::vector<real> draw_ce6_strengths(const Scene& scene, const Model& m) {

@@ -13,6 +13,13 @@ namespace fdem {
 /// alone (a counter-based generator), so every rank count and backend gets the same.
 real strength_draw(const Heterogeneity& h, std::uint64_t id);
 
+/// Draw `id` of the second stream of h (each tet's Young's modulus): independent of the first.
+real stiffness_draw(const Heterogeneity& h, std::uint64_t id);
+
+/// Per tet of m (its id), its factor on E: a draw where its material is heterogeneous with
+/// youngs_modulus, else 1. Empty where no material draws E.
+std::vector<real> draw_tet_stiffness(const Scene& scene, const Model& m);
+
 /// Per CE6 of m (its id), its strength factor: a draw where the CE6 has its material's own law
 /// and the material is heterogeneous, else 1. Empty where no material is heterogeneous. Throws
 /// InputError where a draw is too strong for the cohesive law at the CE6's size (its fracture

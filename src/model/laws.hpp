@@ -53,6 +53,14 @@ struct ElementLaws {
   std::vector<std::string> ce6_names;  // "granite", "granite|dyke": for listings
 };
 
+/// A model's tet t's law: its material's, its E scaled by its factor in a heterogeneous rock.
+inline Tet4Law tet4_law_of(const ElementLaws& laws, const std::vector<std::uint8_t>& material,
+                           const std::vector<real>& stiffness, std::size_t t) {
+  Tet4Law l = laws.tet4[material[t]];
+  if (!stiffness.empty()) l.lambda *= stiffness[t], l.mu *= stiffness[t];
+  return l;
+}
+
 /// The CE6 law of a face between tets of materials a and b (indices into scene.materials): a's
 /// own where they are the same; else the interface that names the two; else the law of the one
 /// with the lower tensile strength (the lower index on a tie).

@@ -34,6 +34,7 @@ struct Model {
   std::vector<real> tet_V0;                   // reference volume, m^3
   std::vector<real> tet_eta;                  // viscous damping coefficient, Pa s
   std::vector<std::uint8_t> tet_material;     // index into scene.materials (ElementLaws::tet4)
+  std::vector<real> tet_stiffness;            // factor on its E (heterogeneous rock); empty: all 1
   Colouring tet_colours;
 
   // CE6: nodes 0-2 on tet A's face, 3-5 the paired nodes of tet B (same vertices, same

@@ -119,13 +119,18 @@ std::vector<int> partition_tets(const Model& m, int parts, PartitionWeights weig
 }
 
 void append_tet(Model& m, const std::array<int, 4>& nodes, int input, const Mat3& Xinv, real V0, real eta,
-                std::uint8_t material) {
+                std::uint8_t material, real stiffness) {
   m.tet_nodes.push_back(nodes);
   m.tet_input.push_back(input);
   m.tet_Xinv.push_back(Xinv);
   m.tet_V0.push_back(V0);
   m.tet_eta.push_back(eta);
   m.tet_material.push_back(material);
+  // (Factors other than 1 keep a list; before the first, every tet had 1.)
+  if (!m.tet_stiffness.empty() || stiffness != 1) {
+    m.tet_stiffness.resize(m.tet_nodes.size() - 1, 1);
+    m.tet_stiffness.push_back(stiffness);
+  }
 }
 
 real default_reach(const Model& m, const Scene& s) {
@@ -309,6 +314,7 @@ void cut_elements(const Model& g, const HeldParts& h, Model& m) {
   m.tet_V0 = pick(g.tet_V0, tets);
   m.tet_eta = pick(g.tet_eta, tets);
   m.tet_material = pick(g.tet_material, tets);
+  if (!g.tet_stiffness.empty()) m.tet_stiffness = pick(g.tet_stiffness, tets);
   m.ce6_nodes.resize(ce6s.size());
   m.ce6_tets.resize(ce6s.size());
   for (std::size_t i = 0; i < ce6s.size(); ++i) {
@@ -477,7 +483,7 @@ void model_fields(F&& f, M& m) {
   f(m.top_nodes), f(m.bottom_nodes), f(m.lateral_nodes);
   f(m.box_min), f(m.box_max), f(m.axis_point), f(m.height0), f(m.area0), f(m.line_loaded), f(m.min_altitude);
   f(m.mean_edge), f(m.source), f(m.surface_conditions), f(m.node_conditions), f(m.condition_axis);
-  f(m.tet_material), f(m.ce6_law), f(m.ce6_strength);
+  f(m.tet_material), f(m.ce6_law), f(m.ce6_strength), f(m.tet_stiffness);
 }
 
 constexpr std::uint64_t kRankFileMagic = 0x4644454d52414e4bull;  // "FDEMRANK"
@@ -548,7 +554,7 @@ std::uint64_t model_key(const Scene& s) {
   for (const Material& m : s.materials)
     if (m.heterogeneity.on()) {
       const real c[] = {real(m.heterogeneity.distribution), m.heterogeneity.modulus, m.heterogeneity.deviation,
-                        real(m.heterogeneity.seed)};
+                        real(m.heterogeneity.seed), real(m.heterogeneity.youngs_modulus)};
       h = fnv1a64(c, sizeof c, h);
     }
   // The conditions mark faces and nodes, and whether a velocity is zero decides their conflicts
@@ -611,7 +617,7 @@ RankModel get_rank_model(CheckpointIn& in, std::uint64_t key) {
       m.ce6_tets.size() != m.ce6_nodes.size() || m.ce6_h.size() != m.ce6_nodes.size() ||
       m.ce6_law.size() != m.ce6_nodes.size() ||
       (!m.ce6_strength.empty() && m.ce6_strength.size() != m.ce6_nodes.size()) ||
-      rm.dd.ce6_owned.size() != m.ce6_nodes.size() ||
+      (!m.tet_stiffness.empty() && m.tet_stiffness.size() != nt) || rm.dd.ce6_owned.size() != m.ce6_nodes.size() ||
       (!m.surface_conditions.empty() && m.surface_conditions.size() != m.surface_faces.size()) ||
       (!m.node_conditions.empty() && m.node_conditions.size() != nn))
     bad("array sizes differ");

@@ -99,7 +99,7 @@ void cohesive_law(YamlReader& r, const Material& m, const std::string& p, double
 /// heterogeneity: {distribution: weibull, modulus: m, seed: k} or {distribution: normal,
 /// deviation: s, seed: k}.
 void read_heterogeneity(YamlReader& r, const YAML::Node& n, const std::string& p, Heterogeneity& h) {
-  if (!r.check_map(n, p, {"distribution", "modulus", "deviation", "seed"})) return;
+  if (!r.check_map(n, p, {"distribution", "modulus", "deviation", "seed", "youngs_modulus"})) return;
   if (!n["distribution"]) r.error(p + ".distribution", "missing", "give distribution: weibull or normal");
   if (!r.choice(n, p, "distribution", h.distribution)) return;
   const bool weibull = h.distribution == StrengthSpread::weibull, normal = h.distribution == StrengthSpread::normal;
@@ -114,6 +114,7 @@ void read_heterogeneity(YamlReader& r, const YAML::Node& n, const std::string& p
   r.number(n, p, "modulus", Range{0.5, 1000, true, true}, h.modulus);
   r.number(n, p, "deviation", Range{0, 0.3, true, false}, h.deviation);
   r.number(n, p, "seed", count_at_least(0, 1e15), h.seed);
+  r.boolean(n, p, "youngs_modulus", h.youngs_modulus);
 }
 
 }  // namespace

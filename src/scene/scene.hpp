@@ -47,9 +47,10 @@ struct ChoiceNames<StrengthSpread> {
 /// depend on the seed and the CE6 alone, so any rank count and backend gets the same ones.
 struct Heterogeneity {
   StrengthSpread distribution = StrengthSpread::none;
-  real modulus = 0;        // Weibull modulus m (weibull)
-  real deviation = 0;      // standard deviation over the mean (normal)
-  std::uint64_t seed = 1;  // the draws' seed
+  real modulus = 0;             // Weibull modulus m (weibull)
+  real deviation = 0;           // standard deviation over the mean (normal)
+  std::uint64_t seed = 1;       // the draws' seed
+  bool youngs_modulus = false;  // also each tet's Young's modulus, by its own draws
   bool on() const { return distribution != StrengthSpread::none; }
 };
 

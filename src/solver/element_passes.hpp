@@ -54,7 +54,12 @@ struct Tet4Laws {
   Tet4Law one;
   const Tet4Law* table;    // null: every tet has `one`
   const std::uint8_t* of;  // per tet, its entry in table
-  FDEM_HD_INLINE Tet4Law at(int t) const { return of ? table[of[t]] : one; }
+  const real* stiffness;   // per tet, its factor on E (heterogeneous rock); null: 1
+  FDEM_HD_INLINE Tet4Law at(int t) const {
+    Tet4Law l = of ? table[of[t]] : one;
+    if (stiffness) l.lambda *= stiffness[t], l.mu *= stiffness[t];
+    return l;
+  }
 };
 /// The CE6 laws a pass reads: one for every CE6, or each CE6's (Model::ce6_law), by slot; and
 /// in a heterogeneous rock each CE6's strength factor (Model::ce6_strength).
@@ -211,7 +216,7 @@ class ElementPasses : SumSlots {
     plan_ = std::move(plan);
     auto set = [&](auto&... a) { (a.set_backend(b), ...); };
     set(tet_nodes_, tet_order_, ce6_nodes_, ce6_slot_, fused_ce6_, Xinv_, V0_, eta_, ce6_h_, tet4_table_, ce6_table_,
-        tet_material_, ce6_law_, ce6_strength_);
+        tet_material_, ce6_law_, ce6_strength_, tet_stiffness_);
     set(dmg_, slip_, dmg_next_, slip_next_, dmg_model_, slip_model_, ce6_flag_, ce6_flag_next_, ce6_sides_, broke_,
         own_ce6_, tet_assigns_);
   }
@@ -305,7 +310,8 @@ class ElementPasses : SumSlots {
 
   /// The laws the passes read: one table entry each where the scene has one material.
   device_pass::Tet4Laws tet4_laws() const {
-    return device_pass::Tet4Laws{tet4_one_, tet4_table_.data(), tet_material_.size() ? tet_material_.data() : nullptr};
+    return device_pass::Tet4Laws{tet4_one_, tet4_table_.data(), tet_material_.size() ? tet_material_.data() : nullptr,
+                                 tet_stiffness_.size() ? tet_stiffness_.data() : nullptr};
   }
   device_pass::Ce6Laws ce6_laws() const {
     return device_pass::Ce6Laws{ce6_one_, ce6_table_.data(), ce6_law_.size() ? ce6_law_.data() : nullptr,
@@ -551,6 +557,10 @@ class ElementPasses : SumSlots {
       place_in_slots(ce6_strength_, m.ce6_strength);
     else
       ce6_strength_.release();
+    if (!m.tet_stiffness.empty())
+      fdem::place(b_, tet_stiffness_, m.tet_stiffness);
+    else
+      tet_stiffness_.release();
   }
 
   /// The fused pass's lists to the device (the plan made with the loop; the model's
@@ -680,7 +690,8 @@ class ElementPasses : SumSlots {
   DeviceArray<Tet4Law> tet4_table_;
   DeviceArray<Ce6Params> ce6_table_;
   DeviceArray<std::uint8_t> tet_material_, ce6_law_;
-  DeviceArray<real> ce6_strength_;  // Model::ce6_strength in slots (heterogeneous rock only)
+  DeviceArray<real> ce6_strength_;   // Model::ce6_strength in slots (heterogeneous rock only)
+  DeviceArray<real> tet_stiffness_;  // Model::tet_stiffness (heterogeneous E only)
 };
 
 template <class Exec>
@@ -692,7 +703,8 @@ double ElementPasses<Exec>::bytes_per_step(bool gravity, bool integrates) const 
   // and read too where the corner does not assign (gravity: every corner; none where the fused
   // pass integrates, which starts each force itself); fused, its list of CE6s.
   const double read_f = integrates ? 0 : gravity ? 4 * nt : 4 * nt - assigned_corners_;
-  const double laws = tet_material_.size() ? 1 : 0;  // the material byte, with several materials
+  // The material byte (several materials) and the factor on E (heterogeneous E), read by each tet.
+  const double laws = (tet_material_.size() ? 1 : 0) + (tet_stiffness_.size() ? sizeof(real) : 0);
   const double tet =
       nt * (5 * sizeof(int) + sizeof(Mat3) + 2 * sizeof(real) + 1 + laws + (integrates ? 2 : 3) * 4 * vec) +
       read_f * vec + (fused_ ? nt * 4 * sizeof(int) : 0);

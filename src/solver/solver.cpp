@@ -75,6 +75,8 @@ void Solver::check_law_indices() const {
   for (std::uint8_t k : m.tet_material) ok = ok && k < laws_.tet4.size();
   for (std::uint8_t k : m.ce6_law) ok = ok && k < laws_.ce6.size();
   ok = ok && (m.ce6_strength.empty() || m.ce6_strength.size() == m.ce6_nodes.size());
+  ok = ok && (m.tet_stiffness.empty() || m.tet_stiffness.size() == m.tet_nodes.size());
+  for (real f : m.tet_stiffness) ok = ok && f > 0 && f < 1e6;
   if (ok)  // (rank files: drawn at the partition, perhaps with another law than this scene's)
     for (std::size_t c = 0; c < m.ce6_strength.size(); ++c) {
       const real s = m.ce6_strength[c];
@@ -145,7 +147,7 @@ void Solver::report_inverted() const {
     Vec3 xe[4], ve[4], fe[4];
     gather(state.x, m.tet_nodes[t], xe);
     gather(state.v, m.tet_nodes[t], ve);
-    const Tet4Law& l = laws_.tet4[m.tet_material[t]];
+    const Tet4Law l = tet4_law_of(laws_, m.tet_material, m.tet_stiffness, t);
     const Tet4Eval r = tet4_forces(xe, ve, m.tet_Xinv[t], m.tet_V0[t], l.lambda, l.mu, m.tet_eta[t], fe);
     if (!(r.J > 0))
       throw RunError("step " + std::to_string(state.step) + " (t = " + fmt(state.time, 3) + " s): TET4 #" +
@@ -407,7 +409,7 @@ void Solver::tet_stress(const std::vector<Vec3>& xs, const std::vector<Vec3>& vs
     Vec3 xe[4], ve[4], fe[4];
     gather(xs, m.tet_nodes[t], xe);
     gather(vs, m.tet_nodes[t], ve);
-    const Tet4Law& l = laws_.tet4[m.tet_material[t]];
+    const Tet4Law l = tet4_law_of(laws_, m.tet_material, m.tet_stiffness, t);
     stress[t] = tet4_forces(xe, ve, m.tet_Xinv[t], m.tet_V0[t], l.lambda, l.mu, m.tet_eta[t], fe).stress;
     von_mises[t] = fdem::von_mises(stress[t]);
   }
@@ -522,6 +524,7 @@ std::uint64_t physics_fingerprint(const Scene& s, const Model& m, real dt) {
   h = fnv1a64(values, sizeof values, h);
   if (s.materials.size() > 1 || !s.interfaces.empty()) h = hash_materials(s, m, h);
   h = fnv1a64(m.ce6_strength.data(), m.ce6_strength.size() * sizeof(real), h);  // (none: h as it was)
+  h = fnv1a64(m.tet_stiffness.data(), m.tet_stiffness.size() * sizeof(real), h);
   for (const BoundaryCondition& c : s.conditions) {
     const real v[] = {real(c.type), c.velocity.x, c.velocity.y, c.velocity.z,       real(c.components), c.traction.x,
                       c.traction.y, c.traction.z, c.pressure,   real(c.time.shape), c.time.duration};

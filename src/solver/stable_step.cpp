@@ -26,7 +26,7 @@ std::vector<real> dashpot_damping(const Model& m, const Scene& scene, const Elem
   for (std::size_t k = 0; k < m.surface_faces.size(); ++k) {
     const int faces = __builtin_popcount(m.conditions_of(k) & absorbing);
     if (faces == 0) continue;
-    const Tet4Law& l = laws.tet4[m.tet_material[m.surface_tet[k]]];
+    const Tet4Law l = tet4_law_of(laws, m.tet_material, m.tet_stiffness, m.surface_tet[k]);
     const real zp = p_impedance(l.density, l.lambda, l.mu);
     const auto& q = m.surface_faces[k];
     const real area = 0.5 * norm(cross(m.X[q[1]] - m.X[q[0]], m.X[q[2]] - m.X[q[0]]));
@@ -48,7 +48,7 @@ StableStep stable_step_bound(const Model& m, const Scene& scene, const ElementLa
   const std::size_t nn = m.X.size();
   std::vector<real> w2_tet(nn, 0), c_tet(nn, 0), g_ce6(nn, 0), g_platen(nn, 0);
   for (std::size_t t = 0; t < m.tet_nodes.size(); ++t) {
-    const Tet4Law& l = laws.tet4[m.tet_material[t]];
+    const Tet4Law l = tet4_law_of(laws, m.tet_material, m.tet_stiffness, t);
     const real w2 = tet4_max_eigenvalue(m.tet_Xinv[t], l.lambda, l.mu, l.density);
     const real c = tet4_max_eigenvalue(m.tet_Xinv[t], 0, 0.5 * m.tet_eta[t], l.density);
     for (int n : m.tet_nodes[t]) {

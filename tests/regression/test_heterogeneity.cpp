@@ -141,11 +141,13 @@ TEST(Heterogeneity, TheDrawsDependOnTheSeedAndTheCe6Alone) {
 }
 
 TEST(Heterogeneity, AHeterogeneousRockRunsTheSameOnEveryScheduleAndTheDebugBackend) {
-  // The box pulled apart at 2 m/s until CE6s break in the heterogeneous layer: the factors are
-  // read by slot on the colour passes and the fused pass alike.
+  // The box pulled apart at 2 m/s until CE6s break in the heterogeneous layer: the strength
+  // factors are read by slot, and the factors on E by tet, on the colour passes and the fused
+  // pass alike.
   auto run = [&](const std::string& backend, const char* schedule) {
     test::EnvSetting env("FDEM_DEVICE_SCHEDULE", schedule);
-    const Scene s = parse_scene(spread_scene("{distribution: weibull, modulus: 3, seed: 7}", backend), "spread.yaml");
+    const Scene s = parse_scene(
+        spread_scene("{distribution: weibull, modulus: 3, seed: 7, youngs_modulus: true}", backend), "spread.yaml");
     Solver solver(s, build_model(test::layered_box(), s));
     while (solver.time() < 4e-5) solver.step();
     solver.sync_host();
@@ -161,6 +163,80 @@ TEST(Heterogeneity, AHeterogeneousRockRunsTheSameOnEveryScheduleAndTheDebugBacke
       EXPECT_EQ(row.broken, other.broken);
       EXPECT_EQ(row.damaged, other.damaged);
     }
+}
+
+TEST(Heterogeneity, TetModuliAreDrawnFromTheirOwnStream) {
+  // youngs_modulus: each tet of the material draws a factor on E from a second stream, which
+  // follows the distribution and is not the strengths' stream.
+  const Scene a =
+      parse_scene(spread_scene("{distribution: weibull, modulus: 6, seed: 7, youngs_modulus: true}"), "spread.yaml");
+  const Model m = build_model(test::layered_box(), a);
+  ASSERT_EQ(m.tet_stiffness.size(), m.tet_nodes.size());
+  std::vector<real> lower;
+  for (std::size_t t = 0; t < m.tet_nodes.size(); ++t) {
+    if (m.tet_material[t] != 0) {
+      EXPECT_EQ(m.tet_stiffness[t], 1) << "tet " << t << " is homogeneous";
+      continue;
+    }
+    EXPECT_EQ(m.tet_stiffness[t], stiffness_draw(a.materials[0].heterogeneity, t));
+    lower.push_back(m.tet_stiffness[t]);
+  }
+  ASSERT_EQ(lower.size(), 384u);
+  EXPECT_LT(ks_distance(lower, [](real s) { return weibull_cdf(s, 6); }), ks_critical(lower.size()));
+  const std::vector<real> e = [&] {
+    std::vector<real> d(20000);
+    for (std::size_t i = 0; i < d.size(); ++i) d[i] = stiffness_draw(a.materials[0].heterogeneity, i);
+    return d;
+  }();
+  const std::vector<real> f = draws_of(a.materials[0].heterogeneity, e.size());
+  EXPECT_LT(ks_distance(e, [](real s) { return weibull_cdf(s, 6); }), ks_critical(e.size()));
+  real mean_e = 0, mean_f = 0, cov = 0, var_e = 0, var_f = 0;
+  for (std::size_t i = 0; i < e.size(); ++i) mean_e += e[i] / e.size(), mean_f += f[i] / f.size();
+  for (std::size_t i = 0; i < e.size(); ++i) {
+    cov += (e[i] - mean_e) * (f[i] - mean_f);
+    var_e += (e[i] - mean_e) * (e[i] - mean_e), var_f += (f[i] - mean_f) * (f[i] - mean_f);
+  }
+  EXPECT_LT(std::fabs(cov / std::sqrt(var_e * var_f)), 0.03) << "the two streams are uncorrelated";
+}
+
+TEST(Heterogeneity, ARandomModulusStiffensTheBoxBetweenTheReussAndVoigtBounds) {
+  // A box of E drawn per tet (Weibull m = 3) on rollers, its end moved 3 um and at rest: the
+  // effective modulus F L / (A d) lies between the harmonic (Reuss) and arithmetic (Voigt)
+  // volume means of the tets' E (FE solutions obey both: a uniform strain is a trial field of
+  // the mesh, and the mesh is stiffer than the exact solid). A run ignoring the factors would
+  // give E, above this draw's Voigt mean.
+  const std::string yaml =
+      "name: moduli\n"
+      "mesh: {generate: {shape: box, size: [0.01, 0.01, 0.02], element_size: 0.0025}}\n"
+      "material: {heterogeneity: {distribution: weibull, modulus: 3, seed: 11, youngs_modulus: true}}\n"
+      "fracture_regions: none\n"
+      "platens: none\n"
+      "contact: {activation: none}\n"
+      "boundary_conditions:\n"
+      "  - {surface: xmin, type: roller}\n"
+      "  - {surface: ymin, type: roller}\n"
+      "  - {surface: zmin, type: roller}\n"
+      "  - {surface: zmax, type: velocity, velocity: [~, ~, -0.05],\n"
+      "     time_function: {table: [[0, 0], [2e-5, 1], [6e-5, 1], [8e-5, 0]]}}\n"
+      "solver: {threads: 1, end: {time: 3e-4}}\n"
+      "output: {progress_interval: 0, plot: false}\n";
+  const Scene scene = parse_scene(yaml, "moduli.yaml");
+  Solver s(scene, build_model(test::layered_box(), scene));
+  const Model& m = s.model();
+  real volume = 0, voigt = 0, reuss = 0;
+  for (std::size_t t = 0; t < m.tet_nodes.size(); ++t) {
+    const real E = scene.material().youngs_modulus * m.tet_stiffness[t];
+    volume += m.tet_V0[t], voigt += m.tet_V0[t] * E, reuss += m.tet_V0[t] / E;
+  }
+  voigt /= volume, reuss = volume / reuss;
+  while (s.time() < 3e-4) s.step();
+  const Monitors r = s.measure();
+  const real d = 0.05 * (1e-5 + 4e-5 + 1e-5), effective = -r.conditions[4 * 3 + 2] * 0.02 / (1e-4 * d);
+  RecordProperty("effective_over_voigt", std::to_string(effective / voigt));
+  RecordProperty("reuss_over_voigt", std::to_string(reuss / voigt));
+  EXPECT_GT(effective, reuss);
+  EXPECT_LT(effective, 0.995 * voigt) << "measured 0.986; E everywhere would give 1.002 of it";
+  EXPECT_LT(r.kinetic, 1e-9 * r.strain) << "at rest";
 }
 
 TEST(Heterogeneity, AModelDrawnForOneLawIsRefusedByAScenesWeakerLaw) {
