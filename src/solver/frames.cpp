@@ -61,6 +61,8 @@ void write_frame(FieldWriter& w, const Solver& s, real time, long step, const st
     material.assign(s.model().tet_material.begin(), s.model().tet_material.end());
     fr.extra.push_back({"material", &material});
   }
+  // With heterogeneous E: each tet's factor on its material's E.
+  if (!s.model().tet_stiffness.empty()) fr.extra.push_back({"youngs_modulus_factor", &s.model().tet_stiffness});
   fr.extra.insert(fr.extra.end(), more.begin(), more.end());
   if (!s.distributed()) {
     w.write(fr);

@@ -149,6 +149,7 @@ TEST(CliRanks, MaterialsOnTwoRanksGiveTheOneRankRun) {
   EXPECT_GT(c1.rows.back()[broken], 0) << "the interface broke";
   EXPECT_TRUE(cli_test::has(slurp(one / "fields.xdmf"), "<Attribute Name=\"material\""))
       << "each tet's material as a field";
+  EXPECT_TRUE(cli_test::has(slurp(one / "fields.xdmf"), "<Attribute Name=\"youngs_modulus_factor\""));
   for (const char* how : {"", " --distribute root"}) {
     SCOPED_TRACE(how);
     const fs::path two = tmp.path / (std::string("two") + (*how ? "_root" : ""));
