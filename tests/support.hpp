@@ -56,6 +56,37 @@ inline Mesh layered_box() {
   return mesh;
 }
 
+/// A 10 x 10 x 20 mm box scene (the tests build its model from their own mesh of it) on rollers at
+/// xmin, ymin and zmin, its zmax moved by a velocity condition, CE6s in `fracture`, no platens
+/// and no contact, one thread. The other fields are YAML text put in as they are.
+struct RollerBox {
+  std::string rock;  // material keys ("material: {...}\n", "materials: [...]\n"), or none
+  std::string top = "velocity: [~, ~, -0.05], time_function: {table: [[0, 0], [2e-5, 1], [6e-5, 1], [8e-5, 0]]}";
+  std::string extra;  // more conditions, as list entries after zmax's
+  std::string fracture = "none";
+  std::string backend = "cpu";
+  std::string end = "time: 3e-4";
+};
+// (top by default: pressed down at 0.05 m/s along a table, up over 20 us, held 40 us, down over
+// 20 us, so it moves 3 um in all and then rests.)
+
+inline std::string roller_box_scene(const RollerBox& b) {
+  return "name: roller_box\n"
+         "mesh: {generate: {shape: box, size: [0.01, 0.01, 0.02], element_size: 0.0025}}\n" +
+         b.rock + "fracture_regions: " + b.fracture +
+         "\n"
+         "platens: none\n"
+         "contact: {activation: none}\n"
+         "boundary_conditions:\n"
+         "  - {surface: xmin, type: roller}\n"
+         "  - {surface: ymin, type: roller}\n"
+         "  - {surface: zmin, type: roller}\n"
+         "  - {surface: zmax, type: velocity, " +
+         b.top + "}\n" + b.extra + "solver: {threads: 1, backend: " + b.backend + ", end: {" + b.end +
+         "}}\n"
+         "output: {progress_interval: 0, plot: false}\n";
+}
+
 /// The largest distance between the same node in two lists of positions, m.
 inline real largest_distance(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
   real worst = 0;

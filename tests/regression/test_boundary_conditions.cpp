@@ -25,22 +25,9 @@ namespace {
 /// so it moves 3 um in all and then rests. `extra`: more conditions, as YAML list entries.
 std::string box_scene(const std::string& extra = "", const std::string& backend = "cpu",
                       const std::string& fracture = "none") {
-  return "name: bc_box\n"
-         "mesh: {generate: {shape: box, size: [0.01, 0.01, 0.02], element_size: 0.0025}}\n"
-         "fracture_regions: " +
-         fracture +
-         "\n"
-         "platens: none\n"
-         "contact: {activation: none}\n"
-         "boundary_conditions:\n"
-         "  - {surface: xmin, type: roller}\n"
-         "  - {surface: ymin, type: roller}\n"
-         "  - {surface: zmin, type: roller}\n"
-         "  - {surface: zmax, type: velocity, velocity: [~, ~, -0.05],\n"
-         "     time_function: {table: [[0, 0], [2e-5, 1], [6e-5, 1], [8e-5, 0]]}}\n" +
-         extra + "solver: {threads: 1, backend: " + backend +
-         ", end: {time: 3e-4}}\n"
-         "output: {progress_interval: 0, plot: false}\n";
+  test::RollerBox b;
+  b.extra = extra, b.backend = backend, b.fracture = fracture;
+  return test::roller_box_scene(b);
 }
 
 Mesh box_mesh() {

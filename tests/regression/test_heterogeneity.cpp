@@ -205,21 +205,9 @@ TEST(Heterogeneity, ARandomModulusStiffensTheBoxBetweenTheReussAndVoigtBounds) {
   // volume means of the tets' E (FE solutions obey both: a uniform strain is a trial field of
   // the mesh, and the mesh is stiffer than the exact solid). A run ignoring the factors would
   // give E, above this draw's Voigt mean.
-  const std::string yaml =
-      "name: moduli\n"
-      "mesh: {generate: {shape: box, size: [0.01, 0.01, 0.02], element_size: 0.0025}}\n"
-      "material: {heterogeneity: {distribution: weibull, modulus: 3, seed: 11, youngs_modulus: true}}\n"
-      "fracture_regions: none\n"
-      "platens: none\n"
-      "contact: {activation: none}\n"
-      "boundary_conditions:\n"
-      "  - {surface: xmin, type: roller}\n"
-      "  - {surface: ymin, type: roller}\n"
-      "  - {surface: zmin, type: roller}\n"
-      "  - {surface: zmax, type: velocity, velocity: [~, ~, -0.05],\n"
-      "     time_function: {table: [[0, 0], [2e-5, 1], [6e-5, 1], [8e-5, 0]]}}\n"
-      "solver: {threads: 1, end: {time: 3e-4}}\n"
-      "output: {progress_interval: 0, plot: false}\n";
+  test::RollerBox box;
+  box.rock = "material: {heterogeneity: {distribution: weibull, modulus: 3, seed: 11, youngs_modulus: true}}\n";
+  const std::string yaml = test::roller_box_scene(box);
   const Scene scene = parse_scene(yaml, "moduli.yaml");
   Solver s(scene, build_model(test::layered_box(), scene));
   const Model& m = s.model();
@@ -262,12 +250,7 @@ TEST(Heterogeneity, AModelDrawnForOneLawIsRefusedByAScenesWeakerLaw) {
 
 TEST(Heterogeneity, TheSceneKeysAreCheckedWithTheFix) {
   auto error_of = [](const std::string& spread) {
-    try {
-      build_model(test::layered_box(), parse_scene(spread_scene(spread), "spread.yaml"));
-    } catch (const InputError& e) {
-      return std::string(e.what());
-    }
-    return std::string();
+    return test::build_error(spread_scene(spread), "spread.yaml", test::layered_box());
   };
   std::string e = error_of("{distribution: weibull}");
   EXPECT_TRUE(cli_test::has(e, "materials[0].heterogeneity.modulus: missing")) << e;

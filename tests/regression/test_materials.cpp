@@ -24,25 +24,13 @@ namespace {
 /// value and time function); `rock`: the material keys, `fracture`: the regions.
 std::string layered_scene(const std::string& rock, const std::string& top, const std::string& fracture = "none",
                           const std::string& backend = "cpu", const std::string& end = "time: 3e-4") {
-  return "name: layers\n"
-         "mesh: {generate: {shape: box, size: [0.01, 0.01, 0.02], element_size: 0.0025}}\n" +
-         rock + "fracture_regions: " + fracture +
-         "\n"
-         "platens: none\n"
-         "contact: {activation: none}\n"
-         "boundary_conditions:\n"
-         "  - {surface: xmin, type: roller}\n"
-         "  - {surface: ymin, type: roller}\n"
-         "  - {surface: zmin, type: roller}\n"
-         "  - {surface: zmax, type: velocity, " +
-         top + "}\n" + "solver: {threads: 1, backend: " + backend + ", end: {" + end +
-         "}}\n"
-         "output: {progress_interval: 0, plot: false}\n";
+  test::RollerBox b;
+  b.rock = rock, b.top = top, b.fracture = fracture, b.backend = backend, b.end = end;
+  return test::roller_box_scene(b);
 }
 
-/// The top pressed down 3 um along a table (up over 20 us, held 40 us, down over 20 us), then at rest.
-const char* const kPressed =
-    "velocity: [~, ~, -0.05], time_function: {table: [[0, 0], [2e-5, 1], [6e-5, 1], [8e-5, 0]]}";
+/// The top pressed down 3 um along a table, then at rest (the roller box's own).
+const std::string kPressed = test::RollerBox{}.top;
 
 /// A soft layer under a stiff, dense one, both of Poisson's ratio 0: under uniaxial stress
 /// neither layer widens, so the interface carries no shear and the state is exact for TET4s.
@@ -199,14 +187,7 @@ TEST(Materials, MaterialsThatDoNotFitTheMeshAreRefusedWithTheFix) {
 }
 
 TEST(Materials, TheSceneKeysAreCheckedWithTheFix) {
-  auto error_of = [](const std::string& rock) {
-    try {
-      parse_scene(layered_scene(rock, kPressed), "rock.yaml");
-    } catch (const InputError& e) {
-      return std::string(e.what());
-    }
-    return std::string();
-  };
+  auto error_of = [](const std::string& rock) { return model_error(layered_scene(rock, kPressed)); };
   std::string e = error_of("material: {density: 2000}\nmaterials: [{name: a}]\n");
   EXPECT_TRUE(cli_test::has(e, "materials: given with material")) << e;
   e = error_of("interfaces: [{between: [a, b]}]\n");
