@@ -26,10 +26,11 @@ namespace fdem {
 // contact energy, and each contact pair its overlap zero. 6: a tet's contact flags hold its
 // opened faces too (contact/bonded.hpp). 7: boundary conditions' reactions, works and face
 // loads. 8: a grown rank model (saved with the state) holds each tet's material and CE6's law.
-// 9: and each CE6's strength factor. 10: and each tet's factor on E. Rank files: 4 boundary
-// conditions, 5 materials, 6 CE6 strength factors, 7 tet factors on E.
-constexpr std::uint32_t kCheckpointVersion = 10;
-constexpr std::uint32_t kRankFileVersion = 7;
+// 9: and each CE6's strength factor. 10: and each tet's factor on E. 11: and each tet's joint.
+// Rank files: 4 boundary conditions, 5 materials, 6 CE6 strength factors, 7 tet factors on E,
+// 8 tets' joints.
+constexpr std::uint32_t kCheckpointVersion = 11;
+constexpr std::uint32_t kRankFileVersion = 8;
 
 /// Collects values for a checkpoint payload.
 class CheckpointOut {

@@ -8,6 +8,7 @@
 #include "core/error.hpp"
 #include "model/conditions.hpp"
 #include "model/heterogeneity.hpp"
+#include "model/joints.hpp"
 #include "model/laws.hpp"
 #include "model/materials.hpp"
 #include "model/model.hpp"
@@ -175,16 +176,18 @@ struct FaceSplit {
   struct CohesivePair {
     int a, b;  // tets, a < b
     std::array<int, 3> key;
+    int joint;  // index into scene.joints, or -1
   };
   std::vector<CohesivePair> cohesive;  // in the order of their first tet (Morton order too)
   std::vector<FaceRef> surface;        // faces of one tet only
   std::vector<int> corner_parent;      // union-find over corners 4t+i: joined corners are one node
 };
 
-/// A face shared by two tets both in a fracture region gets a CE6; any other internal face
-/// joins the corners on its two sides into one node. Rejects faces of more than two tets.
+/// A face shared by two tets both in a fracture region, or on a joint, gets a CE6; any other
+/// internal face joins the corners on its two sides into one node. Rejects faces of more than
+/// two tets. Marks the joint faces found inside.
 FaceSplit split_faces(const Mesh& mesh, const TetVertices& tv, const std::vector<FaceRef>& faces,
-                      const std::vector<char>& region) {
+                      const std::vector<char>& region, JointFaces& joints) {
   FaceSplit s;
   s.corner_parent.resize(4 * tv.size());
   std::iota(s.corner_parent.begin(), s.corner_parent.end(), 0);
@@ -201,8 +204,10 @@ FaceSplit split_faces(const Mesh& mesh, const TetVertices& tv, const std::vector
       s.surface.push_back(faces[i]);
     } else {
       const int a = faces[i].tet, b = faces[i + 1].tet;
-      if (region[a] && region[b]) {
-        s.cohesive.push_back({a, b, faces[i].key});
+      const auto joint = joints.find(faces[i].key);
+      if (joint != joints.end()) joint->second.internal = true;
+      if (joint != joints.end() || (region[a] && region[b])) {
+        s.cohesive.push_back({a, b, faces[i].key, joint != joints.end() ? joint->second.joint : -1});
       } else {
         for (int v : faces[i].key) unite(s.corner_parent, corner_of(tv, a, v), corner_of(tv, b, v));
       }
@@ -282,8 +287,8 @@ std::array<int, 3> outward_vertices(const Mesh& mesh, const std::array<int, 3>& 
 }
 
 /// The CE6s: the A side (the lower tet) ordered so that its normal points into B, the B side at
-/// the same vertices, the characteristic length h (the face's mean edge) and the law between
-/// the two tets' materials.
+/// the same vertices, the characteristic length h (the face's mean edge) and the law: a joint's
+/// on its faces, else the one between the two tets' materials.
 void insert_ce6(const Mesh& mesh, const Scene& scene, const TetVertices& tv, const FaceSplit& split,
                 const std::vector<Vec3>& centroid, Model& m) {
   m.ce6_nodes.reserve(split.cohesive.size());
@@ -293,7 +298,8 @@ void insert_ce6(const Mesh& mesh, const Scene& scene, const TetVertices& tv, con
     auto b_node = [&](int k) { return node_at(tv, m, p.b, v[k]); };
     m.ce6_nodes.push_back({a_node(0), a_node(1), a_node(2), b_node(0), b_node(1), b_node(2)});
     m.ce6_tets.push_back({p.a, p.b});
-    m.ce6_law.push_back(ce6_law_between(scene, m.tet_material[p.a], m.tet_material[p.b]));
+    m.ce6_law.push_back(p.joint >= 0 ? std::uint8_t(joint_law(scene, p.joint))
+                                     : ce6_law_between(scene, m.tet_material[p.a], m.tet_material[p.b]));
     const Vec3 a = mesh.vertices[p.key[0]], b = mesh.vertices[p.key[1]], c = mesh.vertices[p.key[2]];
     m.ce6_h.push_back((norm(b - a) + norm(c - b) + norm(a - c)) / 3);
   }
@@ -411,7 +417,9 @@ Model build_model(const Mesh& mesh, const Scene& scene) {
     centroid[t] = centroid_of(mesh, tv[t]);
     region[t] = in_region(scene.fracture, centroid[t]);
   }
-  FaceSplit split = split_faces(mesh, tv, sorted_faces(tv), region);
+  JointFaces joints = joint_faces(mesh, scene);
+  FaceSplit split = split_faces(mesh, tv, sorted_faces(tv), region, joints);
+  check_joint_faces_internal(mesh, scene, joints);
   number_nodes(mesh, tv, split.corner_parent, m);
   const std::vector<std::uint8_t> material = material_of_mesh_tets(mesh, scene);
   m.tet_material.resize(nt);
@@ -427,6 +435,7 @@ Model build_model(const Mesh& mesh, const Scene& scene) {
   m.tet_colours = colour_elements(m.tet_nodes, m.X.size(), "TET4");
   m.ce6_colours = colour_elements(m.ce6_nodes, m.X.size(), "CE6");
   number_ce6_in_colour_order(m);
+  m.tet_joint = tets_on_joints(scene, m);
   m.ce6_strength = draw_ce6_strengths(scene, m);  // (by the CE6s' final ids)
   return m;
 }

@@ -24,21 +24,8 @@ VertexTriple sorted(VertexTriple t) {
 
 /// The surface group a condition names (by name, or by tag where it is a number).
 const MeshGroup& named_surface(const Mesh& mesh, const Scene& scene, std::size_t i) {
-  const std::string& want = scene.conditions[i].surface;
-  const std::string key = scene.file + ": " + BoundaryCondition::key(i) + ".surface";
-  std::string list;
-  for (const MeshGroup& g : mesh.groups) {
-    if (g.name == want || (g.name.empty() && std::to_string(g.tag) == want)) {
-      if (g.dim != 2)
-        throw InputError(key + ": '" + want +
-                         "' is a volume, and a boundary condition acts on a surface; name a "
-                         "surface group");
-      return g;
-    }
-    if (g.dim == 2) list += (list.empty() ? "" : ", ") + (g.name.empty() ? std::to_string(g.tag) : g.name);
-  }
-  throw InputError(key + ": the mesh (" + mesh.source + ") has no group '" + want + "'; its surface groups: " +
-                   (list.empty() ? "none (name surfaces with gmsh physical groups)" : list));
+  return named_group(mesh, scene.conditions[i].surface, 2, scene.file + ": " + BoundaryCondition::key(i) + ".surface",
+                     "a boundary condition acts on a surface");
 }
 
 /// Marks bit i on the surface faces of condition i's group; each of its faces must be one.

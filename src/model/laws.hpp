@@ -1,6 +1,7 @@
 #pragma once
 // The element laws' parameters (src/physics, which knows no scene) from a scene's materials:
-// one TET4 law per material, and one CE6 law per material followed by one per interface.
+// one TET4 law per material, and one CE6 law per material followed by one per interface and
+// one per joint.
 #include <cmath>
 #include <cstdint>
 #include <string>
@@ -27,6 +28,7 @@ inline Ce6Params make_ce6_params(const Material& m) {
   p.softening = m.softening == Softening::linear ? 1 : 0;
   p.Z = softening_integral(p.softening);
   p.broken_inert = 0;
+  p.joint = 0;
   return p;
 }
 
@@ -45,12 +47,25 @@ struct Tet4Law {
   real density;
 };
 
+/// The index of joint j's CE6 law: after the materials' and the interfaces'.
+inline std::size_t joint_law(const Scene& scene, std::size_t j) {
+  return scene.materials.size() + scene.interfaces.size() + j;
+}
+
 /// The element laws of a run: per material its TET4 law (Model::tet_material indexes it), and
-/// the CE6 laws (Model::ce6_law indexes them): each material's own, then each interface's.
+/// the CE6 laws (Model::ce6_law indexes them): each material's own, each interface's, then each
+/// joint's.
 struct ElementLaws {
   std::vector<Tet4Law> tet4;
   std::vector<Ce6Params> ce6;
-  std::vector<std::string> ce6_names;  // "granite", "granite|dyke": for listings
+  std::vector<std::string> ce6_names;  // "granite", "granite|dyke", "bedding": for listings
+  std::size_t first_joint = 0;         // ce6[first_joint + j] is joint j's law
+  std::vector<real> joint_friction;    // per joint, the Coulomb coefficient of its faces in contact
+  std::vector<char> joint_frictional;  // per joint, 1 where it starts broken
+  /// The joint whose law is CE6 law `law`, or -1 (intact rock or an interface).
+  int joint_of_law(std::size_t law) const {
+    return law >= first_joint && law < first_joint + joint_friction.size() ? int(law - first_joint) : -1;
+  }
 };
 
 /// A model's tet t's law: its material's, its E scaled by its factor in a heterogeneous rock.
@@ -76,7 +91,7 @@ inline std::uint8_t ce6_law_between(const Scene& scene, int a, int b) {
   return std::uint8_t(fb < fa || (fb == fa && b < a) ? b : a);
 }
 
-/// The laws of `scene`'s materials and interfaces; tet-tet contact, where the scene has it,
+/// The laws of `scene`'s materials, interfaces and joints; tet-tet contact, where the scene has it,
 /// takes over broken CE6 faces (Ce6Params::broken_inert).
 inline ElementLaws make_element_laws(const Scene& scene) {
   ElementLaws l;
@@ -88,6 +103,14 @@ inline ElementLaws make_element_laws(const Scene& scene) {
   for (const MaterialInterface& i : scene.interfaces) {
     l.ce6.push_back(make_ce6_params(i.law));
     l.ce6_names.push_back(i.between[0] + "|" + i.between[1]);
+  }
+  l.first_joint = l.ce6.size();
+  for (const Joint& j : scene.joints) {
+    l.ce6.push_back(make_ce6_params(j.law));
+    l.ce6.back().joint = 1;
+    l.ce6_names.push_back(j.name);
+    l.joint_friction.push_back(j.law.friction_rock);
+    l.joint_frictional.push_back(j.frictional);
   }
   for (Ce6Params& p : l.ce6) p.broken_inert = scene.contact.enabled() ? 1 : 0;
   return l;

@@ -17,18 +17,7 @@ std::string material_key(const Scene& scene, std::size_t i) {
 
 /// The volume group a material names (by name, or by tag where it is a number).
 const MeshGroup& named_volume(const Mesh& mesh, const Scene& scene, std::size_t i, const std::string& want) {
-  std::string list;
-  for (const MeshGroup& g : mesh.groups) {
-    if (g.name == want || (g.name.empty() && std::to_string(g.tag) == want)) {
-      if (g.dim != 3)
-        throw InputError(material_key(scene, i) + ".groups: '" + want +
-                         "' is a surface, and a material fills volumes; name a volume group");
-      return g;
-    }
-    if (g.dim == 3) list += (list.empty() ? "" : ", ") + (g.name.empty() ? std::to_string(g.tag) : g.name);
-  }
-  throw InputError(material_key(scene, i) + ".groups: the mesh (" + mesh.source + ") has no group '" + want +
-                   "'; its volume groups: " + (list.empty() ? "none (name volumes with gmsh physical groups)" : list));
+  return named_group(mesh, want, 3, material_key(scene, i) + ".groups", "a material fills volumes");
 }
 
 /// "(x, y, z) m", the centroid of a tet of the mesh, for messages.

@@ -30,4 +30,10 @@ struct Mesh {
   std::vector<MeshGroup> groups;         // volumes first, then surfaces, each by tag
 };
 
+/// The group of dimension `dim` a scene key names, by name or (unnamed) by tag. Throws InputError
+/// starting with `key`: for a group of the other dimension ("'top' is a surface, and
+/// <because>; name a volume group") or none (the mesh's groups of that dimension listed).
+const MeshGroup& named_group(const Mesh& mesh, const std::string& want, int dim, const std::string& key,
+                             const std::string& because);
+
 }  // namespace fdem

@@ -35,7 +35,19 @@ struct Model {
   std::vector<real> tet_eta;                  // viscous damping coefficient, Pa s
   std::vector<std::uint8_t> tet_material;     // index into scene.materials (ElementLaws::tet4)
   std::vector<real> tet_stiffness;            // factor on its E (heterogeneous rock); empty: all 1
+  std::vector<std::uint8_t> tet_joint;        // 0, or 1 + the joint a face lies on (contact friction); empty: no joints
   Colouring tet_colours;
+
+  /// What tet t takes from its material, its draw and the joints: the partition's records carry it.
+  struct TetProperties {
+    std::uint8_t material = 0;
+    real stiffness = 1;
+    std::uint8_t joint = 0;
+  };
+  TetProperties tet_properties(std::size_t t) const {
+    return {tet_material[t], tet_stiffness.empty() ? real(1) : tet_stiffness[t],
+            tet_joint.empty() ? std::uint8_t(0) : tet_joint[t]};
+  }
 
   // CE6: nodes 0-2 on tet A's face, 3-5 the paired nodes of tet B (same vertices, same
   // order); the face normal (0->1->2, right hand) points from A into B. On the border of a

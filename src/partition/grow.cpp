@@ -68,8 +68,7 @@ struct TetRec {
   int input = 0;
   Mat3 Xinv{};
   real V0 = 0, eta = 0;
-  std::uint8_t material = 0;  // Model::tet_material
-  real stiffness = 1;         // Model::tet_stiffness
+  Model::TetProperties props;
   std::uint8_t active = 0;
   std::vector<int> holders;  // every rank holding it once this growth is done, ascending
   std::array<long, 4> nodes{};
@@ -217,7 +216,8 @@ void put_ghost_record(CheckpointOut& o, const Model& m, const Decomposition& dd,
                       const RecordIndex& ix, long g, int t, const std::vector<int>& h) {
   const bool flags = !now.active.empty();
   o.put(g), o.put(m.tet_input[t]), o.put(m.tet_Xinv[t]), o.put(m.tet_V0[t]), o.put(m.tet_eta[t]);
-  o.put(m.tet_material[t]), o.put(m.tet_stiffness.empty() ? real(1) : m.tet_stiffness[t]);
+  const Model::TetProperties p = m.tet_properties(t);
+  o.put(p.material), o.put(p.stiffness), o.put(p.joint);
   o.put(std::uint8_t(flags ? now.active[t] : 0)), o.put(h);
   for (int n : m.tet_nodes[t]) {
     o.put(dd.node_global[n]), o.put(m.X[n]), o.put(m.mass[n]), o.put(now.x[n]);
@@ -291,7 +291,8 @@ struct Arrivals {
 
 void read_ghost_record(CheckpointIn& rd, Arrivals& a) {
   TetRec t;
-  rd.get(t.id), rd.get(t.input), rd.get(t.Xinv), rd.get(t.V0), rd.get(t.eta), rd.get(t.material), rd.get(t.stiffness);
+  rd.get(t.id), rd.get(t.input), rd.get(t.Xinv), rd.get(t.V0), rd.get(t.eta), rd.get(t.props.material),
+      rd.get(t.props.stiffness), rd.get(t.props.joint);
   rd.get(t.active), rd.get(t.holders);
   for (long& nid : t.nodes) {
     NodeRec nr;
@@ -409,7 +410,7 @@ void append_ghost_tets(std::vector<TetRec>& tets, const std::unordered_map<long,
     tet_local[t.id] = i;
     std::array<int, 4> q;
     for (int k = 0; k < 4; ++k) q[k] = node_local.at(t.nodes[k]);
-    append_tet(gm, q, t.input, t.Xinv, t.V0, t.eta, t.material, t.stiffness);
+    append_tet(gm, q, t.input, t.Xinv, t.V0, t.eta, t.props);
     gd.tet_global.push_back(t.id);
     gd.tet_owned.push_back(0);
     holders.push_back(std::move(t.holders));

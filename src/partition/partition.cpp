@@ -119,17 +119,21 @@ std::vector<int> partition_tets(const Model& m, int parts, PartitionWeights weig
 }
 
 void append_tet(Model& m, const std::array<int, 4>& nodes, int input, const Mat3& Xinv, real V0, real eta,
-                std::uint8_t material, real stiffness) {
+                const Model::TetProperties& props) {
   m.tet_nodes.push_back(nodes);
   m.tet_input.push_back(input);
   m.tet_Xinv.push_back(Xinv);
   m.tet_V0.push_back(V0);
   m.tet_eta.push_back(eta);
-  m.tet_material.push_back(material);
-  // (Factors other than 1 keep a list; before the first, every tet had 1.)
-  if (!m.tet_stiffness.empty() || stiffness != 1) {
+  m.tet_material.push_back(props.material);
+  // (Factors other than 1, and joints, keep a list; before the first, every tet had 1 and none.)
+  if (!m.tet_stiffness.empty() || props.stiffness != 1) {
     m.tet_stiffness.resize(m.tet_nodes.size() - 1, 1);
-    m.tet_stiffness.push_back(stiffness);
+    m.tet_stiffness.push_back(props.stiffness);
+  }
+  if (!m.tet_joint.empty() || props.joint != 0) {
+    m.tet_joint.resize(m.tet_nodes.size() - 1, 0);
+    m.tet_joint.push_back(props.joint);
   }
 }
 
@@ -315,6 +319,7 @@ void cut_elements(const Model& g, const HeldParts& h, Model& m) {
   m.tet_eta = pick(g.tet_eta, tets);
   m.tet_material = pick(g.tet_material, tets);
   if (!g.tet_stiffness.empty()) m.tet_stiffness = pick(g.tet_stiffness, tets);
+  if (!g.tet_joint.empty()) m.tet_joint = pick(g.tet_joint, tets);
   m.ce6_nodes.resize(ce6s.size());
   m.ce6_tets.resize(ce6s.size());
   for (std::size_t i = 0; i < ce6s.size(); ++i) {
@@ -483,7 +488,7 @@ void model_fields(F&& f, M& m) {
   f(m.top_nodes), f(m.bottom_nodes), f(m.lateral_nodes);
   f(m.box_min), f(m.box_max), f(m.axis_point), f(m.height0), f(m.area0), f(m.line_loaded), f(m.min_altitude);
   f(m.mean_edge), f(m.source), f(m.surface_conditions), f(m.node_conditions), f(m.condition_axis);
-  f(m.tet_material), f(m.ce6_law), f(m.ce6_strength), f(m.tet_stiffness);
+  f(m.tet_material), f(m.ce6_law), f(m.ce6_strength), f(m.tet_stiffness), f(m.tet_joint);
 }
 
 constexpr std::uint64_t kRankFileMagic = 0x4644454d52414e4bull;  // "FDEMRANK"
@@ -549,6 +554,13 @@ std::uint64_t model_key(const Scene& s) {
       const std::string w = f.between[0] + "|" + f.between[1];
       h = fnv1a64(w.data(), w.size() + 1, h);
     }
+  }
+  // Joints add CE6s on their surfaces, and mark the tets beside them.
+  for (const Joint& j : s.joints) {
+    std::string w = j.name;
+    for (const std::string& g : j.surfaces) w += "|" + g;
+    h = fnv1a64(w.data(), w.size() + 1, h);
+    h = fnv1a64(&j.law.friction_rock, sizeof(real), h);
   }
   // A heterogeneous material's draws are part of the model.
   for (const Material& m : s.materials)
@@ -617,7 +629,8 @@ RankModel get_rank_model(CheckpointIn& in, std::uint64_t key) {
       m.ce6_tets.size() != m.ce6_nodes.size() || m.ce6_h.size() != m.ce6_nodes.size() ||
       m.ce6_law.size() != m.ce6_nodes.size() ||
       (!m.ce6_strength.empty() && m.ce6_strength.size() != m.ce6_nodes.size()) ||
-      (!m.tet_stiffness.empty() && m.tet_stiffness.size() != nt) || rm.dd.ce6_owned.size() != m.ce6_nodes.size() ||
+      (!m.tet_stiffness.empty() && m.tet_stiffness.size() != nt) ||
+      (!m.tet_joint.empty() && m.tet_joint.size() != nt) || rm.dd.ce6_owned.size() != m.ce6_nodes.size() ||
       (!m.surface_conditions.empty() && m.surface_conditions.size() != m.surface_faces.size()) ||
       (!m.node_conditions.empty() && m.node_conditions.size() != nn))
     bad("array sizes differ");

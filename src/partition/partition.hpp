@@ -105,7 +105,7 @@ RankModel extract_rank(const Model& piece, const PartitionPlan& plan, int rank, 
 /// Appends a tet (its nodes by local id, its input index and reference data) to m's tet arrays
 /// (the pieces of the DMPlex distribution and the grown contact ghosts are built this way).
 void append_tet(Model& m, const std::array<int, 4>& nodes, int input, const Mat3& Xinv, real V0, real eta,
-                std::uint8_t material, real stiffness);
+                const Model::TetProperties& props);
 
 /// The default contact reach (0 without contact): two mean edge lengths, or 2.5 times the
 /// platen travel by the end of the run where the scene's end condition bounds it (axial strain

@@ -115,7 +115,8 @@ Lookup make_lookup(const Model& g) {
 std::string tet_record(const Model& g, const PartitionPlan& plan, const Lookup& lk, int t) {
   CheckpointOut o;
   o.put(long(t)), o.put(g.tet_input[t]), o.put(g.tet_Xinv[t]), o.put(g.tet_V0[t]), o.put(g.tet_eta[t]);
-  o.put(g.tet_material[t]), o.put(g.tet_stiffness.empty() ? real(1) : g.tet_stiffness[t]);
+  const Model::TetProperties p = g.tet_properties(t);
+  o.put(p.material), o.put(p.stiffness), o.put(p.joint);
   o.put(plan.part[t]), o.put(plan.held[t]), o.put(lk.tet_colour[t]), o.put(lk.tet_pos[t]);
   for (int n : g.tet_nodes[t]) {
     const int p = lk.platen_of[n];
@@ -176,8 +177,7 @@ struct TetRec {
   int input = 0, part = 0, colour = 0, pos = 0;
   Mat3 Xinv{};
   real V0 = 0, eta = 0;
-  std::uint8_t material = 0;  // Model::tet_material
-  real stiffness = 1;         // Model::tet_stiffness
+  Model::TetProperties props;
   std::vector<int> held;
   std::array<int, 4> nodes{};
 };
@@ -204,7 +204,8 @@ struct Piece {
 void read_record(const char* bytes, std::size_t n, Piece& p) {
   CheckpointIn in(std::string(bytes, n), "a tet record of the DMPlex distribution");
   TetRec t;
-  in.get(t.id), in.get(t.input), in.get(t.Xinv), in.get(t.V0), in.get(t.eta), in.get(t.material), in.get(t.stiffness);
+  in.get(t.id), in.get(t.input), in.get(t.Xinv), in.get(t.V0), in.get(t.eta), in.get(t.props.material),
+      in.get(t.props.stiffness), in.get(t.props.joint);
   in.get(t.part), in.get(t.held);
   in.get(t.colour), in.get(t.pos);
   for (int& id : t.nodes) {
@@ -279,7 +280,7 @@ RankModel cut_piece(Piece& p, const Header& h, int rank) {
     ids.tet.push_back(t.id);
     std::array<int, 4> q;
     for (int k = 0; k < 4; ++k) q[k] = node_local.at(t.nodes[k]);
-    append_tet(m, q, t.input, t.Xinv, t.V0, t.eta, t.material, t.stiffness);
+    append_tet(m, q, t.input, t.Xinv, t.V0, t.eta, t.props);
     plan.part.push_back(t.part);
     plan.held.push_back(t.held);
   }

@@ -42,6 +42,7 @@ struct Ce6Params {
   real ft, cohesion, tan_phi, GI, GII, P_open, P_tan, P_overlap, mu_rock;
   int softening;     // 0 = Munjiza (a=0.63, b=1.8, c=6), 1 = linear z = 1 - D
   int broken_inert;  // 1: a broken CE6 carries no force (tet-tet contact takes over its faces)
+  int joint;         // 1: a joint's law (counted apart from the rock's)
   real Z;            // integral of z(D) over D in [0,1] for the chosen curve
 };
 
@@ -50,7 +51,7 @@ struct Ce6Params {
 /// bytes and no write.
 struct Ce6Damage {
   real D[3];         // damage at the 3 integration points, monotone, in [0,1]
-  int mode;          // 0 intact, 1 broke in mode I, 2 mode II, 3 mixed
+  int mode;          // 0 intact, 1 broke in mode I, 2 mode II, 3 mixed, 4 never bonded (kCe6NeverBonded)
   int reserved = 0;  // no padding bytes: checkpoints hold the state byte for byte
 };
 
@@ -98,6 +99,9 @@ FDEM_HD real softening_integral(int softening) {
   for (int i = 1; i < n; ++i) sum += real(i % 2 ? 4 : 2) * softening_z(i * dq, softening);
   return sum * dq / 3;
 }
+
+/// The mode of a CE6 broken before the run: a frictional joint's (Solver::break_frictional_joints).
+constexpr int kCe6NeverBonded = 4;
 
 FDEM_HD bool ce6_broken(const Ce6Damage& s) {
   return s.mode != 0;

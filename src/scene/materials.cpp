@@ -1,7 +1,8 @@
 // The scene's rock. `material` gives one material to every tet. `materials` is a list, each
 // entry a material with a name and the volume groups it fills; one entry may leave out groups
-// and fills the rest. `interfaces` gives CE6 laws between two materials. Which groups exist is
-// known only with the mesh: model/materials.cpp checks the names.
+// and fills the rest. `interfaces` gives CE6 laws between two materials, `joints` CE6 laws on
+// surfaces inside the rock. Which groups exist is known only with the mesh: model/materials.cpp
+// and model/joints.cpp check the names.
 #include "scene/materials.hpp"
 
 #include <algorithm>
@@ -28,11 +29,14 @@ const std::vector<std::string> kCe6Keys = {"tensile_strength",
                                            "cohesive_penalty_overlap",
                                            "softening"};
 
-/// groups: [name or tag, ...], at least one.
-void read_groups(YamlReader& r, const YAML::Node& n, const std::string& p, std::vector<std::string>& out) {
-  const std::string form = "write e.g. groups: [rock] (volume groups of the mesh; fdem check lists them)";
+/// groups: [name or tag, ...] (or a joint's surfaces), at least one.
+void read_groups(YamlReader& r, const YAML::Node& n, const std::string& p, std::vector<std::string>& out,
+                 const std::string& kind = "volume") {
+  const std::string form = kind == "volume"
+                               ? "write e.g. groups: [rock] (volume groups of the mesh; fdem check lists them)"
+                               : "write e.g. surfaces: [bedding] (surface groups of the mesh; fdem check lists them)";
   if (!n.IsSequence() || n.size() == 0) {
-    r.error(p, "expected a list of volume group names, got " + describe(n), form);
+    r.error(p, "expected a list of " + kind + " group names, got " + describe(n), form);
     return;
   }
   for (std::size_t k = 0; k < n.size(); ++k) {
@@ -221,6 +225,44 @@ void read_interfaces(YamlReader& r, const YAML::Node& n, Scene& s) {
   }
 }
 
+void read_joints(YamlReader& r, const YAML::Node& n, Scene& s) {
+  const std::string p = "joints";
+  const std::string form = "write e.g. joints: [{name: bedding, surfaces: [bedding], friction: 0.6, frictional: true}]";
+  if (!n.IsSequence() || n.size() == 0) {
+    r.error(p, "expected a list of joints, got " + describe(n), form);
+    return;
+  }
+  if (s.materials.size() + s.interfaces.size() + n.size() > Scene::kMaxMaterials) {
+    r.error(p, std::to_string(n.size()) + " joints",
+            "give at most " + std::to_string(Scene::kMaxMaterials) + " materials, interfaces and joints in all");
+    return;
+  }
+  for (std::size_t i = 0; i < n.size(); ++i) {
+    const std::string pi = Joint::key(i);
+    std::vector<std::string> allowed = {"name", "surfaces", "frictional", "friction"};
+    allowed.insert(allowed.end(), kCe6Keys.begin(), kCe6Keys.end());
+    if (!r.check_map(n[i], pi, allowed)) continue;
+    Joint j;
+    j.law = s.material();  // the keys not given: the first material's
+    j.law.groups.clear();
+    j.law.heterogeneity = Heterogeneity{};
+    if (!n[i]["name"]) r.error(pi + ".name", "missing", "give the joint a name (listings and broken_ce6.csv use it)");
+    r.text(n[i], pi, "name", j.name, "give the joint a name");
+    for (const Joint& o : s.joints)
+      if (!j.name.empty() && o.name == j.name)
+        r.error(pi + ".name", "'" + j.name + "' names two joints", "give each joint its own name");
+    if (!n[i]["surfaces"])
+      r.error(pi + ".surfaces", "missing", "give the surface groups the joint lies on (fdem check lists them)");
+    else
+      read_groups(r, n[i]["surfaces"], pi + ".surfaces", j.surfaces, "surface");
+    r.boolean(n[i], pi, "frictional", j.frictional);
+    r.number(n[i], pi, "friction", closed(0, 10), j.law.friction_rock);
+    read_material_keys(r, n[i], pi, j.law);
+    j.law.name = j.name;
+    s.joints.push_back(j);
+  }
+}
+
 void check_materials(YamlReader& r, const Scene& s) {
   const Material& first = s.material();
   for (std::size_t i = 1; i < s.materials.size(); ++i) {
@@ -241,6 +283,8 @@ void check_materials(YamlReader& r, const Scene& s) {
     cohesive_law(r, s.materials[i], one ? "material" : "materials[" + std::to_string(i) + "]", s.mesh.element_size);
   for (std::size_t i = 0; i < s.interfaces.size(); ++i)
     cohesive_law(r, s.interfaces[i].law, MaterialInterface::key(i), s.mesh.element_size);
+  for (std::size_t i = 0; i < s.joints.size(); ++i)
+    if (!s.joints[i].frictional) cohesive_law(r, s.joints[i].law, Joint::key(i), s.mesh.element_size);
 }
 
 }  // namespace fdem::scene_reading

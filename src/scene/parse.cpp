@@ -295,6 +295,7 @@ class Reader : public YamlReader {
       else
         read_interfaces(*this, root["interfaces"], s);
     }
+    if (root["joints"]) read_joints(*this, root["joints"], s);
   }
 
   /// The name is the default output folder out/<name>: one folder name (summary.csv quotes it
@@ -342,8 +343,8 @@ class Reader : public YamlReader {
     s.name = stem.empty() || stem == "." || stem == ".." ? "scene" : stem;
     strange_yaml(root, "");
     if (!check_map(root, "",
-                   {"name", "material", "materials", "interfaces", "mesh", "fracture_regions", "platens", "confinement",
-                    "contact", "gravity", "boundary_conditions", "solver", "output"}))
+                   {"name", "material", "materials", "interfaces", "joints", "mesh", "fracture_regions", "platens",
+                    "confinement", "contact", "gravity", "boundary_conditions", "solver", "output"}))
       return s;
     const std::string scene_dir = fs::path(file).parent_path().string();
     if (text(root, "", "name", s.name, "give a short name for the run")) name_check(s.name);

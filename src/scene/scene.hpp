@@ -195,6 +195,19 @@ struct MaterialInterface {
   static std::string key(std::size_t i) { return "interfaces[" + std::to_string(i) + "]"; }
 };
 
+/// A joint set (scene `joints`): surface groups inside the rock, embedded in the volume so that
+/// the mesh conforms to them. Each of their faces gets a CE6 with the joint's law, inside a
+/// fracture region or not. A frictional joint starts broken: only its overlap penalty and its
+/// friction hold it, or tet-tet contact where the scene has it.
+struct Joint {
+  std::string name;
+  std::vector<std::string> surfaces;  // surface groups of the mesh (name or tag)
+  bool frictional = false;            // broken from the start
+  Material law;  // its CE6 keys, and friction_rock (the joint's `friction`); those not given are materials[0]'s
+  /// "joints[i]", for messages.
+  static std::string key(std::size_t i) { return "joints[" + std::to_string(i) + "]"; }
+};
+
 struct EndCondition {
   real time = 0;                // s; 0 = not used
   long steps = 0;               // 0 = not used
@@ -243,9 +256,10 @@ struct Scene {
   /// friction_platen and friction_rock, which every material must share.
   std::vector<Material> materials{Material{}};
   std::vector<MaterialInterface> interfaces;  // CE6 laws between two materials
+  std::vector<Joint> joints;                  // joint sets on embedded surfaces
   Material& material() { return materials.front(); }
   const Material& material() const { return materials.front(); }
-  static constexpr std::size_t kMaxMaterials = 64;  // materials plus interfaces: a byte per element
+  static constexpr std::size_t kMaxMaterials = 64;  // materials, interfaces and joints: a byte per element
   MeshSpec mesh;
   FractureRegions fracture;
   Platens platens;

@@ -29,6 +29,19 @@ FDEM_HD void subtract_pair_power(const Vec3 (&fa)[4], const Vec3 (&fb)[4], const
 }
 }  // namespace device_pass
 
+/// A pair's Coulomb coefficient: its two tets' joint's where both lie on one joint
+/// (Model::tet_joint), else the rock's.
+struct PairFriction {
+  const std::uint8_t* tet_joint;  // null: no joints
+  const real* joint;              // per joint
+  real rock;
+  FDEM_HD real of(int a, int b) const {
+    if (!tet_joint) return rock;
+    const int ja = tet_joint[a];
+    return ja != 0 && ja == tet_joint[b] ? joint[ja - 1] : rock;
+  }
+};
+
 /// What the pairs' pass reads besides the contact state.
 struct PairInputs {
   const int* tet_nodes;          // 4 per tet
@@ -51,7 +64,7 @@ class ContactPasses : SumSlots {
     b_ = b, held_ = held;
     auto set = [&](auto&... a) { (a.set_backend(b), ...); };
     set(node_vertex_, vt_ptr_, vt_tets_, face_ce6_, ce6_tets_, slot_faces_, tet_global_, watch_nodes_, gather_node_,
-        gather_ptr_, gather_slot_, gather_of_);
+        gather_ptr_, gather_slot_, gather_of_, tet_joint_, joint_friction_);
     set(plan_x_, watch_x_, history_, next_history_, pair_force_, contact_sum_, active_, pairs_, next_pairs_, eval_);
     candidates_.set_backend(b);
   }
@@ -69,6 +82,12 @@ class ContactPasses : SumSlots {
     fdem::place(b_, ce6_tets_, reinterpret_cast<const int*>(m.ce6_tets.data()), 2 * m.ce6_tets.size());
     slot_faces_.upload(slot_faces(c, m, slot_ce6));
     welds_ = every_node_private(m, s.layout);
+    if (!m.tet_joint.empty()) {  // (a scene without joints reads no joint bytes)
+      fdem::place(b_, tet_joint_, m.tet_joint);
+      joint_friction_.upload(s.laws.joint_friction);
+    } else {
+      tet_joint_.release();
+    }
     if (s.layout.dd.distributed()) {
       fdem::place(b_, plan_x_, c.plan_x());
       fdem::place(b_, tet_global_, s.layout.dd.tet_global);
@@ -252,6 +271,7 @@ class ContactPasses : SumSlots {
     PairHistory* history_out = next_history_.data();
     const real P = cs.penalty(), mu_rock = cs.friction();
     const ContactLaw law = cs.law();
+    const PairFriction friction{tet_joint_.size() ? tet_joint_.data() : nullptr, joint_friction_.data(), mu_rock};
     static_assert(kConDiss == kTouching + 1 && kConStored == kTouching + 2 && kConEnergy == kTouching + 3 &&
                       kConPower == kTouching + 4,
                   "the contact pass's sums");
@@ -288,7 +308,7 @@ class ContactPasses : SumSlots {
                 ga[i] = gb[i] = Vec3{0, 0, 0};
               }
               const real k_t = contact_tangential_stiffness(xa, xb, P);
-              const real d = contact_friction(xa, xb, va, vb, e, mu_rock, k_t, in.dt, h.spring, ga, gb);
+              const real d = contact_friction(xa, xb, va, vb, e, friction.of(cp.a, cp.b), k_t, in.dt, h.spring, ga, gb);
               if (in.own_tet[cp.a]) {
                 acc[1] += d;
                 acc[2] += 0.5 * k_t * dot(h.spring, h.spring);
@@ -452,6 +472,8 @@ class ContactPasses : SumSlots {
   bool welds_ = false;           // CE6s weld (every_node_private)
   DeviceArray<Vec3> plan_x_;
   DeviceArray<std::uint8_t> active_;
+  DeviceArray<std::uint8_t> tet_joint_;  // Model::tet_joint (where the scene has joints)
+  DeviceArray<real> joint_friction_;     // ElementLaws::joint_friction
   DeviceArray<ContactPair> pairs_, next_pairs_;
   DeviceArray<PairHistory> history_, next_history_;
   DeviceArray<Vec3> pair_force_;

@@ -63,7 +63,8 @@ struct MonitorSums {
   real middle_volume = 0;          // m^3, of those tets
   real cohesive_stored = 0;        // J, CE6s not broken
   real friction_stored = 0;        // J, friction springs of broken CE6s
-  real damaged = 0, broken = 0, broken_I = 0, broken_II = 0, broken_mixed = 0;  // CE6 counts
+  real damaged = 0, broken = 0, broken_I = 0, broken_II = 0, broken_mixed = 0;  // rock CE6 counts
+  real joint_damaged = 0, joint_broken = 0;                                     // joint CE6 counts
   real platen_stored = 0;                                                       // J
   real active_tets = 0, contact_pairs = 0;
   /// f(field) for every field, in the order above (the reduction over the ranks packs them so).
@@ -71,7 +72,7 @@ struct MonitorSums {
   void for_each(F&& f) {
     for (real* p : {&lateral_ratio, &lateral_nodes, &kinetic, &strain, &lateral_stress_volume, &middle_volume,
                     &cohesive_stored, &friction_stored, &damaged, &broken, &broken_I, &broken_II, &broken_mixed,
-                    &platen_stored, &active_tets, &contact_pairs})
+                    &joint_damaged, &joint_broken, &platen_stored, &active_tets, &contact_pairs})
       f(*p);
   }
 };

@@ -485,28 +485,38 @@ class ElementPasses : SumSlots {
     const int* slot = ce6_slot_.data();
     const std::uint8_t* own_c = own_ce6_.data();
     const device_pass::Ce6Laws cl = ce6_laws();
-    const auto ce = Exec::template sum<7>(int(dmg_.size()), [=] FDEM_LAMBDA(int c, real* acc) {
+    const auto ce = Exec::template sum<9>(int(dmg_.size()), [=] FDEM_LAMBDA(int c, real* acc) {
       const int i = slot ? slot[c] : c;
       if (!own_c[i]) return;
       Vec3 xe[6], ve[6], fe[6];
       for (int j = 0; j < 6; ++j) xe[j] = x[cn[6 * i + j]], ve[j] = v[cn[6 * i + j]];
       Ce6Damage copy = st[i];  // measuring must not advance the state
       Ce6Anchors anchors = sl[i];
-      const real stored = cohesive6_forces(cl.at(i), xe, ve, h[i], copy, anchors.a, fe, cl.strength_of(i)).stored;
+      const Ce6Params& p = cl.at(i);
+      const real stored = cohesive6_forces(p, xe, ve, h[i], copy, anchors.a, fe, cl.strength_of(i)).stored;
       const int mode = st[i].mode;
       if (mode != 0) {
         acc[1] += stored;
-        acc[3] += 1;
-        acc[4] += mode == 1;
-        acc[5] += mode == 2;
-        acc[6] += mode == 3;
+        if (p.joint) {
+          acc[8] += 1;
+        } else {
+          acc[3] += 1;
+          acc[4] += mode == 1;
+          acc[5] += mode == 2;
+          acc[6] += mode == 3;
+        }
       } else {
         acc[0] += stored;
-        acc[2] += ce6_max_damage(st[i]) > 0;
+        const real damaged = ce6_max_damage(st[i]) > 0;
+        if (p.joint)
+          acc[7] += damaged;
+        else
+          acc[2] += damaged;
       }
     });
     out.cohesive_stored = ce[0], out.friction_stored = ce[1], out.damaged = ce[2], out.broken = ce[3];
     out.broken_I = ce[4], out.broken_II = ce[5], out.broken_mixed = ce[6];
+    out.joint_damaged = ce[7], out.joint_broken = ce[8];
   }
 
   /// Bytes the element passes read and write in a step (DeviceLoop::bytes_per_step), in the CE6

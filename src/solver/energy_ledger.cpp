@@ -47,6 +47,11 @@ std::string instability_advice(const Scene& scene, const StableStep& stable, rea
       if (m.name == f.between[0] || m.name == f.between[1]) youngs = std::min(youngs, m.youngs_modulus);
     consider(f.law, youngs);
   }
+  for (const Joint& j : scene.joints) {  // (against the softest rock: a joint may lie in any)
+    real youngs = 1e300;
+    for (const Material& m : scene.materials) youngs = std::min(youngs, m.youngs_modulus);
+    consider(j.law, youngs);
+  }
   std::string cause;
   if (ratio > 1)
     cause = "the time step " + fmt(dt, 3) + " s is " + fmt(ratio, 3) + " x the stable-step bound " + fmt(bound, 3) +

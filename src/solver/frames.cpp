@@ -61,6 +61,12 @@ void write_frame(FieldWriter& w, const Solver& s, real time, long step, const st
     material.assign(s.model().tet_material.begin(), s.model().tet_material.end());
     fr.extra.push_back({"material", &material});
   }
+  std::vector<real> joint;  // with joints: 0, or 1 + the joint a face of the tet lies on
+  if (!s.laws().joint_friction.empty()) {
+    joint.assign(s.model().tet_joint.begin(), s.model().tet_joint.end());
+    joint.resize(s.model().tet_nodes.size(), 0);
+    fr.extra.push_back({"joint", &joint});
+  }
   // With heterogeneous E: each tet's factor on its material's E.
   if (!s.model().tet_stiffness.empty()) fr.extra.push_back({"youngs_modulus_factor", &s.model().tet_stiffness});
   fr.extra.insert(fr.extra.end(), more.begin(), more.end());

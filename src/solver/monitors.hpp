@@ -15,7 +15,8 @@ struct Monitors {
   real time = 0;
   real axial_strain = 0, axial_stress = 0, lateral_strain = 0, volumetric_strain = 0;
   real force_top = 0, force_bottom = 0;  // N, platen reactions along the axis (compression positive)
-  long damaged = 0, broken = 0, broken_I = 0, broken_II = 0, broken_mixed = 0;
+  long damaged = 0, broken = 0, broken_I = 0, broken_II = 0, broken_mixed = 0;  // rock CE6s (not joints)
+  long joint_damaged = 0, joint_broken = 0;  // joint CE6s (a frictional joint's count as broken from the start)
   real kinetic = 0, strain = 0, cohesive_stored = 0, cohesive_dissipated = 0, friction = 0, viscous = 0;
   real platen_stored = 0, platen_friction = 0, external_work = 0;
   real contact = 0, contact_friction = 0;                 // J, work into tet-tet contact (normal) and its friction
@@ -48,7 +49,7 @@ constexpr MonitorColumn real_column(const char* name, real Monitors::*f) {
 }
 
 /// The columns of monitors.csv, in file order.
-inline constexpr std::array<MonitorColumn, 32> kMonitorColumns{
+inline constexpr std::array<MonitorColumn, 34> kMonitorColumns{
     count_column("step", &Monitors::step),
     real_column("time_s", &Monitors::time),
     real_column("axial_strain", &Monitors::axial_strain),
@@ -62,6 +63,8 @@ inline constexpr std::array<MonitorColumn, 32> kMonitorColumns{
     count_column("broken_mode_I", &Monitors::broken_I),
     count_column("broken_mode_II", &Monitors::broken_II),
     count_column("broken_mixed", &Monitors::broken_mixed),
+    count_column("joint_damaged_ce6", &Monitors::joint_damaged),
+    count_column("joint_broken_ce6", &Monitors::joint_broken),
     real_column("kinetic_J", &Monitors::kinetic),
     real_column("strain_J", &Monitors::strain),
     real_column("cohesive_stored_J", &Monitors::cohesive_stored),

@@ -25,6 +25,7 @@
 #include "io/fields.hpp"
 #include "io/run_lock.hpp"
 #include "model/conditions.hpp"
+#include "model/joints.hpp"
 #include "model/materials.hpp"
 #include "solver/frames.hpp"
 #include "solver/run_folder.hpp"
@@ -70,6 +71,7 @@ void report_model(const Solver& solver, std::ostream& out) {
         << ", surface faces " << m.surface_faces.size() << "\n";
   }
   out << describe_materials(solver.scene(), m, dd.distributed() ? " (this rank)" : "");
+  out << describe_joints(solver.scene(), m, dd.distributed() ? " (this rank)" : "");
   out << describe_conditions(solver.scene(), m, dd.distributed() ? " (this rank)" : "");
   out << "  height " << m.height0 << " m, loaded area " << m.area0 << " m^2, mean edge " << m.mean_edge
       << " m, minimum altitude " << m.min_altitude << " m\n"
@@ -360,15 +362,18 @@ void RunSession::loop() {
   }
 }
 
-/// broken_ce6.csv: the broken CE6s by global id and mode (the fracture pattern, for comparisons
-/// such as fdem study). Several ranks send theirs (owned ones) to rank 0.
+/// broken_ce6.csv: the broken CE6s by global id and mode, and the joint of those on one (the
+/// fracture pattern, for comparisons such as fdem study). Several ranks send theirs (owned ones)
+/// to rank 0.
 void RunSession::write_broken_ce6() const {
-  std::vector<long> broken;  // id, mode
+  std::vector<long> broken;  // id, mode, joint (-1: rock)
   r_.solver.sync_host();
+  const ElementLaws& laws = r_.solver.laws();
   for (std::size_t i = 0; i < r_.solver.state.ce6.size(); ++i)
     if (r_.solver.state.ce6.damage[i].mode != 0 && r_.solver.owned_ce6()[i])
-      broken.insert(broken.end(), {r_.dist ? r_.solver.decomposition().ce6_global[i] : long(i),
-                                   long(r_.solver.state.ce6.damage[i].mode)});
+      broken.insert(broken.end(),
+                    {r_.dist ? r_.solver.decomposition().ce6_global[i] : long(i),
+                     long(r_.solver.state.ce6.damage[i].mode), long(laws.joint_of_law(r_.solver.model().ce6_law[i]))});
   if (r_.dist) {
     const int size = r_.solver.decomposition().size;
     int len = int(broken.size());
@@ -377,17 +382,19 @@ void RunSession::write_broken_ce6() const {
     for (int r = 0; r < size; ++r) offs[r + 1] = offs[r] + lens[r];
     std::vector<long> all(r_.root ? offs[size] : 0);
     MPI_Gatherv(broken.data(), len, MPI_LONG, all.data(), lens.data(), offs.data(), MPI_LONG, 0, r_.solver.comm());
-    std::vector<std::array<long, 2>> rows;
-    for (std::size_t k = 0; k + 1 < all.size(); k += 2) rows.push_back({all[k], all[k + 1]});
+    std::vector<std::array<long, 3>> rows;
+    for (std::size_t k = 0; k + 2 < all.size(); k += 3) rows.push_back({all[k], all[k + 1], all[k + 2]});
     std::sort(rows.begin(), rows.end());
     broken.clear();
-    for (const auto& r : rows) broken.insert(broken.end(), {r[0], r[1]});
+    for (const auto& r : rows) broken.insert(broken.end(), r.begin(), r.end());
   }
   if (!r_.root) return;
   const std::string path = (std::filesystem::path(out_.folder) / "broken_ce6.csv").string();
   std::ofstream o(path);
-  o << "ce6,mode\n";
-  for (std::size_t k = 0; k + 1 < broken.size(); k += 2) o << broken[k] << ',' << broken[k + 1] << '\n';
+  o << "ce6,mode,joint\n";
+  for (std::size_t k = 0; k + 2 < broken.size(); k += 3)
+    o << broken[k] << ',' << broken[k + 1] << ',' << (broken[k + 2] < 0 ? "" : scene_.joints[broken[k + 2]].name)
+      << '\n';
   if (!o) throw OutputError("cannot write " + path);
 }
 

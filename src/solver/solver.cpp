@@ -49,6 +49,7 @@ void Solver::setup(Decomposition dd) {
   if (layout_.distributed()) contacts.set_ownership(&layout_.own_tet, layout_.dd.reach, model_.X);
 
   check_law_indices();
+  break_frictional_joints();
   // The loads' automatic ramps last ten transits of the slowest P wave (the longest transit).
   real wave_speed = 1e300;
   for (const Tet4Law& l : laws_.tet4) wave_speed = std::min(wave_speed, std::sqrt((l.lambda + 2 * l.mu) / l.density));
@@ -77,6 +78,8 @@ void Solver::check_law_indices() const {
   ok = ok && (m.ce6_strength.empty() || m.ce6_strength.size() == m.ce6_nodes.size());
   ok = ok && (m.tet_stiffness.empty() || m.tet_stiffness.size() == m.tet_nodes.size());
   for (real f : m.tet_stiffness) ok = ok && f > 0 && f < 1e6;
+  ok = ok && (m.tet_joint.empty() || m.tet_joint.size() == m.tet_nodes.size());
+  for (std::uint8_t j : m.tet_joint) ok = ok && j <= laws_.joint_friction.size();
   if (ok)  // (rank files: drawn at the partition, perhaps with another law than this scene's)
     for (std::size_t c = 0; c < m.ce6_strength.size(); ++c) {
       const real s = m.ce6_strength[c];
@@ -89,6 +92,17 @@ void Solver::check_law_indices() const {
     throw InputError(m.source + ": the model's materials do not match the scene's " +
                      std::to_string(laws_.tet4.size()) + " materials and " + std::to_string(laws_.ce6.size()) +
                      " CE6 laws. Fix: build the model (or run fdem partition) again with this scene");
+}
+
+void Solver::break_frictional_joints() {
+  for (std::size_t c = 0; c < model_.ce6_law.size(); ++c) {
+    const int j = laws_.joint_of_law(model_.ce6_law[c]);
+    if (j < 0 || !laws_.joint_frictional[j]) continue;
+    Ce6Damage& d = state.ce6.damage[c];
+    d.D[0] = d.D[1] = d.D[2] = 1;
+    d.mode = kCe6NeverBonded;
+    contacts.activate_ce6(model_, int(c));
+  }
 }
 
 void Solver::grow_contact_ghosts() {
@@ -373,6 +387,8 @@ Monitors Solver::measure() {
   r.broken_I = b1;
   r.broken_II = b2;
   r.broken_mixed = b3;
+  r.joint_damaged = long(sums.joint_damaged);
+  r.joint_broken = long(sums.joint_broken);
   r.kinetic = ke;
   r.strain = se;
   r.cohesive_stored = coh_stored;
@@ -436,7 +452,8 @@ void Solver::broken_faces(std::vector<std::array<Vec3, 3>>& corners, std::vector
   corners.clear();
   mode.clear();
   for (std::size_t i = 0; i < state.ce6.size(); ++i) {
-    if (!layout_.own_ce6[i] || !ce6_broken(state.ce6.damage[i])) continue;
+    if (!layout_.own_ce6[i] || !ce6_broken(state.ce6.damage[i]) || laws_.joint_of_law(model_.ce6_law[i]) >= 0)
+      continue;  // (the rock's fractures: not the joints)
     const auto& q = model_.ce6_nodes[i];
     corners.push_back({model_.X[q[0]], model_.X[q[1]], model_.X[q[2]]});
     mode.push_back(state.ce6.damage[i].mode);
@@ -483,7 +500,7 @@ std::array<real, 14> material_values(const Material& a) {
           a.friction_rock};
 }
 
-/// The materials after the first, the interfaces, and which tets and CE6s have which.
+/// The materials after the first, the interfaces, the joints, and which tets and CE6s have which.
 std::uint64_t hash_materials(const Scene& s, const Model& m, std::uint64_t h) {
   auto add = [&](const Material& a) {
     const std::array<real, 14> v = material_values(a);
@@ -494,6 +511,11 @@ std::uint64_t hash_materials(const Scene& s, const Model& m, std::uint64_t h) {
   };
   for (std::size_t i = 1; i < s.materials.size(); ++i) add(s.materials[i]);
   for (const MaterialInterface& f : s.interfaces) add(f.law);
+  for (const Joint& j : s.joints) {
+    add(j.law);
+    h = fnv1a64(&j.frictional, sizeof j.frictional, h);
+  }
+  h = fnv1a64(m.tet_joint.data(), m.tet_joint.size(), h);
   h = fnv1a64(m.tet_material.data(), m.tet_material.size(), h);
   return fnv1a64(m.ce6_law.data(), m.ce6_law.size(), h);
 }
@@ -522,7 +544,7 @@ std::uint64_t physics_fingerprint(const Scene& s, const Model& m, real dt) {
                          s.solver.damping_scale,
                          dt};
   h = fnv1a64(values, sizeof values, h);
-  if (s.materials.size() > 1 || !s.interfaces.empty()) h = hash_materials(s, m, h);
+  if (s.materials.size() > 1 || !s.interfaces.empty() || !s.joints.empty()) h = hash_materials(s, m, h);
   h = fnv1a64(m.ce6_strength.data(), m.ce6_strength.size() * sizeof(real), h);  // (none: h as it was)
   h = fnv1a64(m.tet_stiffness.data(), m.tet_stiffness.size() * sizeof(real), h);
   for (const BoundaryCondition& c : s.conditions) {

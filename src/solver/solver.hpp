@@ -148,7 +148,8 @@ class Solver : private StepBookkeeping {
   /// Damaged or broken faces (A side) of CE6 states cs, their damage and break mode (for output).
   void crack_faces(const std::vector<Ce6State>& cs, std::vector<std::array<int, 3>>& faces, std::vector<real>& damage,
                    std::vector<int>& mode) const;
-  /// Reference-configuration corners and break mode of every broken CE6 (for fracture statistics).
+  /// Reference-configuration corners and break mode of every broken CE6 of the rock, not of a joint
+  /// (for fracture statistics).
   void broken_faces(std::vector<std::array<Vec3, 3>>& corners, std::vector<int>& mode) const;
 
   /// The nodes' and CE6s' evolving state with the clock (the host copy: see sync_host()).
@@ -190,6 +191,9 @@ class Solver : private StepBookkeeping {
   /// Every tet's material and CE6's law has an entry among the laws (a rank file of another scene
   /// must not index past them).
   void check_law_indices() const;
+  /// A frictional joint's CE6s start broken (kCe6NeverBonded), their vicinity a contact candidate
+  /// and their faces released, as a break leaves them.
+  void break_frictional_joints();
   /// Throws RunError when the kinetic energy ke (J) far exceeds the work put in.
   void check_runaway(real ke) const;
   /// "step n (t = ... s)": where a check stopped the run.

@@ -61,6 +61,9 @@ StableStep stable_step_bound(const Model& m, const Scene& scene, const ElementLa
   for (const Ce6Params& p : laws.ce6) penalty.push_back(std::max({p.P_open, p.P_tan, p.P_overlap}));
   const real P_max = *std::max_element(penalty.begin(), penalty.end());
   for (std::size_t c = 0; c < m.ce6_nodes.size(); ++c) {
+    // A frictional joint's CE6s start broken; with tet-tet contact on they carry no force.
+    const int j = laws.joint_of_law(m.ce6_law[c]);
+    if (j >= 0 && laws.joint_frictional[j] && laws.ce6[m.ce6_law[c]].broken_inert) continue;
     const auto& q = m.ce6_nodes[c];
     const real P = penalty[m.ce6_law[c]];
     const real area = 0.5 * norm(cross(m.X[q[1]] - m.X[q[0]], m.X[q[2]] - m.X[q[0]]));

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <regex>
 #include <thread>
 
@@ -130,6 +131,23 @@ TEST(CliRanks, BoundaryConditionsOnTwoRanksGiveTheOneRankReactions) {
   EXPECT_LT(monitor_difference(c1, run_from_rank_files(scene, tmp.path)), 1e-9);
 }
 
+/// `scene` on two ranks (DMPlex's cut, then rank 0's, into tmp/two and tmp/two_root) and from rank
+/// files: each run's monitors within 1e-6 of the one-rank run's (c1); `also` checks each two-rank
+/// run's folder further.
+void two_rank_runs_match(const std::string& scene, const fs::path& tmp, const Csv& c1,
+                         const std::function<void(const fs::path&)>& also) {
+  for (const char* how : {"", " --distribute root"}) {
+    SCOPED_TRACE(how);
+    const fs::path two = tmp / (std::string("two") + (*how ? "_root" : ""));
+    const Outcome b =
+        run_cmd(mpiexec(2) + quote(kExe) + " run " + quote(scene) + how + " -q -o " + quote(two.string()));
+    ASSERT_EQ(b.code, 0) << b.text;
+    EXPECT_LT(monitor_difference(c1, read_csv(two / "monitors.csv")), 1e-6);
+    also(two);
+  }
+  EXPECT_LT(monitor_difference(c1, run_from_rank_files(scene, tmp)), 1e-6);
+}
+
 TEST(CliRanks, MaterialsOnTwoRanksGiveTheOneRankRun) {
   // Two layers of different stiffness and density joined by a weak interface that breaks: each
   // tet's material and each CE6's law travel with the cut (DMPlex, rank 0's, the rank files).
@@ -150,17 +168,35 @@ TEST(CliRanks, MaterialsOnTwoRanksGiveTheOneRankRun) {
   EXPECT_TRUE(cli_test::has(slurp(one / "fields.xdmf"), "<Attribute Name=\"material\""))
       << "each tet's material as a field";
   EXPECT_TRUE(cli_test::has(slurp(one / "fields.xdmf"), "<Attribute Name=\"youngs_modulus_factor\""));
-  for (const char* how : {"", " --distribute root"}) {
-    SCOPED_TRACE(how);
-    const fs::path two = tmp.path / (std::string("two") + (*how ? "_root" : ""));
-    const Outcome b =
-        run_cmd(mpiexec(2) + quote(kExe) + " run " + quote(scene) + how + " -q -o " + quote(two.string()));
-    ASSERT_EQ(b.code, 0) << b.text;
-    const Csv c2 = read_csv(two / "monitors.csv");
-    EXPECT_LT(monitor_difference(c1, c2), 1e-6);
-    EXPECT_EQ(c1.rows.back()[broken], c2.rows.back()[broken]);
-  }
-  EXPECT_LT(monitor_difference(c1, run_from_rank_files(scene, tmp.path)), 1e-6);
+  two_rank_runs_match(scene, tmp.path, c1, [&](const fs::path& two) {
+    EXPECT_EQ(c1.rows.back()[broken], read_csv(two / "monitors.csv").rows.back()[broken]);
+  });
+}
+
+TEST(CliRanks, AFrictionalJointOnTwoRanksGivesTheOneRankRun) {
+  // A block sliding on a frictional joint, held by tet-tet contact: each tet's joint (its
+  // contact friction), the joint's CE6 law and the contact candidates of its broken-from-the-
+  // start faces travel with the cut (DMPlex, rank 0's, the rank files).
+  if (mpiexec(2).empty()) GTEST_SKIP() << "mpiexec not found";
+  TempDir tmp("ranks_joints");
+  const std::string scene = (kData / "cli" / "joints_box.yaml").string();
+  const Outcome c = run_fdem("check " + quote(scene));
+  ASSERT_EQ(c.code, 0) << c.text;
+  EXPECT_TRUE(cli_test::has(c.text, "joint 'bedding' (surfaces bedding): ")) << c.text;
+  const fs::path one = tmp.path / "one";
+  const Outcome a = run_fdem("run " + quote(scene) + " -q -o " + quote(one.string()));
+  ASSERT_EQ(a.code, 0) << a.text;
+  const Csv c1 = read_csv(one / "monitors.csv");
+  const int joint = column(c1, "joint_broken_ce6"), broken = column(c1, "broken_ce6");
+  ASSERT_GE(joint, 0);
+  ASSERT_GE(broken, 0);
+  EXPECT_GT(c1.rows.front()[joint], 0) << "broken from the start";
+  EXPECT_EQ(c1.rows.back()[broken], 0) << "the rock's count leaves the joint out";
+  EXPECT_TRUE(cli_test::has(slurp(one / "broken_ce6.csv"), ",4,bedding\n")) << "never bonded, on the joint";
+  EXPECT_TRUE(cli_test::has(slurp(one / "fields.xdmf"), "<Attribute Name=\"joint\""));
+  two_rank_runs_match(scene, tmp.path, c1, [&](const fs::path& two) {
+    EXPECT_EQ(slurp(one / "broken_ce6.csv"), slurp(two / "broken_ce6.csv"));
+  });
 }
 
 // The first job's ranks (the launcher's children) are stopped while the second job tries the
