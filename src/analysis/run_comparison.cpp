@@ -64,8 +64,12 @@ std::vector<long> read_broken_ce6(const std::string& path) {
   std::ifstream in(path);
   std::string line;
   std::getline(in, line);
-  while (std::getline(in, line))
-    if (!line.empty()) ids.push_back(std::stol(line.substr(0, line.find(','))));
+  while (std::getline(in, line)) {
+    // ce6,mode,joint: a row whose joint field is not empty is a joint's, not the rock's.
+    const std::size_t second = line.find(',', line.find(',') + 1);
+    const bool joint = second != std::string::npos && second + 1 < line.size();
+    if (!line.empty() && !joint) ids.push_back(std::stol(line.substr(0, line.find(','))));
+  }
   return ids;
 }
 

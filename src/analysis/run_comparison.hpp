@@ -28,7 +28,8 @@ struct CurveError {
 
 CurveError curve_error(const StressStrainCurve& ref, const StressStrainCurve& c, real lo, real hi);
 
-/// Reads the ce6 column of a broken_ce6.csv (empty when the file is missing).
+/// Reads the ce6 column of a broken_ce6.csv, the rock's rows only (not a joint's; empty when the
+/// file is missing).
 std::vector<long> read_broken_ce6(const std::string& path);
 
 real jaccard(std::vector<long> a, std::vector<long> b);

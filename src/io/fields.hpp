@@ -42,7 +42,7 @@ struct FieldFrame {
   std::vector<TetField> extra;                                   // more per-tet scalars (e.g. rank, active)
   const std::vector<std::array<int, 3>>* crack_faces = nullptr;  // node ids of damaged/broken CE6 faces
   const std::vector<real>* crack_damage = nullptr;               // D in [0,1] per crack face
-  const std::vector<int>* crack_mode = nullptr;                  // 0 intact(damaged), 1 I, 2 II, 3 mixed
+  const std::vector<int>* crack_mode = nullptr;                  // 0 intact(damaged), 1 I, 2 II, 3 mixed, 4 never bonded
 };
 
 /// What a FieldWriter has written, so that a restarted run can take over its files.

@@ -72,7 +72,8 @@ std::string describe_materials(const Scene& scene, const Model& m, const std::st
   const std::size_t nm = scene.materials.size(), nl = nm + scene.interfaces.size();
   std::vector<long> tets(nm, 0), ce6s(nl, 0);
   for (std::uint8_t k : m.tet_material) ++tets[k];
-  for (std::uint8_t k : m.ce6_law) ++ce6s[k];
+  for (std::uint8_t k : m.ce6_law)
+    if (k < nl) ++ce6s[k];  // (a joint's laws follow: describe_joints)
   std::string out;
   for (std::size_t i = 0; i < nm; ++i) {
     const Material& a = scene.materials[i];

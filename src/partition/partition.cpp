@@ -320,6 +320,8 @@ void cut_elements(const Model& g, const HeldParts& h, Model& m) {
   m.tet_material = pick(g.tet_material, tets);
   if (!g.tet_stiffness.empty()) m.tet_stiffness = pick(g.tet_stiffness, tets);
   if (!g.tet_joint.empty()) m.tet_joint = pick(g.tet_joint, tets);
+  // (None of its tets beside a joint: no list, as the DMPlex records build it, append_tet.)
+  if (std::all_of(m.tet_joint.begin(), m.tet_joint.end(), [](std::uint8_t j) { return j == 0; })) m.tet_joint.clear();
   m.ce6_nodes.resize(ce6s.size());
   m.ce6_tets.resize(ce6s.size());
   for (std::size_t i = 0; i < ce6s.size(); ++i) {

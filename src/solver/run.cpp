@@ -393,8 +393,8 @@ void RunSession::write_broken_ce6() const {
   std::ofstream o(path);
   o << "ce6,mode,joint\n";
   for (std::size_t k = 0; k + 2 < broken.size(); k += 3)
-    o << broken[k] << ',' << broken[k + 1] << ',' << (broken[k + 2] < 0 ? "" : scene_.joints[broken[k + 2]].name)
-      << '\n';
+    o << broken[k] << ',' << broken[k + 1] << ','
+      << (broken[k + 2] < 0 ? "" : csv_field(scene_.joints[broken[k + 2]].name)) << '\n';
   if (!o) throw OutputError("cannot write " + path);
 }
 

@@ -82,6 +82,7 @@ void Solver::check_law_indices() const {
   for (std::uint8_t j : m.tet_joint) ok = ok && j <= laws_.joint_friction.size();
   if (ok)  // (rank files: drawn at the partition, perhaps with another law than this scene's)
     for (std::size_t c = 0; c < m.ce6_strength.size(); ++c) {
+      if (laws_.joint_of_law(m.ce6_law[c]) >= 0) continue;  // (a joint draws no factor: 1)
       const real s = m.ce6_strength[c];
       if (!(s > 0) || !(s < largest_strength_factor(laws_.ce6[m.ce6_law[c]], m.ce6_h[c])))
         throw InputError(m.source + ": CE6 " + std::to_string(c + 1) + " has strength factor " + fmt(s, 4) +

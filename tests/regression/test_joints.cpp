@@ -4,18 +4,24 @@
 // a = g (sin psi - cos psi tan phi) and sticking below phi (through the joint's CE6s and
 // through tet-tet contact), and the errors a scene gets for joints that do not fit its mesh.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <memory>
 #include <string>
 
+#include "analysis/run_comparison.hpp"
 #include "cli_support.hpp"
 #include "core/error.hpp"
 #include "model/joints.hpp"
 #include "model/laws.hpp"
+#include "model/materials.hpp"
 #include "support.hpp"
 
 using namespace fdem;
+namespace fs = std::filesystem;
 
 namespace {
 
@@ -169,6 +175,23 @@ TEST(Joints, ABlockSticksOnAFrictionalJointBelowItsFrictionAngle) {
                    std::to_string(a / free));
     EXPECT_LT(std::fabs(a), 0.01 * free) << "m/s^2";
   }
+}
+
+TEST(Joints, ListingsAndTheFracturePatternCountTheJointsApart) {
+  // A named material beside a joint: the material's line counts its own CE6s (none here), the
+  // joint's line the joint's. fdem study's set of broken CE6s holds the rock's rows only.
+  const std::string joint = "[{name: bedding, surfaces: [joint], frictional: true}]";
+  std::string text = block_scene(30, joint, "none", "time: 1e-3");
+  text.replace(text.find("material: {friction_rock: 0.9}"), 30, "materials: [{name: granite}]");
+  const Scene scene = parse_scene(text, "rock.yaml");
+  const Model m = build_model(jointed_box(), scene);
+  const std::string listing = describe_materials(scene, m, "") + describe_joints(scene, m, "");
+  EXPECT_TRUE(cli_test::has(listing, "material 'granite' (every tet): 768 tets, 0 CE6s with its law")) << listing;
+  EXPECT_TRUE(cli_test::has(listing, "joint 'bedding' (surfaces joint): 32 CE6s, frictional, friction 0.5")) << listing;
+  const fs::path csv = fs::temp_directory_path() / ("fdem_joints_" + std::to_string(::getpid()) + ".csv");
+  std::ofstream(csv) << "ce6,mode,joint\n3,1,\n5,4,bedding\n7,2,\n9,1,\"a, b\"\n";
+  EXPECT_EQ(read_broken_ce6(csv.string()), (std::vector<long>{3, 7}));
+  fs::remove(csv);
 }
 
 TEST(Joints, JointsThatDoNotFitTheMeshAreRefusedWithTheFix) {
