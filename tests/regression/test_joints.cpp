@@ -221,6 +221,10 @@ TEST(Joints, JointsThatDoNotFitTheMeshAreRefusedWithTheFix) {
   EXPECT_TRUE(cli_test::has(e, "density")) << e;
   e = joint_error("[{name: j, surfaces: [joint], friction: -1}]");
   EXPECT_TRUE(cli_test::has(e, "joints[0].friction")) << e;
+  e = test::build_error(block_scene(30, "[{name: j, surfaces: [joint], frictional: true}]", "adaptive", "time: 1e-3"),
+                        "rock.yaml", jointed_box());
+  EXPECT_TRUE(cli_test::has(e, "joints[0].frictional: a frictional joint with tet-tet contact by the volume law")) << e;
+  EXPECT_TRUE(cli_test::has(e, "set contact.law: munjiza")) << e;
   e = joint_error("{name: j}");
   EXPECT_TRUE(cli_test::has(e, "joints: expected a list of joints")) << e;
 }
