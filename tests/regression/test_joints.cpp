@@ -15,6 +15,7 @@
 #include "analysis/run_comparison.hpp"
 #include "cli_support.hpp"
 #include "core/error.hpp"
+#include "io/mesh_io.hpp"
 #include "model/joints.hpp"
 #include "model/laws.hpp"
 #include "model/materials.hpp"
@@ -175,6 +176,29 @@ TEST(Joints, ABlockSticksOnAFrictionalJointBelowItsFrictionAngle) {
                    std::to_string(a / free));
     EXPECT_LT(std::fabs(a), 0.01 * free) << "m/s^2";
   }
+}
+
+TEST(Joints, TheReadySceneSlidesItsBlockDownTheDippingJoint) {
+  // scenes/block_on_joint.yaml: the joint's 66 CE6s dip 30 degrees, and the base's reaction
+  // (bc0's force, 4 columns from the first) gives the block's acceleration, m a = R + M g.
+  Scene scene = load_scene(std::string(FDEM_SOURCE_DIR) + "/scenes/block_on_joint.yaml");
+  scene.solver.threads = 1;
+  Solver s(scene, build_model(load_mesh(scene.mesh), scene));
+  const Model& m = s.model();
+  ASSERT_EQ(m.ce6_nodes.size(), 66u);
+  for (const auto& q : m.ce6_nodes) {
+    const Vec3 n = cross(m.X[q[1]] - m.X[q[0]], m.X[q[2]] - m.X[q[0]]);
+    EXPECT_NEAR(std::fabs(n.z) / norm(n), std::cos(M_PI / 6), 1e-9) << "a dip of 30 degrees";
+  }
+  const real block = 2700 * 5e-4, all = 2700 * 1.5e-3;
+  while (s.time() < 4e-3) s.step();
+  const Monitors r = s.measure();
+  const Vec3 R{r.conditions[0], r.conditions[1], r.conditions[2]};
+  const Vec3 a = (real(1) / block) * (R + all * scene.gravity);
+  const real expected = 9.81 * (std::sin(M_PI / 6) - std::cos(M_PI / 6) * 0.364);
+  RecordProperty("scene_acceleration_over_closed_form", std::to_string(norm(a) / expected));
+  EXPECT_NEAR(norm(a), expected, 0.01 * expected) << "m/s^2";
+  EXPECT_LT(a.z, 0) << "down the slope";
 }
 
 TEST(Joints, ListingsAndTheFracturePatternCountTheJointsApart) {
