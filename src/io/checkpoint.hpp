@@ -27,9 +27,10 @@ namespace fdem {
 // opened faces too (contact/bonded.hpp). 7: boundary conditions' reactions, works and face
 // loads. 8: a grown rank model (saved with the state) holds each tet's material and CE6's law.
 // 9: and each CE6's strength factor. 10: and each tet's factor on E. 11: and each tet's joint.
+// 12: a monitor row holds the history points' columns.
 // Rank files: 4 boundary conditions, 5 materials, 6 CE6 strength factors, 7 tet factors on E,
 // 8 tets' joints.
-constexpr std::uint32_t kCheckpointVersion = 11;
+constexpr std::uint32_t kCheckpointVersion = 12;
 constexpr std::uint32_t kRankFileVersion = 8;
 
 /// Collects values for a checkpoint payload.

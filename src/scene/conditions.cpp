@@ -4,6 +4,8 @@
 // (model/conditions.cpp).
 #include "scene/conditions.hpp"
 
+#include <cctype>
+
 namespace fdem::scene_reading {
 
 namespace {
@@ -135,6 +137,37 @@ void read_boundary_conditions(YamlReader& r, const YAML::Node& n, std::vector<Bo
     BoundaryCondition c;
     read_condition(r, n[i], BoundaryCondition::key(i), c);
     out.push_back(c);
+  }
+}
+
+void read_history(YamlReader& r, const YAML::Node& n, std::vector<HistoryPoint>& out) {
+  const std::string form = "write e.g. history: [{name: crown, at: [0, 0, 2.5]}] (positions in m)";
+  if (!n.IsSequence() || n.size() == 0) {
+    r.error("history", "expected a list of points, got " + describe(n), form);
+    return;
+  }
+  if (n.size() > HistoryPoint::kMax) {
+    r.error("history", std::to_string(n.size()) + " points", "give at most " + std::to_string(HistoryPoint::kMax));
+    return;
+  }
+  for (std::size_t i = 0; i < n.size(); ++i) {
+    const std::string p = "history[" + std::to_string(i) + "]";
+    if (!r.check_map(n[i], p, {"name", "at"})) continue;
+    HistoryPoint h;
+    if (!n[i]["name"]) r.error(p + ".name", "missing", "give the point a name (its columns are h_<name>_...)");
+    if (r.text(n[i], p, "name", h.name, "give the point a name")) {
+      for (const char c : h.name)
+        if (!std::isalnum(static_cast<unsigned char>(c)) && c != '_' && c != '-')
+          r.error(p + ".name", "'" + h.name + "' holds '" + std::string(1, c) + "'",
+                  "use letters, digits, '_' and '-' (the name is part of column names)");
+      for (const HistoryPoint& o : out)
+        if (o.name == h.name) r.error(p + ".name", "'" + h.name + "' names two points", "give each its own name");
+    }
+    if (!n[i]["at"])
+      r.error(p + ".at", "missing", "give the point's reference position, e.g. at: [0, 0, 2.5] (m)");
+    else
+      r.vec3(n[i]["at"], p + ".at", closed(-1e7, 1e7), h.at);
+    out.push_back(h);
   }
 }
 

@@ -344,7 +344,7 @@ class Reader : public YamlReader {
     strange_yaml(root, "");
     if (!check_map(root, "",
                    {"name", "material", "materials", "interfaces", "joints", "mesh", "fracture_regions", "platens",
-                    "confinement", "contact", "gravity", "boundary_conditions", "solver", "output"}))
+                    "confinement", "contact", "gravity", "boundary_conditions", "history", "solver", "output"}))
       return s;
     const std::string scene_dir = fs::path(file).parent_path().string();
     if (text(root, "", "name", s.name, "give a short name for the run")) name_check(s.name);
@@ -366,6 +366,7 @@ class Reader : public YamlReader {
     check_joint_contact(*this, s);
     if (root["gravity"]) vec3(root["gravity"], "gravity", closed(-1e4, 1e4), s.gravity);
     if (root["boundary_conditions"]) read_boundary_conditions(*this, root["boundary_conditions"], s.conditions);
+    if (root["history"]) read_history(*this, root["history"], s.history);
     if (given("solver"))
       solver(root["solver"], s.solver, s.platens.enabled);
     else

@@ -208,6 +208,15 @@ struct Joint {
   static std::string key(std::size_t i) { return "joints[" + std::to_string(i) + "]"; }
 };
 
+/// A history point (scene `history`): where monitors.csv follows the rock's displacement,
+/// velocity and stress, in the tet that holds it in the reference configuration.
+struct HistoryPoint {
+  std::string name;  // its columns' stem: h_<name>_ux_m ...
+  Vec3 at{0, 0, 0};  // m, reference position
+  static constexpr std::size_t kMax = 16;
+  static constexpr int kColumns = 12;  // u (3), v (3), stress (6)
+};
+
 struct EndCondition {
   real time = 0;                // s; 0 = not used
   long steps = 0;               // 0 = not used
@@ -266,6 +275,7 @@ struct Scene {
   ContactSettings contact;
   Confinement confinement;
   std::vector<BoundaryCondition> conditions;  // boundary_conditions, in file order
+  std::vector<HistoryPoint> history;          // points followed in monitors.csv
   Vec3 gravity{0, 0, 0};                      // m/s^2, body force per unit mass
   bool has_gravity() const { return gravity.x != 0 || gravity.y != 0 || gravity.z != 0; }
   SolverSettings solver;

@@ -32,6 +32,11 @@ struct Monitors {
   static constexpr int kMaxConditionColumns = 128;
   int condition_columns = 0;
   std::array<real, kMaxConditionColumns> conditions{};
+  // Per history point, 12 columns after those: its displacement (m), velocity (m/s) and the
+  // Cauchy stress of its tet (Pa: xx, yy, zz, xy, yz, xz).
+  static constexpr int kMaxHistoryColumns = 16 * 12;
+  int history_columns = 0;
+  std::array<real, kMaxHistoryColumns> history{};
 };
 
 /// A column of monitors.csv: its name (with the unit) and the field it shows, a count or a real.

@@ -37,10 +37,20 @@ std::vector<std::string> condition_column_names(const Scene& scene) {
   return names;
 }
 
+std::vector<std::string> history_column_names(const Scene& scene) {
+  std::vector<std::string> names;
+  for (const HistoryPoint& p : scene.history)
+    for (const char* end : {"ux_m", "uy_m", "uz_m", "vx_m_s", "vy_m_s", "vz_m_s", "sxx_Pa", "syy_Pa", "szz_Pa",
+                            "sxy_Pa", "syz_Pa", "sxz_Pa"})
+      names.push_back("h_" + p.name + "_" + end);
+  return names;
+}
+
 std::string monitors_header(const Scene& scene) {
   std::string h;
   for (const MonitorColumn& c : kMonitorColumns) h += (h.empty() ? "" : ",") + std::string(c.name);
   for (const std::string& name : condition_column_names(scene)) h += "," + name;
+  for (const std::string& name : history_column_names(scene)) h += "," + name;
   return h + '\n';
 }
 
@@ -56,6 +66,7 @@ std::string monitor_row(const Monitors& m, const Solver& solver) {
       o << m.*c.value;
   }
   for (int k = 0; k < m.condition_columns; ++k) o << ',' << m.conditions[k];
+  for (int k = 0; k < m.history_columns; ++k) o << ',' << m.history[k];
   o << '\n';
   const std::string row = o.str();
   if (row.find("nan") != std::string::npos || row.find("inf") != std::string::npos) {
@@ -64,6 +75,7 @@ std::string monitor_row(const Monitors& m, const Solver& solver) {
     std::vector<std::string> names;
     for (const MonitorColumn& c : kMonitorColumns) names.push_back(c.name);
     for (const std::string& name : condition_column_names(solver.scene())) names.push_back(name);
+    for (const std::string& name : history_column_names(solver.scene())) names.push_back(name);
     for (const std::string& name : names)
       if (std::getline(cells, cell, ',') &&
           (cell.find("nan") != std::string::npos || cell.find("inf") != std::string::npos))

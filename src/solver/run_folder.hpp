@@ -24,6 +24,9 @@ std::string monitors_header(const Scene& scene);
 /// The boundary conditions' columns after kMonitorColumns: bc<i>_<surface>_force_x_N, _y_N,
 /// _z_N and _work_J for each condition i.
 std::vector<std::string> condition_column_names(const Scene& scene);
+/// The history points' columns after those: h_<name>_ux_m, _uy_m, _uz_m, _vx_m_s, _vy_m_s,
+/// _vz_m_s, _sxx_Pa, _syy_Pa, _szz_Pa, _sxy_Pa, _syz_Pa, _sxz_Pa for each point.
+std::vector<std::string> history_column_names(const Scene& scene);
 
 /// One monitor row (10 significant digits); a row with a non-finite value throws RunError
 /// instead (no output file holds NaN or inf), naming the step and the column.

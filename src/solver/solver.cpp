@@ -50,6 +50,7 @@ void Solver::setup(Decomposition dd) {
 
   check_law_indices();
   break_frictional_joints();
+  locate_history_points();
   // The loads' automatic ramps last ten transits of the slowest P wave (the longest transit).
   real wave_speed = 1e300;
   for (const Tet4Law& l : laws_.tet4) wave_speed = std::min(wave_speed, std::sqrt((l.lambda + 2 * l.mu) / l.density));
@@ -366,6 +367,7 @@ Monitors Solver::measure() {
   // This rank's sums: on the device where the state is (no copy of the state to the host).
   upload_if_changed();
   condition_columns(r);  // (after the upload: a host copy changed since is the state)
+  history_columns(r);
   MonitorSums sums = dev_->measure_sums();
   if (layout_.dd.distributed()) {  // the whole model's sums: one reduction per monitor row
     std::vector<real> all;

@@ -140,6 +140,9 @@ class Solver : private StepBookkeeping {
   void prescribe(int node, int mask, Vec3 velocity);
   /// The kinematic conditions' monitor columns (their reactions and works, whole model) into r.
   void condition_columns(Monitors& r);
+  /// The history points' monitor columns (solver/history.cpp) into r: each point's values from
+  /// the rank that holds its tet.
+  void history_columns(Monitors& r);
 
   /// Per-tet Cauchy stress and von Mises stress at node positions xs and velocities vs (for
   /// output; the current state or a saved one).
@@ -191,6 +194,15 @@ class Solver : private StepBookkeeping {
   /// Every tet's material and CE6's law has an entry among the laws (a rank file of another scene
   /// must not index past them).
   void check_law_indices() const;
+  /// Finds each history point's tet among this rank's own (of those that hold it, the lowest
+  /// in the input's numbering, on every rank count); InputError for a point in no tet.
+  void locate_history_points();
+  /// A history point's tet on this rank (-1: another rank's) and its barycentric weights there.
+  struct HistoryProbe {
+    int tet = -1;
+    std::array<real, 4> w{};
+  };
+  std::vector<HistoryProbe> probes_;
   /// A frictional joint's CE6s start broken (kCe6NeverBonded), their vicinity a contact candidate
   /// and their faces released, as a break leaves them.
   void break_frictional_joints();
