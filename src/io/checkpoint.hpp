@@ -27,11 +27,11 @@ namespace fdem {
 // opened faces too (contact/bonded.hpp). 7: boundary conditions' reactions, works and face
 // loads. 8: a grown rank model (saved with the state) holds each tet's material and CE6's law.
 // 9: and each CE6's strength factor. 10: and each tet's factor on E. 11: and each tet's joint.
-// 12: a monitor row holds the history points' columns.
+// 12: a monitor row holds the history entries' columns, and a rank model their nodes and tets.
 // Rank files: 4 boundary conditions, 5 materials, 6 CE6 strength factors, 7 tet factors on E,
-// 8 tets' joints.
+// 8 tets' joints, 9 the nodes and tets that history entries follow.
 constexpr std::uint32_t kCheckpointVersion = 12;
-constexpr std::uint32_t kRankFileVersion = 8;
+constexpr std::uint32_t kRankFileVersion = 9;
 
 /// Collects values for a checkpoint payload.
 class CheckpointOut {

@@ -43,11 +43,13 @@ struct Model {
     std::uint8_t material = 0;
     real stiffness = 1;
     std::uint8_t joint = 0;
+    std::uint32_t history = 0;  // Model::tet_history
   };
   TetProperties tet_properties(std::size_t t) const {
     return {tet_material[t], tet_stiffness.empty() ? real(1) : tet_stiffness[t],
-            tet_joint.empty() ? std::uint8_t(0) : tet_joint[t]};
+            tet_joint.empty() ? std::uint8_t(0) : tet_joint[t], tet_history.empty() ? 0u : tet_history[t]};
   }
+  std::uint32_t node_history_of(std::size_t n) const { return node_history.empty() ? 0 : node_history[n]; }
 
   // CE6: nodes 0-2 on tet A's face, 3-5 the paired nodes of tet B (same vertices, same
   // order); the face normal (0->1->2, right hand) points from A into B. On the border of a
@@ -78,6 +80,9 @@ struct Model {
   std::uint32_t node_conditions_of(std::size_t node) const {
     return node_conditions.empty() ? 0 : node_conditions[node];
   }
+  // Per node and per tet, bit i: it belongs to the group that history entry i follows (empty: no
+  // entry follows a group).
+  std::vector<std::uint32_t> node_history, tet_history;
   // Per scene condition: a roller's axis (0, 1, 2: its faces' normal), else -1.
   std::vector<std::int8_t> condition_axis;
 
@@ -99,6 +104,10 @@ struct Model {
 /// surfaces, node groups, masses (with mass scaling), damping and colourings.
 /// Throws InputError for inverted or degenerate tets and non-manifold faces.
 Model build_model(const Mesh& mesh, const Scene& scene);
+
+/// Marks the nodes and tets of the groups that history entries follow (model/history_groups.cpp).
+/// Throws InputError for a group the mesh does not have, naming the entry and listing its groups.
+void mark_history_groups(const Mesh& mesh, const Scene& scene, Model& m);
 
 /// Mesh vertex -> the tets touching it (CSR): tets ptr[v] .. ptr[v+1]-1 of `tets`.
 struct VertexTets {

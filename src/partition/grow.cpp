@@ -217,7 +217,7 @@ void put_ghost_record(CheckpointOut& o, const Model& m, const Decomposition& dd,
   const bool flags = !now.active.empty();
   o.put(g), o.put(m.tet_input[t]), o.put(m.tet_Xinv[t]), o.put(m.tet_V0[t]), o.put(m.tet_eta[t]);
   const Model::TetProperties p = m.tet_properties(t);
-  o.put(p.material), o.put(p.stiffness), o.put(p.joint);
+  o.put(p.material), o.put(p.stiffness), o.put(p.joint), o.put(p.history);
   o.put(std::uint8_t(flags ? now.active[t] : 0)), o.put(h);
   for (int n : m.tet_nodes[t]) {
     o.put(dd.node_global[n]), o.put(m.X[n]), o.put(m.mass[n]), o.put(now.x[n]);
@@ -292,7 +292,7 @@ struct Arrivals {
 void read_ghost_record(CheckpointIn& rd, Arrivals& a) {
   TetRec t;
   rd.get(t.id), rd.get(t.input), rd.get(t.Xinv), rd.get(t.V0), rd.get(t.eta), rd.get(t.props.material),
-      rd.get(t.props.stiffness), rd.get(t.props.joint);
+      rd.get(t.props.stiffness), rd.get(t.props.joint), rd.get(t.props.history);
   rd.get(t.active), rd.get(t.holders);
   for (long& nid : t.nodes) {
     NodeRec nr;
@@ -364,6 +364,7 @@ std::unordered_map<long, int> append_ghost_nodes(const Model& m, const Decomposi
     gm.X.push_back(nr.X);
     gm.mass.push_back(nr.mass);
     if (!gm.node_conditions.empty()) gm.node_conditions.push_back(0);  // (moved by its owner's halo)
+    if (!gm.node_history.empty()) gm.node_history.push_back(0);        // (its owner counts it)
     auto vit = vertex_at.emplace(key_of(nr.X), vertices).first;
     if (vit->second == vertices) ++vertices;
     gm.node_vertex.push_back(vit->second);

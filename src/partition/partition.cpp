@@ -135,6 +135,10 @@ void append_tet(Model& m, const std::array<int, 4>& nodes, int input, const Mat3
     m.tet_joint.resize(m.tet_nodes.size() - 1, 0);
     m.tet_joint.push_back(props.joint);
   }
+  if (!m.tet_history.empty() || props.history != 0) {
+    m.tet_history.resize(m.tet_nodes.size() - 1, 0);
+    m.tet_history.push_back(props.history);
+  }
 }
 
 real default_reach(const Model& m, const Scene& s) {
@@ -300,6 +304,7 @@ void cut_elements(const Model& g, const HeldParts& h, Model& m) {
   m.X = pick(g.X, nodes);
   m.mass = pick(g.mass, nodes);
   if (!g.node_conditions.empty()) m.node_conditions = pick(g.node_conditions, nodes);
+  if (!g.node_history.empty()) m.node_history = pick(g.node_history, nodes);
   // Mesh vertices renumbered densely (the contact vicinity indexes by vertex).
   {
     std::unordered_map<int, int> vmap;
@@ -320,6 +325,7 @@ void cut_elements(const Model& g, const HeldParts& h, Model& m) {
   m.tet_material = pick(g.tet_material, tets);
   if (!g.tet_stiffness.empty()) m.tet_stiffness = pick(g.tet_stiffness, tets);
   if (!g.tet_joint.empty()) m.tet_joint = pick(g.tet_joint, tets);
+  if (!g.tet_history.empty()) m.tet_history = pick(g.tet_history, tets);
   // (None of its tets beside a joint: no list, as the DMPlex records build it, append_tet.)
   if (std::all_of(m.tet_joint.begin(), m.tet_joint.end(), [](std::uint8_t j) { return j == 0; })) m.tet_joint.clear();
   m.ce6_nodes.resize(ce6s.size());
@@ -491,6 +497,7 @@ void model_fields(F&& f, M& m) {
   f(m.box_min), f(m.box_max), f(m.axis_point), f(m.height0), f(m.area0), f(m.line_loaded), f(m.min_altitude);
   f(m.mean_edge), f(m.source), f(m.surface_conditions), f(m.node_conditions), f(m.condition_axis);
   f(m.tet_material), f(m.ce6_law), f(m.ce6_strength), f(m.tet_stiffness), f(m.tet_joint);
+  f(m.node_history), f(m.tet_history);
 }
 
 constexpr std::uint64_t kRankFileMagic = 0x4644454d52414e4bull;  // "FDEMRANK"
@@ -632,7 +639,8 @@ RankModel get_rank_model(CheckpointIn& in, std::uint64_t key) {
       m.ce6_law.size() != m.ce6_nodes.size() ||
       (!m.ce6_strength.empty() && m.ce6_strength.size() != m.ce6_nodes.size()) ||
       (!m.tet_stiffness.empty() && m.tet_stiffness.size() != nt) ||
-      (!m.tet_joint.empty() && m.tet_joint.size() != nt) || rm.dd.ce6_owned.size() != m.ce6_nodes.size() ||
+      (!m.tet_joint.empty() && m.tet_joint.size() != nt) || (!m.tet_history.empty() && m.tet_history.size() != nt) ||
+      (!m.node_history.empty() && m.node_history.size() != nn) || rm.dd.ce6_owned.size() != m.ce6_nodes.size() ||
       (!m.surface_conditions.empty() && m.surface_conditions.size() != m.surface_faces.size()) ||
       (!m.node_conditions.empty() && m.node_conditions.size() != nn))
     bad("array sizes differ");

@@ -116,12 +116,13 @@ std::string tet_record(const Model& g, const PartitionPlan& plan, const Lookup& 
   CheckpointOut o;
   o.put(long(t)), o.put(g.tet_input[t]), o.put(g.tet_Xinv[t]), o.put(g.tet_V0[t]), o.put(g.tet_eta[t]);
   const Model::TetProperties p = g.tet_properties(t);
-  o.put(p.material), o.put(p.stiffness), o.put(p.joint);
+  o.put(p.material), o.put(p.stiffness), o.put(p.joint), o.put(p.history);
   o.put(plan.part[t]), o.put(plan.held[t]), o.put(lk.tet_colour[t]), o.put(lk.tet_pos[t]);
   for (int n : g.tet_nodes[t]) {
     const int p = lk.platen_of[n];
     o.put(n), o.put(g.X[n]), o.put(g.mass[n]), o.put(g.node_vertex[n]), o.put(plan.node_owner[n]);
     o.put(plan.node_ranks[n]), o.put(lk.flags[n]), o.put(p >= 0), o.put(g.node_conditions_of(n));
+    o.put(g.node_history_of(n));
     if (p >= 0) o.put(g.platen_node_area[p]), o.put(g.platen_node_h[p]);
   }
   o.put(lk.ce6_ptr[t + 1] - lk.ce6_ptr[t]);
@@ -171,6 +172,7 @@ struct NodeRec {
   std::uint8_t flags = 0;
   bool platen = false;
   std::uint32_t conditions = 0;  // Model::node_conditions
+  std::uint32_t history = 0;     // Model::node_history
 };
 struct TetRec {
   long id = 0;
@@ -205,14 +207,14 @@ void read_record(const char* bytes, std::size_t n, Piece& p) {
   CheckpointIn in(std::string(bytes, n), "a tet record of the DMPlex distribution");
   TetRec t;
   in.get(t.id), in.get(t.input), in.get(t.Xinv), in.get(t.V0), in.get(t.eta), in.get(t.props.material),
-      in.get(t.props.stiffness), in.get(t.props.joint);
+      in.get(t.props.stiffness), in.get(t.props.joint), in.get(t.props.history);
   in.get(t.part), in.get(t.held);
   in.get(t.colour), in.get(t.pos);
   for (int& id : t.nodes) {
     in.get(id);
     NodeRec r;
     in.get(r.X), in.get(r.mass), in.get(r.vertex), in.get(r.owner), in.get(r.ranks), in.get(r.flags), in.get(r.platen);
-    in.get(r.conditions);
+    in.get(r.conditions), in.get(r.history);
     if (r.platen) in.get(r.area), in.get(r.h);
     p.nodes.emplace(id, std::move(r));
   }
@@ -267,6 +269,7 @@ RankModel cut_piece(Piece& p, const Header& h, int rank) {
     m.X.push_back(r.X);
     m.mass.push_back(r.mass);
     m.node_conditions.push_back(r.conditions);
+    m.node_history.push_back(r.history);
     m.node_vertex.push_back(r.vertex);
     plan.node_owner.push_back(r.owner);
     plan.node_ranks.push_back(r.ranks);
@@ -314,6 +317,7 @@ RankModel cut_piece(Piece& p, const Header& h, int rank) {
     m.surface_conditions.clear();
   if (std::all_of(m.node_conditions.begin(), m.node_conditions.end(), [](auto c) { return c == 0; }))
     m.node_conditions.clear();
+  if (std::all_of(m.node_history.begin(), m.node_history.end(), [](auto c) { return c == 0; })) m.node_history.clear();
   return extract_rank(m, plan, rank, ids);
 }
 

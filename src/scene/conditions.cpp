@@ -152,7 +152,7 @@ void read_history(YamlReader& r, const YAML::Node& n, std::vector<HistoryPoint>&
   }
   for (std::size_t i = 0; i < n.size(); ++i) {
     const std::string p = "history[" + std::to_string(i) + "]";
-    if (!r.check_map(n[i], p, {"name", "at"})) continue;
+    if (!r.check_map(n[i], p, {"name", "at", "group"})) continue;
     HistoryPoint h;
     if (!n[i]["name"]) r.error(p + ".name", "missing", "give the point a name (its columns are h_<name>_...)");
     if (r.text(n[i], p, "name", h.name, "give the point a name")) {
@@ -163,10 +163,13 @@ void read_history(YamlReader& r, const YAML::Node& n, std::vector<HistoryPoint>&
       for (const HistoryPoint& o : out)
         if (o.name == h.name) r.error(p + ".name", "'" + h.name + "' names two points", "give each its own name");
     }
-    if (!n[i]["at"])
-      r.error(p + ".at", "missing", "give the point's reference position, e.g. at: [0, 0, 2.5] (m)");
-    else
+    if (bool(n[i]["at"]) == bool(n[i]["group"]))
+      r.error(p + (n[i]["at"] ? ".group" : ".at"), n[i]["at"] ? "given with at" : "missing",
+              "give a point's reference position, e.g. at: [0, 0, 2.5] (m), or a mesh group, e.g. group: roof");
+    else if (n[i]["at"])
       r.vec3(n[i]["at"], p + ".at", closed(-1e7, 1e7), h.at);
+    else
+      r.text(n[i], p, "group", h.group, "name a volume or surface group of the mesh");
     out.push_back(h);
   }
 }

@@ -8,8 +8,8 @@ namespace fdem::scene_reading {
 /// The list under `boundary_conditions` into out, each problem reported to r.
 void read_boundary_conditions(YamlReader& r, const YAML::Node& n, std::vector<BoundaryCondition>& out);
 
-/// The list under `history` into out: each point's name (letters, digits, '_', '-': it names
-/// columns) and position, m.
+/// The list under `history` into out: each entry's name (letters, digits, '_', '-': it names
+/// columns) and its point (at, m) or mesh group (group).
 void read_history(YamlReader& r, const YAML::Node& n, std::vector<HistoryPoint>& out);
 
 }  // namespace fdem::scene_reading

@@ -208,11 +208,13 @@ struct Joint {
   static std::string key(std::size_t i) { return "joints[" + std::to_string(i) + "]"; }
 };
 
-/// A history point (scene `history`): where monitors.csv follows the rock's displacement,
-/// velocity and stress, in the tet that holds it in the reference configuration.
+/// A history entry (scene `history`): where monitors.csv follows the rock's displacement,
+/// velocity and stress. A point: in the tet that holds it in the reference configuration. A
+/// group: the mean over its nodes, and its tets' volume-weighted mean stress.
 struct HistoryPoint {
-  std::string name;  // its columns' stem: h_<name>_ux_m ...
-  Vec3 at{0, 0, 0};  // m, reference position
+  std::string name;   // its columns' stem: h_<name>_ux_m ...
+  Vec3 at{0, 0, 0};   // m, reference position
+  std::string group;  // or a mesh group: the mean over its nodes, its tets' mean stress
   static constexpr std::size_t kMax = 16;
   static constexpr int kColumns = 12;  // u (3), v (3), stress (6)
 };

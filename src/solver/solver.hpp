@@ -197,12 +197,16 @@ class Solver : private StepBookkeeping {
   /// Finds each history point's tet among this rank's own (of those that hold it, the lowest
   /// in the input's numbering, on every rank count); InputError for a point in no tet.
   void locate_history_points();
+  /// Group entries' sums over this rank's own nodes and tets (solver/history.cpp).
+  std::vector<real> history_group_sums() const;
   /// A history point's tet on this rank (-1: another rank's) and its barycentric weights there.
   struct HistoryProbe {
     int tet = -1;
     std::array<real, 4> w{};
   };
   std::vector<HistoryProbe> probes_;
+  /// A point's columns: u and v interpolated in its tet, and the tet's stress.
+  std::array<real, HistoryPoint::kColumns> history_point_values(const HistoryProbe& p) const;
   /// A frictional joint's CE6s start broken (kCe6NeverBonded), their vicinity a contact candidate
   /// and their faces released, as a break leaves them.
   void break_frictional_joints();

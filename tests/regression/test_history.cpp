@@ -1,6 +1,6 @@
-// History points (scene `history`): monitors.csv's displacement, velocity and stress at a point
-// of the rock, against the closed-form state of a box under uniaxial stress at rest, and the
-// errors a scene gets for points that are not in the rock or not named as columns can be.
+// History entries (scene `history`): monitors.csv's displacement, velocity and stress at a point
+// of the rock or over a mesh group, against the closed-form state of a box under uniaxial stress
+// at rest, and the errors a scene gets for entries that do not fit its mesh or its columns.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -63,6 +63,42 @@ TEST(History, APointFollowsTheUniaxialStateAtRest) {
   }
 }
 
+TEST(History, AGroupFollowsItsNodesMeanAndItsTetsMeanStress) {
+  // The same state over groups: the field is linear, so a group's mean displacement is the field
+  // at its nodes' mean position. The upper layer, the moved end zmax and the free side xmax
+  // (named by its tag) all carry szz = -E d / L.
+  const Scene s = pressed_box("[{name: upper, group: upper}, {name: top, group: zmax}, {name: side, group: 9}]");
+  Mesh mesh = test::layered_box();
+  for (MeshGroup& g : mesh.groups)
+    if (g.name == "xmax") g.name = "", g.tag = 9;  // (by tag, where the group has no name)
+  Solver solver(s, build_model(mesh, s));
+  while (solver.time() < 3e-4) solver.step();
+  const Monitors r = solver.measure();
+  const Model& m = solver.model();
+  const real d = 3e-6, L = 0.02, E = 12.2e9, nu = 0.25, strain = d / L;
+  const int nodes[3] = {5 * 5 * 5, 5 * 5, 5 * 9};           // (no CE6s: one node per vertex)
+  const real on[3][2] = {{2, 0.01}, {2, 0.02}, {0, 0.01}};  // each group's nodes: axis, least coordinate
+  for (int i = 0; i < 3; ++i) {
+    SCOPED_TRACE(i);
+    Vec3 mean{0, 0, 0};
+    real count = 0;
+    for (std::size_t n = 0; n < m.X.size(); ++n)
+      if (m.node_history[n] >> i & 1) {
+        mean += m.X[n], count += 1;
+        EXPECT_GE(m.X[n][int(on[i][0])], on[i][1] - 1e-12) << "node " << n << " is not in the group";
+      }
+    EXPECT_EQ(count, nodes[i]);
+    mean = (1 / count) * mean;
+    const real* h = r.history.data() + 12 * i;
+    RecordProperty("uz_over_closed_form_" + std::to_string(i), std::to_string(h[2] / (-strain * mean.z)));
+    EXPECT_NEAR(h[0], nu * strain * mean.x, 2e-3 * nu * strain * mean.x) << "ux, m";
+    EXPECT_NEAR(h[1], nu * strain * mean.y, 2e-3 * nu * strain * mean.y) << "uy, m";
+    EXPECT_NEAR(h[2], -strain * mean.z, 1e-3 * strain * mean.z) << "uz, m";
+    EXPECT_NEAR(h[8], -E * strain, 1e-3 * E * strain) << "szz, Pa";
+  }
+  EXPECT_NEAR(r.history[12 + 2], -d, 1e-3 * d) << "the moved end, m";
+}
+
 TEST(History, PointsOutsideTheRockOrBadlyNamedAreRefusedWithTheFix) {
   std::string e = setup_error("[{name: far, at: [0.005, 0.005, 0.03]}]");
   EXPECT_TRUE(cli_test::has(e, "box.yaml: history[0] ('far').at: (0.005, 0.005, 0.03) m is in no tet of the model"))
@@ -78,4 +114,9 @@ TEST(History, PointsOutsideTheRockOrBadlyNamedAreRefusedWithTheFix) {
   e = setup_error("{name: a}");
   EXPECT_TRUE(cli_test::has(e, "history: expected a list of points")) << e;
   EXPECT_EQ(setup_error("[{name: corner-0, at: [0, 0, 0]}]"), "") << "a corner of the box is in the rock";
+  e = setup_error("[{name: a, group: tunnel}]");
+  EXPECT_TRUE(cli_test::has(e, "history[0] ('a').group: the mesh")) << e;
+  EXPECT_TRUE(cli_test::has(e, "has no group 'tunnel'; its groups: lower, upper, xmin")) << e;
+  e = setup_error("[{name: a, group: upper, at: [0, 0, 0]}]");
+  EXPECT_TRUE(cli_test::has(e, "history[0].group: given with at")) << e;
 }
