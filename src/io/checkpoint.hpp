@@ -28,10 +28,11 @@ namespace fdem {
 // loads. 8: a grown rank model (saved with the state) holds each tet's material and CE6's law.
 // 9: and each CE6's strength factor. 10: and each tet's factor on E. 11: and each tet's joint.
 // 12: a monitor row holds the history entries' columns, and a rank model their nodes and tets.
+// 13: and each tet's volume group.
 // Rank files: 4 boundary conditions, 5 materials, 6 CE6 strength factors, 7 tet factors on E,
-// 8 tets' joints, 9 the nodes and tets that history entries follow.
-constexpr std::uint32_t kCheckpointVersion = 12;
-constexpr std::uint32_t kRankFileVersion = 9;
+// 8 tets' joints, 9 the nodes and tets that history entries follow, 10 tets' volume groups.
+constexpr std::uint32_t kCheckpointVersion = 13;
+constexpr std::uint32_t kRankFileVersion = 10;
 
 /// Collects values for a checkpoint payload.
 class CheckpointOut {

@@ -221,6 +221,21 @@ FaceSplit split_faces(const Mesh& mesh, const TetVertices& tv, const std::vector
   return s;
 }
 
+/// Per tet of m, the gmsh tag of the first volume group that lists it (0: none), for the
+/// ParaView field; empty where the mesh has no volume groups.
+std::vector<int> volume_group_tags(const Mesh& mesh, const Model& m) {
+  std::vector<int> of_input(mesh.tets.size(), 0);
+  bool any = false;
+  for (const MeshGroup& g : mesh.groups)
+    if (g.dim == 3)
+      for (int k : g.tets)
+        if (of_input[k] == 0) of_input[k] = g.tag, any = true;
+  if (!any) return {};
+  std::vector<int> tags(m.tet_input.size());
+  for (std::size_t t = 0; t < tags.size(); ++t) tags[t] = of_input[m.tet_input[t]];
+  return tags;
+}
+
 /// Nodes numbered compactly in the order of their first corner (deterministic): m.X,
 /// m.node_vertex and m.tet_nodes.
 void number_nodes(const Mesh& mesh, const TetVertices& tv, std::vector<int>& corner_parent, Model& m) {
@@ -425,6 +440,7 @@ Model build_model(const Mesh& mesh, const Scene& scene) {
   m.tet_material.resize(nt);
   for (int t = 0; t < nt; ++t) m.tet_material[t] = material[m.tet_input[t]];
   m.tet_stiffness = draw_tet_stiffness(scene, m);
+  m.tet_group = volume_group_tags(mesh, m);
   const std::vector<real> tet_hmin = set_tet_constants(mesh, scene, m);
   insert_ce6(mesh, scene, tv, split, centroid, m);
   set_bounds(m);

@@ -35,6 +35,7 @@ struct Model {
   std::vector<real> tet_eta;                  // viscous damping coefficient, Pa s
   std::vector<std::uint8_t> tet_material;     // index into scene.materials (ElementLaws::tet4)
   std::vector<real> tet_stiffness;            // factor on its E (heterogeneous rock); empty: all 1
+  std::vector<int> tet_group;                 // gmsh tag of its volume group (first listed); empty: none
   std::vector<std::uint8_t> tet_joint;        // 0, or 1 + the joint a face lies on (contact friction); empty: no joints
   Colouring tet_colours;
 
@@ -44,10 +45,12 @@ struct Model {
     real stiffness = 1;
     std::uint8_t joint = 0;
     std::uint32_t history = 0;  // Model::tet_history
+    int group = 0;              // Model::tet_group
   };
   TetProperties tet_properties(std::size_t t) const {
     return {tet_material[t], tet_stiffness.empty() ? real(1) : tet_stiffness[t],
-            tet_joint.empty() ? std::uint8_t(0) : tet_joint[t], tet_history.empty() ? 0u : tet_history[t]};
+            tet_joint.empty() ? std::uint8_t(0) : tet_joint[t], tet_history.empty() ? 0u : tet_history[t],
+            tet_group.empty() ? 0 : tet_group[t]};
   }
   std::uint32_t node_history_of(std::size_t n) const { return node_history.empty() ? 0 : node_history[n]; }
 

@@ -67,6 +67,14 @@ void write_frame(FieldWriter& w, const Solver& s, real time, long step, const st
     joint.resize(s.model().tet_nodes.size(), 0);
     fr.extra.push_back({"joint", &joint});
   }
+  std::vector<real> group;                    // with volume groups: each tet's gmsh tag (0: none)
+  int groups = !s.model().tet_group.empty();  // (a rank whose tets are in none holds no list)
+  if (s.distributed()) MPI_Allreduce(MPI_IN_PLACE, &groups, 1, MPI_INT, MPI_MAX, s.comm());
+  if (groups) {
+    group.assign(s.model().tet_group.begin(), s.model().tet_group.end());
+    group.resize(s.model().tet_nodes.size(), 0);
+    fr.extra.push_back({"group", &group});
+  }
   // With heterogeneous E: each tet's factor on its material's E.
   if (!s.model().tet_stiffness.empty()) fr.extra.push_back({"youngs_modulus_factor", &s.model().tet_stiffness});
   fr.extra.insert(fr.extra.end(), more.begin(), more.end());

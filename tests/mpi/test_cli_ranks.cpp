@@ -168,8 +168,10 @@ TEST(CliRanks, MaterialsOnTwoRanksGiveTheOneRankRun) {
   EXPECT_TRUE(cli_test::has(slurp(one / "fields.xdmf"), "<Attribute Name=\"material\""))
       << "each tet's material as a field";
   EXPECT_TRUE(cli_test::has(slurp(one / "fields.xdmf"), "<Attribute Name=\"youngs_modulus_factor\""));
+  EXPECT_TRUE(cli_test::has(slurp(one / "fields.xdmf"), "<Attribute Name=\"group\"")) << "each tet's volume group";
   two_rank_runs_match(scene, tmp.path, c1, [&](const fs::path& two) {
     EXPECT_EQ(c1.rows.back()[broken], read_csv(two / "monitors.csv").rows.back()[broken]);
+    EXPECT_TRUE(cli_test::has(slurp(two / "fields.xdmf"), "<Attribute Name=\"group\""));
   });
 }
 

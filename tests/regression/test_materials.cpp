@@ -160,6 +160,12 @@ TEST(Materials, ACe6BetweenTwoMaterialsTakesTheWeakerLawWithoutAnInterface) {
     }
   EXPECT_EQ(across, 32);
   EXPECT_EQ(ce6_law_between(scene, 0, 0), 0);
+  ASSERT_EQ(m.tet_group.size(), m.tet_nodes.size()) << "each tet's volume group, for ParaView";
+  for (std::size_t t = 0; t < m.tet_nodes.size(); ++t) {
+    real z = 0;
+    for (int n : m.tet_nodes[t]) z += 0.25 * m.X[n].z;
+    EXPECT_EQ(m.tet_group[t], z < 0.01 ? 1 : 2) << "tet " << t;
+  }
   const std::string listing = describe_materials(scene, m, "");
   EXPECT_TRUE(cli_test::has(listing, "material 'strong' (volume groups lower): 384 tets")) << listing;
   EXPECT_TRUE(cli_test::has(listing, "material 'weak' (volume groups upper): 384 tets")) << listing;
