@@ -1,6 +1,8 @@
 #pragma once
 // Shared helpers for the regression tests: scenes built in code, quasi-static loading runs.
 #include <algorithm>
+#include <array>
+#include <cmath>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -44,15 +46,33 @@ inline std::string build_error(const std::string& yaml, const std::string& file,
 
 /// A 10 x 10 x 20 mm box (structured, 4 x 4 x 8 cells) whose volume groups 'lower' (z < 10 mm,
 /// tag 1) and 'upper' (tag 2) split it at mid-height, on a plane of mesh faces.
-inline Mesh layered_box() {
-  Mesh mesh = structured_box_mesh({0.01, 0.01, 0.02}, 4, 4, 8);
+/// `scale`: every length times it (1000: a 10 x 10 x 20 m column).
+inline Mesh layered_box(real scale = 1) {
+  Mesh mesh = structured_box_mesh({0.01 * scale, 0.01 * scale, 0.02 * scale}, 4, 4, 8);
   MeshGroup lower{"lower", 3, 1, {}, {}}, upper{"upper", 3, 2, {}, {}};
   for (int t = 0; t < int(mesh.tets.size()); ++t) {
     real z = 0;
     for (int v : mesh.tets[t]) z += 0.25 * mesh.vertices[v].z;
-    (z < 0.01 ? lower : upper).tets.push_back(t);
+    (z < 0.01 * scale ? lower : upper).tets.push_back(t);
   }
   mesh.groups.insert(mesh.groups.begin(), {lower, upper});
+  return mesh;
+}
+
+/// The layered box with its mid-plane (z = 10 mm) as the surface group 'joint' (tag 7).
+inline Mesh jointed_box() {
+  Mesh mesh = test::layered_box();
+  MeshGroup joint{"joint", 2, 7, {}, {}};
+  for (int t : mesh.groups[0].tets) {  // (the lower layer's tets: each face of the plane once)
+    const auto& q = mesh.tets[t];
+    for (int i = 0; i < 4; ++i) {
+      std::array<int, 3> f{q[(i + 1) % 4], q[(i + 2) % 4], q[(i + 3) % 4]};
+      bool on = true;
+      for (int v : f) on = on && std::fabs(mesh.vertices[v].z - 0.01) < 1e-9;
+      if (on) joint.faces.push_back(f);
+    }
+  }
+  mesh.groups.push_back(joint);
   return mesh;
 }
 

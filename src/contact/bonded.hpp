@@ -19,6 +19,9 @@ namespace fdem {
 /// and which of its faces' CE6s weld no more. Flags only rise.
 struct TetFlag {
   static constexpr std::uint8_t kCandidate = 1;
+  /// Removed by an excavation: never a candidate again, whatever else is raised.
+  static constexpr std::uint8_t kExcavated = 0x80;
+  static FDEM_HD constexpr bool candidate(std::uint8_t f) { return (f & (kCandidate | kExcavated)) == kCandidate; }
   /// The CE6 on face i (the face opposite corner i) has broken.
   static FDEM_HD constexpr std::uint8_t face_released(int i) { return std::uint8_t(2u << i); }
 };

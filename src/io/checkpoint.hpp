@@ -28,11 +28,13 @@ namespace fdem {
 // loads. 8: a grown rank model (saved with the state) holds each tet's material and CE6's law.
 // 9: and each CE6's strength factor. 10: and each tet's factor on E. 11: and each tet's joint.
 // 12: a monitor row holds the history entries' columns, and a rank model their nodes and tets.
-// 13: and each tet's volume group.
+// 13: and each tet's volume group. 14: the excavation's stages done and forces, and each tet's
+// excavation stage.
 // Rank files: 4 boundary conditions, 5 materials, 6 CE6 strength factors, 7 tet factors on E,
-// 8 tets' joints, 9 the nodes and tets that history entries follow, 10 tets' volume groups.
-constexpr std::uint32_t kCheckpointVersion = 13;
-constexpr std::uint32_t kRankFileVersion = 10;
+// 8 tets' joints, 9 the nodes and tets that history entries follow, 10 tets' volume groups,
+// 11 tets' excavation stages.
+constexpr std::uint32_t kCheckpointVersion = 14;
+constexpr std::uint32_t kRankFileVersion = 11;
 
 /// Collects values for a checkpoint payload.
 class CheckpointOut {

@@ -335,14 +335,15 @@ void gmsh_groups(Mesh& mesh, const std::unordered_map<std::size_t, int>& vertex_
 }
 
 /// A .geo file meshed by gmsh (its own kernel, built-in or OpenCASCADE), with element_size as
-/// the largest element when given, and its physical groups.
+/// the largest element when given (and min_element_size, or half of it, the smallest: the
+/// script's size fields grade between them), and its physical groups.
 Mesh mesh_geo(const MeshSpec& s) {
   gmsh::option::setNumber("General.NumThreads", 1);
   gmsh::option::setNumber("Mesh.ElementOrder", 1);
   gmsh::open(s.file);
   if (s.element_size > 0) {
     gmsh::option::setNumber("Mesh.MeshSizeMax", s.element_size);
-    gmsh::option::setNumber("Mesh.MeshSizeMin", 0.5 * s.element_size);
+    gmsh::option::setNumber("Mesh.MeshSizeMin", s.min_element_size > 0 ? s.min_element_size : 0.5 * s.element_size);
   }
   std::string error;
   gmsh::logger::getLastError(error);

@@ -149,6 +149,25 @@ class PrescribedVelocities {
         power);
   }
 
+  /// After the step's prescription (v: the new velocities): what it changed of sum m v.v over
+  /// the owned nodes, added to *kinetic2, so that the step's kinetic energy counts each held
+  /// component at its prescribed velocity, not at the free one its reaction stopped.
+  template <class Exec>
+  void kinetic_change(const Vec3* v, const real* mass, const std::uint8_t* own_n, real dt, real* kinetic2) {
+    if (node_.size() == 0) return;
+    const int* fn = node_.data();
+    const Vec3* r = reaction_.data();
+    Exec::template sum_to<1>(
+        int(node_.size()),
+        [=] FDEM_LAMBDA(int i, real* acc) {
+          const int n = fn[i];
+          if (!own_n[n]) return;
+          const Vec3 vn = v[n], free = vn - (dt / mass[n]) * r[i];
+          acc[0] += mass[n] * (dot(vn, vn) - dot(free, free));
+        },
+        kinetic2);
+  }
+
   /// The node step of the fused pass that integrates a step of dt (s) from time t.
   device_pass::NodeStep node_step(const real* mass, real t, real dt) {
     return device_pass::NodeStep{mass,

@@ -449,6 +449,7 @@ Model build_model(const Mesh& mesh, const Scene& scene) {
   set_node_groups(surface, m);
   mark_condition_faces(mesh, scene, m);
   mark_history_groups(mesh, scene, m);
+  mark_excavation_stages(mesh, scene, m);
   m.tet_colours = colour_elements(m.tet_nodes, m.X.size(), "TET4");
   m.ce6_colours = colour_elements(m.ce6_nodes, m.X.size(), "CE6");
   number_ce6_in_colour_order(m);

@@ -8,6 +8,7 @@
 
 #include "core/vec.hpp"
 #include "model/mesh.hpp"
+#include "physics/cohesive6.hpp"
 #include "scene/scene.hpp"
 
 namespace fdem {
@@ -37,6 +38,7 @@ struct Model {
   std::vector<real> tet_stiffness;            // factor on its E (heterogeneous rock); empty: all 1
   std::vector<int> tet_group;                 // gmsh tag of its volume group (first listed); empty: none
   std::vector<std::uint8_t> tet_joint;        // 0, or 1 + the joint a face lies on (contact friction); empty: no joints
+  std::vector<std::uint8_t> tet_stage;        // 0, or 1 + the excavation stage that removes it; empty: none
   Colouring tet_colours;
 
   /// What tet t takes from its material, its draw and the joints: the partition's records carry it.
@@ -46,11 +48,15 @@ struct Model {
     std::uint8_t joint = 0;
     std::uint32_t history = 0;  // Model::tet_history
     int group = 0;              // Model::tet_group
+    std::uint8_t stage = 0;     // Model::tet_stage
   };
   TetProperties tet_properties(std::size_t t) const {
-    return {tet_material[t], tet_stiffness.empty() ? real(1) : tet_stiffness[t],
-            tet_joint.empty() ? std::uint8_t(0) : tet_joint[t], tet_history.empty() ? 0u : tet_history[t],
-            tet_group.empty() ? 0 : tet_group[t]};
+    return {tet_material[t],
+            tet_stiffness.empty() ? real(1) : tet_stiffness[t],
+            tet_joint.empty() ? std::uint8_t(0) : tet_joint[t],
+            tet_history.empty() ? 0u : tet_history[t],
+            tet_group.empty() ? 0 : tet_group[t],
+            tet_stage.empty() ? std::uint8_t(0) : tet_stage[t]};
   }
   std::uint32_t node_history_of(std::size_t n) const { return node_history.empty() ? 0 : node_history[n]; }
 
@@ -64,6 +70,14 @@ struct Model {
   std::vector<std::uint8_t> ce6_law;  // index into ElementLaws::ce6 (model/laws.hpp)
   std::vector<real> ce6_strength;     // factor on its strengths (heterogeneous rock); empty: all 1
   Colouring ce6_colours;
+
+  // The in-situ stress (scene initial_stress), set on each rank from the scene by
+  // place_initial_stress (model/initial_stress.hpp), not carried in rank files. Empty: none.
+  std::vector<Sym3> tet_initial_stress;     // per tet, Pa, at its reference centroid
+  std::vector<Ce6Prestress> ce6_prestress;  // per CE6, the opening offsets that carry it
+  const Sym3* initial_stress_of(std::size_t t) const {
+    return tet_initial_stress.empty() ? nullptr : &tet_initial_stress[t];
+  }
 
   // Boundary: faces on the outer surface (node ids, normal outward) and node groups.
   std::vector<std::array<int, 3>> surface_faces;
@@ -111,6 +125,14 @@ Model build_model(const Mesh& mesh, const Scene& scene);
 /// Marks the nodes and tets of the groups that history entries follow (model/history_groups.cpp).
 /// Throws InputError for a group the mesh does not have, naming the entry and listing its groups.
 void mark_history_groups(const Mesh& mesh, const Scene& scene, Model& m);
+
+/// Per tet of m, 0 or 1 + the excavation stage whose volume group holds it (Model::tet_stage;
+/// empty without `excavate`). Throws InputError for a group that is no volume of the mesh, or
+/// two stages that share a tet.
+void mark_excavation_stages(const Mesh& mesh, const Scene& scene, Model& m);
+/// fdem check's lines for the excavation stages: each one's group, tets (`suffix` after the
+/// count, e.g. " (this rank)"), start and relaxation.
+std::string describe_excavation(const Scene& scene, const Model& m, const std::string& suffix);
 
 /// Mesh vertex -> the tets touching it (CSR): tets ptr[v] .. ptr[v+1]-1 of `tets`.
 struct VertexTets {

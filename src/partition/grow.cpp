@@ -217,7 +217,7 @@ void put_ghost_record(CheckpointOut& o, const Model& m, const Decomposition& dd,
   const bool flags = !now.active.empty();
   o.put(g), o.put(m.tet_input[t]), o.put(m.tet_Xinv[t]), o.put(m.tet_V0[t]), o.put(m.tet_eta[t]);
   const Model::TetProperties p = m.tet_properties(t);
-  o.put(p.material), o.put(p.stiffness), o.put(p.joint), o.put(p.history), o.put(p.group);
+  o.put(p.material), o.put(p.stiffness), o.put(p.joint), o.put(p.history), o.put(p.group), o.put(p.stage);
   o.put(std::uint8_t(flags ? now.active[t] : 0)), o.put(h);
   for (int n : m.tet_nodes[t]) {
     o.put(dd.node_global[n]), o.put(m.X[n]), o.put(m.mass[n]), o.put(now.x[n]);
@@ -292,7 +292,8 @@ struct Arrivals {
 void read_ghost_record(CheckpointIn& rd, Arrivals& a) {
   TetRec t;
   rd.get(t.id), rd.get(t.input), rd.get(t.Xinv), rd.get(t.V0), rd.get(t.eta), rd.get(t.props.material),
-      rd.get(t.props.stiffness), rd.get(t.props.joint), rd.get(t.props.history), rd.get(t.props.group);
+      rd.get(t.props.stiffness), rd.get(t.props.joint), rd.get(t.props.history), rd.get(t.props.group),
+      rd.get(t.props.stage);
   rd.get(t.active), rd.get(t.holders);
   for (long& nid : t.nodes) {
     NodeRec nr;

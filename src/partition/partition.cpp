@@ -143,6 +143,10 @@ void append_tet(Model& m, const std::array<int, 4>& nodes, int input, const Mat3
     m.tet_history.resize(m.tet_nodes.size() - 1, 0);
     m.tet_history.push_back(props.history);
   }
+  if (!m.tet_stage.empty() || props.stage != 0) {
+    m.tet_stage.resize(m.tet_nodes.size() - 1, 0);
+    m.tet_stage.push_back(props.stage);
+  }
 }
 
 real default_reach(const Model& m, const Scene& s) {
@@ -331,6 +335,8 @@ void cut_elements(const Model& g, const HeldParts& h, Model& m) {
   if (!g.tet_joint.empty()) m.tet_joint = pick(g.tet_joint, tets);
   if (!g.tet_history.empty()) m.tet_history = pick(g.tet_history, tets);
   if (!g.tet_group.empty()) m.tet_group = pick(g.tet_group, tets);
+  if (!g.tet_stage.empty()) m.tet_stage = pick(g.tet_stage, tets);
+  if (std::all_of(m.tet_stage.begin(), m.tet_stage.end(), [](std::uint8_t k) { return k == 0; })) m.tet_stage.clear();
   if (std::all_of(m.tet_group.begin(), m.tet_group.end(), [](int t) { return t == 0; })) m.tet_group.clear();
   // (None of its tets beside a joint: no list, as the DMPlex records build it, append_tet.)
   if (std::all_of(m.tet_joint.begin(), m.tet_joint.end(), [](std::uint8_t j) { return j == 0; })) m.tet_joint.clear();
@@ -503,7 +509,7 @@ void model_fields(F&& f, M& m) {
   f(m.box_min), f(m.box_max), f(m.axis_point), f(m.height0), f(m.area0), f(m.line_loaded), f(m.min_altitude);
   f(m.mean_edge), f(m.source), f(m.surface_conditions), f(m.node_conditions), f(m.condition_axis);
   f(m.tet_material), f(m.ce6_law), f(m.ce6_strength), f(m.tet_stiffness), f(m.tet_joint);
-  f(m.node_history), f(m.tet_history), f(m.tet_group);
+  f(m.node_history), f(m.tet_history), f(m.tet_group), f(m.tet_stage);
 }
 
 constexpr std::uint64_t kRankFileMagic = 0x4644454d52414e4bull;  // "FDEMRANK"
@@ -544,6 +550,7 @@ std::uint64_t model_key(const Scene& s) {
                     g.size.y,
                     g.size.z,
                     g.element_size,
+                    g.min_element_size,
                     g.scale,
                     a.density,
                     a.youngs_modulus,
@@ -570,6 +577,8 @@ std::uint64_t model_key(const Scene& s) {
       h = fnv1a64(w.data(), w.size() + 1, h);
     }
   }
+  // Excavation stages mark their tets.
+  for (const ExcavationStage& e : s.excavation) h = fnv1a64(e.group.data(), e.group.size() + 1, h);
   // Joints add CE6s on their surfaces, and mark the tets beside them.
   for (const Joint& j : s.joints) {
     std::string w = j.name;
@@ -646,8 +655,8 @@ RankModel get_rank_model(CheckpointIn& in, std::uint64_t key) {
       (!m.ce6_strength.empty() && m.ce6_strength.size() != m.ce6_nodes.size()) ||
       (!m.tet_stiffness.empty() && m.tet_stiffness.size() != nt) ||
       (!m.tet_joint.empty() && m.tet_joint.size() != nt) || (!m.tet_history.empty() && m.tet_history.size() != nt) ||
-      (!m.tet_group.empty() && m.tet_group.size() != nt) || (!m.node_history.empty() && m.node_history.size() != nn) ||
-      rm.dd.ce6_owned.size() != m.ce6_nodes.size() ||
+      (!m.tet_group.empty() && m.tet_group.size() != nt) || (!m.tet_stage.empty() && m.tet_stage.size() != nt) ||
+      (!m.node_history.empty() && m.node_history.size() != nn) || rm.dd.ce6_owned.size() != m.ce6_nodes.size() ||
       (!m.surface_conditions.empty() && m.surface_conditions.size() != m.surface_faces.size()) ||
       (!m.node_conditions.empty() && m.node_conditions.size() != nn))
     bad("array sizes differ");

@@ -116,7 +116,7 @@ std::string tet_record(const Model& g, const PartitionPlan& plan, const Lookup& 
   CheckpointOut o;
   o.put(long(t)), o.put(g.tet_input[t]), o.put(g.tet_Xinv[t]), o.put(g.tet_V0[t]), o.put(g.tet_eta[t]);
   const Model::TetProperties p = g.tet_properties(t);
-  o.put(p.material), o.put(p.stiffness), o.put(p.joint), o.put(p.history), o.put(p.group);
+  o.put(p.material), o.put(p.stiffness), o.put(p.joint), o.put(p.history), o.put(p.group), o.put(p.stage);
   o.put(plan.part[t]), o.put(plan.held[t]), o.put(lk.tet_colour[t]), o.put(lk.tet_pos[t]);
   for (int n : g.tet_nodes[t]) {
     const int p = lk.platen_of[n];
@@ -207,7 +207,8 @@ void read_record(const char* bytes, std::size_t n, Piece& p) {
   CheckpointIn in(std::string(bytes, n), "a tet record of the DMPlex distribution");
   TetRec t;
   in.get(t.id), in.get(t.input), in.get(t.Xinv), in.get(t.V0), in.get(t.eta), in.get(t.props.material),
-      in.get(t.props.stiffness), in.get(t.props.joint), in.get(t.props.history), in.get(t.props.group);
+      in.get(t.props.stiffness), in.get(t.props.joint), in.get(t.props.history), in.get(t.props.group),
+      in.get(t.props.stage);
   in.get(t.part), in.get(t.held);
   in.get(t.colour), in.get(t.pos);
   for (int& id : t.nodes) {

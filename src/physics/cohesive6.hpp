@@ -29,6 +29,10 @@
 //   stored = sum_k (A/3) [z(D)(Phi_n(o) + Phi_s(s)) + P_overlap o^2/(2h) (o<0)],
 //            Phi(a) = f p (x^2 - x^3/3) for x = a/p < 1, f (a - p/3) beyond;
 //            broken: overlap energy + (P_tan/h)|s_vec - slip|^2 / 2.
+//   in-situ stress (scene initial_stress): a constant offset added to each point's opening,
+//   o += o0_k and s_vec += s1_k e1 + s2_k e2 with e1 = unit(m1 - m0), e2 = n x e1 turning with the
+//   face, chosen (model/initial_stress.cpp) so that the law gives the in-situ traction at zero
+//   gap. Damage and strength then see the whole traction, in-situ part included.
 #include <cmath>
 
 #include "core/config.hpp"
@@ -51,7 +55,7 @@ struct Ce6Params {
 /// bytes and no write.
 struct Ce6Damage {
   real D[3];         // damage at the 3 integration points, monotone, in [0,1]
-  int mode;          // 0 intact, 1 broke in mode I, 2 mode II, 3 mixed, 4 never bonded (kCe6NeverBonded)
+  int mode;          // 0 intact, 1 broke in mode I, 2 mode II, 3 mixed, 4 never bonded, 5 excavated
   int reserved = 0;  // no padding bytes: checkpoints hold the state byte for byte
 };
 
@@ -68,6 +72,12 @@ static_assert(sizeof(Ce6Damage) == 32 && sizeof(Ce6State) == 32 + 3 * sizeof(Vec
 /// The friction anchors of one CE6, where a loop keeps them apart from the damage.
 struct Ce6Anchors {
   Vec3 a[3];
+};
+
+/// Per CE6 the opening offsets of its three points in the face's own frame (m): x along n, y
+/// along e1, z along e2 (see above). Only where the scene has an in-situ stress.
+struct Ce6Prestress {
+  Vec3 at[3];
 };
 
 /// power: rate of work the interface absorbs (W); stored: recoverable elastic energy (J).
@@ -102,6 +112,8 @@ FDEM_HD real softening_integral(int softening) {
 
 /// The mode of a CE6 broken before the run: a frictional joint's (Solver::break_frictional_joints).
 constexpr int kCe6NeverBonded = 4;
+/// The mode of a CE6 an excavation removed (solver/excavation.cpp): no force, counted nowhere.
+constexpr int kCe6Excavated = 5;
 
 FDEM_HD bool ce6_broken(const Ce6Damage& s) {
   return s.mode != 0;
@@ -110,7 +122,7 @@ FDEM_HD bool ce6_broken(const Ce6Damage& s) {
 /// False for a broken CE6 when tet-tet contact takes over its faces: the law gives it no force
 /// and changes nothing, so a loop may skip it without reading its nodes.
 FDEM_HD bool ce6_carries_force(const Ce6Params& p, const Ce6Damage& s) {
-  return !(s.mode != 0 && p.broken_inert);
+  return !(s.mode != 0 && (p.broken_inert || s.mode == kCe6Excavated));
 }
 
 FDEM_HD real ce6_max_damage(const Ce6Damage& s) {
@@ -193,9 +205,11 @@ FDEM_HD void ce6_friction(real tmax, real k_t, Vec3 n, Vec3 sv, bool anchor_stor
 /// Forces on the six nodes (overwritten), damage and mode update of `s` and of the friction
 /// anchors (damaged or broken CE6s only), power and stored energy. h is the element's characteristic size.
 /// `strength` scales the tensile strength and the cohesion of this element (a heterogeneous
-/// rock's draw); its fracture energies stay, so it still dissipates G A.
+/// rock's draw); its fracture energies stay, so it still dissipates G A. `pre`: its in-situ
+/// offsets, or null for none.
 FDEM_HD Ce6Eval cohesive6_forces(const Ce6Params& p, const Vec3 (&x)[6], const Vec3 (&v)[6], real h, Ce6Damage& s,
-                                 Vec3 (&anchors)[3], Vec3 (&f)[6], real strength = 1) {
+                                 Vec3 (&anchors)[3], Vec3 (&f)[6], real strength = 1,
+                                 const Ce6Prestress* pre = nullptr) {
   using namespace ce6_detail;
   for (int i = 0; i < 6; ++i) f[i] = Vec3{0, 0, 0};
   Ce6Eval out{0, 0};
@@ -216,6 +230,12 @@ FDEM_HD Ce6Eval cohesive6_forces(const Ce6Params& p, const Vec3 (&x)[6], const V
   const real o_p = p.P_open > 0 ? 2 * h * ft / p.P_open : real(0);
   const real w_n = softening_width(p.GI, ft, o_p, p.Z);
 
+  Vec3 e1{0, 0, 0}, e2{0, 0, 0};  // the face's own frame, for the in-situ offsets
+  if (pre) {
+    const Vec3 a = m1 - m0;
+    e1 = (real(1) / norm(a)) * a;
+    e2 = cross(n, e1);
+  }
   Vec3 d[3], dd[3];
   for (int i = 0; i < 3; ++i) {
     d[i] = x[i + 3] - x[i];
@@ -233,6 +253,7 @@ FDEM_HD Ce6Eval cohesive6_forces(const Ce6Params& p, const Vec3 (&x)[6], const V
     dkdot[k] = real(0.5) * (dd[a] + dd[b]);
     o[k] = dot(n, dk);
     sv[k] = dk - o[k] * n;
+    if (pre) o[k] += pre->at[k].x, sv[k] += pre->at[k].y * e1 + pre->at[k].z * e2;
     sl[k] = norm(sv[k]);
     const real sig_ov = o[k] < 0 ? k_ov * o[k] : real(0);
     fs[k] = cohesion + (-sig_ov) * p.tan_phi;
@@ -291,8 +312,8 @@ FDEM_HD Ce6Eval cohesive6_forces(const Ce6Params& p, const Vec3 (&x)[6], const V
 
 /// The same for a whole Ce6State (damage and anchors together).
 FDEM_HD Ce6Eval cohesive6_forces(const Ce6Params& p, const Vec3 (&x)[6], const Vec3 (&v)[6], real h, Ce6State& s,
-                                 Vec3 (&f)[6], real strength = 1) {
-  return cohesive6_forces(p, x, v, h, s, s.slip, f, strength);
+                                 Vec3 (&f)[6], real strength = 1, const Ce6Prestress* pre = nullptr) {
+  return cohesive6_forces(p, x, v, h, s, s.slip, f, strength, pre);
 }
 
 }  // namespace fdem

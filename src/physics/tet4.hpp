@@ -7,6 +7,9 @@
 // Nodal forces: f_i = -v sigma grad N_i with grad N_{1..3} the rows of Xc^-1 and
 // grad N_0 = -(sum of them), i.e. f_i = sigma a_i / 3 with a_i the outward area
 // vector of the face opposite node i. They sum to zero by construction.
+// In-situ stress S0 (scene initial_stress): a constant second Piola-Kirchhoff stress added to the
+// law, so sigma += F S0 F^T / J and W += S0 : E with E = (F^T F - I)/2. At F = I the tet holds
+// S0 and no strain energy; a rigid rotation turns S0 with the tet and stores nothing.
 #include <cmath>
 
 #include "core/portable_math.hpp"
@@ -53,8 +56,9 @@ struct Tet4Eval {
   Sym3 stress;         // Cauchy stress including the viscous part, Pa
 };
 
+/// `S0`: the tet's in-situ stress (Pa), or null for none.
 FDEM_HD Tet4Eval tet4_forces(const Vec3 (&x)[4], const Vec3 (&v)[4], const Mat3& Xinv, real V0, real lambda, real mu,
-                             real eta, Vec3 (&f)[4]) {
+                             real eta, Vec3 (&f)[4], const Sym3* S0 = nullptr) {
   Tet4Eval r{};
   const Mat3 Xc = tet4_edges(x);
   const Mat3 F = Xc * Xinv;
@@ -79,6 +83,18 @@ FDEM_HD Tet4Eval tet4_forces(const Vec3 (&x)[4], const Vec3 (&v)[4], const Mat3&
           s * mu * B.a[1][2] + vol * eta * D.yz,
           s * mu * B.a[0][2] + vol * eta * D.xz,
           s * mu * B.a[0][1] + vol * eta * D.xy};
+  real insitu_energy = 0;
+  if (S0) {
+    const Sym3& S = *S0;
+    const Mat3 Sm{{{S.xx, S.xy, S.xz}, {S.xy, S.yy, S.yz}, {S.xz, S.yz, S.zz}}};
+    const Mat3 P = F * Sm * transpose(F);
+    sv.xx += V0 * P.a[0][0], sv.yy += V0 * P.a[1][1], sv.zz += V0 * P.a[2][2];
+    sv.yz += V0 * P.a[1][2], sv.xz += V0 * P.a[0][2], sv.xy += V0 * P.a[0][1];
+    const Mat3 C = transpose(F) * F;  // S0 : E, the off-diagonal terms counted twice
+    insitu_energy = real(0.5) * V0 *
+                    (S.xx * (C.a[0][0] - 1) + S.yy * (C.a[1][1] - 1) + S.zz * (C.a[2][2] - 1) +
+                     2 * (S.yz * C.a[1][2] + S.xz * C.a[0][2] + S.xy * C.a[0][1]));
+  }
   Vec3 sum{0, 0, 0};
   for (int j = 1; j < 4; ++j) {
     const Vec3 g{Xcinv.a[j - 1][0], Xcinv.a[j - 1][1], Xcinv.a[j - 1][2]};
@@ -90,7 +106,7 @@ FDEM_HD Tet4Eval tet4_forces(const Vec3 (&x)[4], const Vec3 (&v)[4], const Mat3&
   r.stress = {sv.xx * ivol, sv.yy * ivol, sv.zz * ivol, sv.yz * ivol, sv.xz * ivol, sv.xy * ivol};
   const real DD = D.xx * D.xx + D.yy * D.yy + D.zz * D.zz + 2 * (D.yz * D.yz + D.xz * D.xz + D.xy * D.xy);
   r.viscous_power = vol * eta * DD;
-  r.strain_energy = V0 * (real(0.5) * mu * (trace(B) - 3) - mu * lnJ + real(0.5) * lambda * lnJ * lnJ);
+  r.strain_energy = V0 * (real(0.5) * mu * (trace(B) - 3) - mu * lnJ + real(0.5) * lambda * lnJ * lnJ) + insitu_energy;
   return r;
 }
 

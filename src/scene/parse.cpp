@@ -46,7 +46,7 @@ class Reader : public YamlReader {
       error(p, "has no value", "give exactly one of mesh.generate or mesh.file");
       return;
     }
-    if (!check_map(n, p, {"generate", "file", "scale", "element_size"})) return;
+    if (!check_map(n, p, {"generate", "file", "scale", "element_size", "min_element_size"})) return;
     const bool gen = bool(n["generate"]), file = bool(n["file"]);
     if (gen == file) {
       error(p, gen ? "both generate and file are given" : "neither generate nor file is given",
@@ -77,6 +77,16 @@ class Reader : public YamlReader {
         error(p + ".element_size", "only applies to a .geo file, which fdem meshes; a .msh file is meshed already",
               "remove it, or give the .geo file");
       number(n, p, "element_size", positive(), m.element_size);
+    }
+    if (n["min_element_size"]) {
+      if (!m.geo() || !n["element_size"])
+        error(p + ".min_element_size", "only applies with element_size to a .geo file",
+              "remove it, or give the .geo file its element_size too");
+      else if (number(n, p, "min_element_size", positive(), m.min_element_size) &&
+               !(m.min_element_size <= m.element_size))
+        error(p + ".min_element_size",
+              fmt(m.min_element_size) + " m is above element_size " + fmt(m.element_size) + " m",
+              "give the smallest element at most the largest");
     }
   }
 
@@ -344,7 +354,8 @@ class Reader : public YamlReader {
     strange_yaml(root, "");
     if (!check_map(root, "",
                    {"name", "material", "materials", "interfaces", "joints", "mesh", "fracture_regions", "platens",
-                    "confinement", "contact", "gravity", "boundary_conditions", "history", "solver", "output"}))
+                    "confinement", "contact", "gravity", "initial_stress", "excavate", "boundary_conditions", "history",
+                    "solver", "output"}))
       return s;
     const std::string scene_dir = fs::path(file).parent_path().string();
     if (text(root, "", "name", s.name, "give a short name for the run")) name_check(s.name);
@@ -372,6 +383,8 @@ class Reader : public YamlReader {
     else
       error("solver.end", "missing (no solver section)",
             "give solver.end with at least one of axial_strain, post_peak_fraction, time, steps > 0");
+    if (given("initial_stress")) read_initial_stress(*this, root["initial_stress"], s);
+    if (root["excavate"]) read_excavation(*this, root["excavate"], s.excavation);
     s.output.folder = (fs::path("out") / s.name).string();
     if (given("output")) output(root["output"], s.output);
     return s;

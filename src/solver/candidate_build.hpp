@@ -181,12 +181,12 @@ class CandidateBuild {
     long* fl = flags_.data();
     long* of = offsets_.data();
     const std::uint8_t* active = in.flags;
-    Exec::forall(nt, [=] FDEM_LAMBDA(int t) { fl[t] = (active[t] & TetFlag::kCandidate) != 0; });
+    Exec::forall(nt, [=] FDEM_LAMBDA(int t) { fl[t] = TetFlag::candidate(active[t]); });
     const long na = Exec::scan(nt, fl, of);
     ids_.resize(na);
     int* ids = ids_.data();
     Exec::forall(nt, [=] FDEM_LAMBDA(int t) {
-      if (active[t] & TetFlag::kCandidate) ids[of[t]] = t;
+      if (TetFlag::candidate(active[t])) ids[of[t]] = t;
     });
     return na;
   }

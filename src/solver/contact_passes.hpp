@@ -396,7 +396,7 @@ class ContactPasses : SumSlots {
     const std::uint8_t* active = active_.data();
     const ContactPair* pairs = pairs_.data();
     out.active_tets = Exec::template sum<1>(int(active_.size()), [=] FDEM_LAMBDA(int t, real* acc) {
-      acc[0] += (active[t] & TetFlag::kCandidate) && own_t[t];
+      acc[0] += TetFlag::candidate(active[t]) && own_t[t];
     })[0];
     out.contact_pairs = Exec::template sum<1>(int(pairs_.size()),
                                               [=] FDEM_LAMBDA(int k, real* acc) { acc[0] += own_t[pairs[k].a]; })[0];

@@ -61,7 +61,7 @@ std::vector<std::array<int, 4>> ContactSet::face_ce6_of(const Model& m) {
 
 void ContactSet::recount_active() {
   active_count_ =
-      std::count_if(tet_flags.begin(), tet_flags.end(), [](std::uint8_t f) { return (f & TetFlag::kCandidate) != 0; });
+      std::count_if(tet_flags.begin(), tet_flags.end(), [](std::uint8_t f) { return TetFlag::candidate(f); });
 }
 
 void ContactSet::set_ownership(const std::vector<std::uint8_t>* tet_owned, real reach,

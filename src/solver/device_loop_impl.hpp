@@ -181,7 +181,9 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     new_powers(s.contacts.enabled(), s.loads.surface.enabled, s.loads.gravity.enabled);
     if (!s.layout.dd.distributed()) {  // the sums wait for the first copy of the forces
       clock_.lap(t_.energy);
+      eval_ahead_ = dt;  // (the forces at the new state, before the clock moves on)
       forces(true);
+      eval_ahead_ = 0;
       return false;
     }
     // Several ranks: the step's reduction first (finish_step), then contact ghosts if it asks.
@@ -332,7 +334,8 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     Vec3* f = f_.data();
     const GravityLoad& gravity = p_.loads.gravity;
     if (gravity.enabled) {
-      gravity.start_forces<Exec>(int(x_.size()), mass_.data(), v_.data(), own_node_.data(), f, sums_.data());
+      gravity.start_forces<Exec>(int(x_.size()), mass_.data(), v_.data(), own_node_.data(), f, sums_.data(),
+                                 p_.time + eval_ahead_);
       return;
     }
     const int* un = unreached_.data();
@@ -358,7 +361,8 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
   ElementInputs element_inputs(const LoopParts& s) {
     const GravityLoad& gravity = s.loads.gravity;
     return ElementInputs{x_.data(),       v_.data(),       f_.data(), mass_.data(),
-                         own_tet_.data(), gravity.enabled, gravity.g, sums_.data()};
+                         own_tet_.data(), gravity.enabled, gravity.g, gravity.pushes(s.time + eval_ahead_),
+                         sums_.data()};
   }
   /// The forces held for the fused pass that integrates.
   HeldForces held_forces() const {
@@ -592,7 +596,7 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
   }
 
   /// Central difference of every node with time step dt into sums [kBad, kSums) (cleared first:
-  /// non-finite velocities, m v.v, and with px the nodes a quarter and half of `reach` from px;
+  /// non-finite velocities, m v.v after the prescription, and with px the nodes a quarter and half of `reach` from px;
   /// gravity's power is the caller's), then the prescribed velocities.
   void integrate_nodes(real dt, const Vec3* px, real reach) {
     Vec3* x = x_.data();
@@ -621,6 +625,7 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     if (!prescribed.on()) return;
     prescribed.apply<Exec>(x, v, mass, p_.time, dt);
     prescribed.reaction_power<Exec>(v, own_n, dt, sums_.data() + kReactionPower);
+    prescribed.kinetic_change<Exec>(v, mass, own_n, dt, sums_.data() + kKinetic2);
   }
 
   /// The powers of the last contact and pressure forces, and of gravity, with the velocities now
@@ -628,7 +633,8 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
   void new_powers(bool contact, bool pressure, bool gravity) {
     contact_pressure_powers(contact, pressure, false);
     if (gravity)
-      p_.loads.gravity.new_power<Exec>(int(x_.size()), mass_.data(), v_.data(), own_node_.data(), sums_.data());
+      p_.loads.gravity.new_power<Exec>(int(x_.size()), mass_.data(), v_.data(), own_node_.data(), sums_.data(),
+                                       p_.time);
   }
 
   /// The powers of the last contact pair forces (-sum f.v) and confining pressure forces with
@@ -792,6 +798,9 @@ class DeviceLoopImpl final : public DeviceLoop, SumSlots {
     bool force_sums = false;  // the last force evaluation's scalars, sums_ [0, kBad)
     bool elements = false;    // the last evaluation's element part, left to the next step's pass
   } waiting_;
+  // s: how far ahead of the clock the state is whose forces are being evaluated (one rank's
+  // colour step evaluates the new state before its bookkeeping moves the clock on).
+  real eval_ahead_ = 0;
   bool flags_merged_ = false;  // false from an upload of the host's flags to the next merge
   bool merge_wanted_ = false;  // several ranks: a rank raised a flag (the step's reduction said)
   // The forces that contact, platens and pressure put on a node wait for the fused pass in

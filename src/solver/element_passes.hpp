@@ -27,9 +27,9 @@ namespace device_pass {
 /// A TET4's forces on its nodes at xe, ve (fe), the inverted count into acc[1] and, for an owned
 /// tet, its viscous power into acc[0]: the element of both schedules' TET4 passes.
 FDEM_HD void tet4_element(const Vec3 (&xe)[4], const Vec3 (&ve)[4], const Mat3& Xinv, real V0, real lambda, real mu,
-                          real eta, bool own, real* acc, Vec3 (&fe)[4]) {
-  const Tet4Eval ev = tet4_forces(xe, ve, Xinv, V0, lambda, mu, eta, fe);
-  if (!(ev.J > 0)) acc[1] += 1;
+                          real eta, const Sym3* S0, bool own, real* acc, Vec3 (&fe)[4]) {
+  const Tet4Eval ev = tet4_forces(xe, ve, Xinv, V0, lambda, mu, eta, fe, S0);
+  if (!(ev.J > 0) && mu > 0) acc[1] += 1;  // (an excavated tet has no stiffness and may fold)
   if (own) acc[0] += ev.viscous_power;
 }
 /// A TET4's first force at its corners: assigned where `first` has the corner's bit, else added.
@@ -39,11 +39,11 @@ FDEM_HD void tet4_start(const Vec3* f, const int* q, int first, Vec3 (&fe)[4]) {
 /// A CE6 that carries force, on its nodes at xe, ve (fe), with its damage d and anchors a
 /// updated. Where `counts` (the one evaluation of it that keeps its results): its power into
 /// acc[0] (intact) or acc[1] (broken) when owned, and a break into acc[2] and its flag.
-FDEM_HD void ce6_element(const Ce6Params& p, real strength, const Vec3 (&xe)[6], const Vec3 (&ve)[6], real h,
-                         Ce6Damage& d, Vec3 (&a)[3], bool counts, bool own, real* acc, std::uint8_t* broke,
-                         Vec3 (&fe)[6]) {
+FDEM_HD void ce6_element(const Ce6Params& p, real strength, const Ce6Prestress* pre, const Vec3 (&xe)[6],
+                         const Vec3 (&ve)[6], real h, Ce6Damage& d, Vec3 (&a)[3], bool counts, bool own, real* acc,
+                         std::uint8_t* broke, Vec3 (&fe)[6]) {
   const bool was_broken = ce6_broken(d);
-  const Ce6Eval ev = cohesive6_forces(p, xe, ve, h, d, a, fe, strength);
+  const Ce6Eval ev = cohesive6_forces(p, xe, ve, h, d, a, fe, strength, pre);
   if (!counts) return;
   if (own && was_broken) acc[1] += ev.power;  // constant indices: acc stays in registers
   if (own && !was_broken) acc[0] += ev.power;
@@ -55,34 +55,39 @@ struct Tet4Laws {
   const Tet4Law* table;    // null: every tet has `one`
   const std::uint8_t* of;  // per tet, its entry in table
   const real* stiffness;   // per tet, its factor on E (heterogeneous rock); null: 1
+  const Sym3* in_situ;     // per tet, its in-situ stress (Model::tet_initial_stress); null: none
   FDEM_HD_INLINE Tet4Law at(int t) const {
     Tet4Law l = of ? table[of[t]] : one;
     if (stiffness) l.lambda *= stiffness[t], l.mu *= stiffness[t];
     return l;
   }
+  FDEM_HD_INLINE const Sym3* in_situ_of(int t) const { return in_situ ? in_situ + t : nullptr; }
 };
 /// The CE6 laws a pass reads: one for every CE6, or each CE6's (Model::ce6_law), by slot; and
 /// in a heterogeneous rock each CE6's strength factor (Model::ce6_strength).
 struct Ce6Laws {
   Ce6Params one;
-  const Ce6Params* table;  // null: every CE6 has `one`
-  const std::uint8_t* of;  // per CE6 slot, its entry in table
-  const real* strength;    // per CE6 slot, its factor; null: 1
+  const Ce6Params* table;       // null: every CE6 has `one`
+  const std::uint8_t* of;       // per CE6 slot, its entry in table
+  const real* strength;         // per CE6 slot, its factor; null: 1
+  const Ce6Prestress* in_situ;  // per CE6 slot, its in-situ offsets (Model::ce6_prestress); null: none
   FDEM_HD_INLINE const Ce6Params& at(int slot) const { return of ? table[of[slot]] : one; }
   FDEM_HD_INLINE real strength_of(int slot) const { return strength ? strength[slot] : real(1); }
+  FDEM_HD_INLINE const Ce6Prestress* in_situ_of(int slot) const { return in_situ ? in_situ + slot : nullptr; }
 };
 }  // namespace device_pass
 
 /// What the element passes read of the node state and write to, besides their own state.
 struct ElementInputs {
-  const Vec3* x;                // m
-  const Vec3* v;                // m/s
-  Vec3* f;                      // N, per node
-  const real* mass;             // kg, per node
-  const std::uint8_t* own_tet;  // per tet, 1 where this rank owns it
-  bool gravity;                 // gravity starts each node's force
-  Vec3 g;                       // m/s^2
-  real* sums;                   // the loop's sums (SumSlots)
+  const Vec3* x;                   // m
+  const Vec3* v;                   // m/s
+  Vec3* f;                         // N, per node
+  const real* mass;                // kg, per node
+  const std::uint8_t* own_tet;     // per tet, 1 where this rank owns it
+  bool gravity;                    // gravity (and an excavation's forces) start each node's force
+  Vec3 g;                          // m/s^2
+  device_pass::NodePushes pushes;  // an excavation's forces, N per node
+  real* sums;                      // the loop's sums (SumSlots)
 };
 
 /// The TET4 arrays both element schedules read: connectivity (4 per tet), the computed tets in
@@ -132,20 +137,21 @@ struct FusedStep {
   Vec3* v_new;
   device_pass::NodeStep mover;
   /// Tet nodes q moved by their forces fe from x, v into the second copies, with the
-  /// integration's sums into acc[0] (non-finite velocities), acc[1] (m v.v before the
-  /// prescription) and acc[2] (gravity's power after it). Masses: mass[n], or (null) tet_mass.
+  /// integration's sums into acc[0] (non-finite velocities), acc[1] (m v.v after the
+  /// prescription) and acc[2] (gravity's power after it, with the excavation's forces `np`).
+  /// Masses: mass[n], or (null) tet_mass.
   FDEM_HD_INLINE void move(const int* q, const Vec3 (&fe)[4], const Vec3* x, const Vec3* v, const real* mass,
-                           real tet_mass, bool gravity, Vec3 g, real* acc) const {
+                           real tet_mass, bool gravity, Vec3 g, const device_pass::NodePushes& np, real* acc) const {
     for (int i = 0; i < 4; ++i) {
       const int n = q[i];
       Vec3 xn = x[n], vn = v[n];  // read again (from cache): fewer registers held over the CE6s
       const real mn = mass ? mass[n] : tet_mass;
       mover.move_with(mn, xn, vn, fe[i]);
       acc[0] += !finite_value(vn.x + vn.y + vn.z);
-      acc[1] += mn * dot(vn, vn);
       mover.prescribe(n, mn, xn, vn);
+      acc[1] += mn * dot(vn, vn);
       x_new[n] = xn, v_new[n] = vn;
-      if (gravity) acc[2] += mn * dot(g, vn);
+      if (gravity) acc[2] += mn * dot(g, vn) + dot(np.at(n), vn);
     }
   }
 };
@@ -189,7 +195,8 @@ struct FusedCe6s {
       const int* cq = nodes + 6 * c;
       Vec3 xc[6], vc[6], fc[6];
       for (int i = 0; i < 6; ++i) xc[i] = x[cq[i]], vc[i] = v[cq[i]];
-      ce6_element(p, laws.strength_of(c), xc, vc, h[c], d, an.a, writer, fl & 1, acc, broke + c, fc);
+      ce6_element(p, laws.strength_of(c), laws.in_situ_of(c), xc, vc, h[c], d, an.a, writer, fl & 1, acc, broke + c,
+                  fc);
       for (int i = 0; i < 3; ++i) {  // constant indices only: the arrays stay in registers
         const int n = side ? cq[3 + i] : cq[i];
         const Vec3 add = side ? fc[3 + i] : fc[i];
@@ -216,7 +223,7 @@ class ElementPasses : SumSlots {
     plan_ = std::move(plan);
     auto set = [&](auto&... a) { (a.set_backend(b), ...); };
     set(tet_nodes_, tet_order_, ce6_nodes_, ce6_slot_, fused_ce6_, Xinv_, V0_, eta_, ce6_h_, tet4_table_, ce6_table_,
-        tet_material_, ce6_law_, ce6_strength_, tet_stiffness_);
+        tet_material_, ce6_law_, ce6_strength_, tet_stiffness_, tet_in_situ_, ce6_in_situ_);
     set(dmg_, slip_, dmg_next_, slip_next_, dmg_model_, slip_model_, ce6_flag_, ce6_flag_next_, ce6_sides_, broke_,
         own_ce6_, tet_assigns_);
   }
@@ -311,11 +318,13 @@ class ElementPasses : SumSlots {
   /// The laws the passes read: one table entry each where the scene has one material.
   device_pass::Tet4Laws tet4_laws() const {
     return device_pass::Tet4Laws{tet4_one_, tet4_table_.data(), tet_material_.size() ? tet_material_.data() : nullptr,
-                                 tet_stiffness_.size() ? tet_stiffness_.data() : nullptr};
+                                 tet_stiffness_.size() ? tet_stiffness_.data() : nullptr,
+                                 tet_in_situ_.size() ? tet_in_situ_.data() : nullptr};
   }
   device_pass::Ce6Laws ce6_laws() const {
     return device_pass::Ce6Laws{ce6_one_, ce6_table_.data(), ce6_law_.size() ? ce6_law_.data() : nullptr,
-                                ce6_strength_.size() ? ce6_strength_.data() : nullptr};
+                                ce6_strength_.size() ? ce6_strength_.data() : nullptr,
+                                ce6_in_situ_.size() ? ce6_in_situ_.data() : nullptr};
   }
 
   /// TET4 colour by colour, then CE6 colour by colour (stored in colour order: slot b + k; no
@@ -333,8 +342,8 @@ class ElementPasses : SumSlots {
             Vec3 xe[4], ve[4], fe[4];
             for (int i = 0; i < 4; ++i) xe[i] = in.x[q[i]], ve[i] = in.v[q[i]];
             const Tet4Law law = tl.at(t);
-            device_pass::tet4_element(xe, ve, tets.Xinv[t], tets.V0[t], law.lambda, law.mu, tets.eta[t], in.own_tet[t],
-                                      acc, fe);
+            device_pass::tet4_element(xe, ve, tets.Xinv[t], tets.V0[t], law.lambda, law.mu, tets.eta[t],
+                                      tl.in_situ_of(t), in.own_tet[t], acc, fe);
             device_pass::tet4_start(in.f, q, tets.assigns ? tets.assigns[t] : 0, fe);
             for (int i = 0; i < 4; ++i) in.f[q[i]] = fe[i];
           },
@@ -359,8 +368,8 @@ class ElementPasses : SumSlots {
             const int* q = cn + 6 * i;
             Vec3 xe[6], ve[6], fe[6];
             for (int j = 0; j < 6; ++j) xe[j] = in.x[q[j]], ve[j] = in.v[q[j]];
-            device_pass::ce6_element(p, cl.strength_of(i), xe, ve, h[i], st[i], sl[i].a, true, own_c[i], acc, broke + i,
-                                     fe);
+            device_pass::ce6_element(p, cl.strength_of(i), cl.in_situ_of(i), xe, ve, h[i], st[i], sl[i].a, true,
+                                     own_c[i], acc, broke + i, fe);
             for (int j = 0; j < 6; ++j) in.f[q[j]] += fe[j];
           },
           in.sums + kCoh);
@@ -393,6 +402,7 @@ class ElementPasses : SumSlots {
     const std::uint8_t* own_t = in.own_tet;
     const bool gravity = in.gravity;
     const Vec3 g = in.g;
+    const device_pass::NodePushes pushes = in.pushes;
     const device_pass::Tet4Laws tl = tet4_laws();
     const device_pass::FusedCe6s ce6s = fused_ce6s();
     // kOwn: each node's mass rho V0 / 4 where every node's is (mass_from_volume_), else read.
@@ -414,13 +424,13 @@ class ElementPasses : SumSlots {
         const int n = q[i];
         xe[i] = x[n], ve[i] = v[n];
         if (kOwn) {  // the force starts with gravity (GravityLoad::start_forces), or at zero
-          start[i] = gravity ? gravity_force(from_volume ? tet_mass : mass[n], g) : Vec3{0, 0, 0};
+          start[i] = gravity ? gravity_force(from_volume ? tet_mass : mass[n], g) + pushes.at(n) : Vec3{0, 0, 0};
           if (gravity) acc[0] += dot(start[i], ve[i]);  // (one rank: every node owned)
         }
       }
       const Tet4Law law = tl.at(t);
-      device_pass::tet4_element(xe, ve, tets.Xinv[t], tets.V0[t], law.lambda, law.mu, tets.eta[t], own_t[t], acc + base,
-                                fe);
+      device_pass::tet4_element(xe, ve, tets.Xinv[t], tets.V0[t], law.lambda, law.mu, tets.eta[t], tl.in_situ_of(t),
+                                own_t[t], acc + base, fe);
       if (kOwn)
         for (int i = 0; i < 4; ++i) fe[i] = start[i] + fe[i];
       else
@@ -428,7 +438,7 @@ class ElementPasses : SumSlots {
       ce6s.add(k, q, x, v, acc + base + 2, fe);
       if (kOwn) held.add(t, q, fe);  // contact's sum, the platen's force, the pressure's faces
       if (kMode == kStep)            // the integration's sums: acc[6] to acc[8]
-        step.move(q, fe, x, v, from_volume ? nullptr : mass, tet_mass, gravity, g, acc + 6);
+        step.move(q, fe, x, v, from_volume ? nullptr : mass, tet_mass, gravity, g, pushes, acc + 6);
       else
         for (int i = 0; i < 4; ++i) f[q[i]] = fe[i];
     };
@@ -469,7 +479,8 @@ class ElementPasses : SumSlots {
       Vec3 xe[4], ve[4], fe[4];
       for (int i = 0; i < 4; ++i) xe[i] = x[tets.nodes[4 * t + i]], ve[i] = v[tets.nodes[4 * t + i]];
       const Tet4Law law = tl.at(t);
-      const Tet4Eval e = tet4_forces(xe, ve, tets.Xinv[t], tets.V0[t], law.lambda, law.mu, tets.eta[t], fe);
+      const Tet4Eval e =
+          tet4_forces(xe, ve, tets.Xinv[t], tets.V0[t], law.lambda, law.mu, tets.eta[t], fe, tl.in_situ_of(t));
       acc[0] += e.strain_energy;
       if (mid[t]) {
         const real vol = dot(cross(xe[1] - xe[0], xe[2] - xe[0]), xe[3] - xe[0]) / 6;
@@ -493,8 +504,10 @@ class ElementPasses : SumSlots {
       Ce6Damage copy = st[i];  // measuring must not advance the state
       Ce6Anchors anchors = sl[i];
       const Ce6Params& p = cl.at(i);
-      const real stored = cohesive6_forces(p, xe, ve, h[i], copy, anchors.a, fe, cl.strength_of(i)).stored;
+      const real stored =
+          cohesive6_forces(p, xe, ve, h[i], copy, anchors.a, fe, cl.strength_of(i), cl.in_situ_of(i)).stored;
       const int mode = st[i].mode;
+      if (mode == kCe6Excavated) return;
       if (mode != 0) {
         acc[1] += stored;
         if (p.joint) {
@@ -571,6 +584,14 @@ class ElementPasses : SumSlots {
       fdem::place(b_, tet_stiffness_, m.tet_stiffness);
     else
       tet_stiffness_.release();
+    if (!m.tet_initial_stress.empty())
+      fdem::place(b_, tet_in_situ_, m.tet_initial_stress);
+    else
+      tet_in_situ_.release();
+    if (!m.ce6_prestress.empty())
+      place_in_slots(ce6_in_situ_, m.ce6_prestress);
+    else
+      ce6_in_situ_.release();
   }
 
   /// The fused pass's lists to the device (the plan made with the loop; the model's
@@ -700,8 +721,10 @@ class ElementPasses : SumSlots {
   DeviceArray<Tet4Law> tet4_table_;
   DeviceArray<Ce6Params> ce6_table_;
   DeviceArray<std::uint8_t> tet_material_, ce6_law_;
-  DeviceArray<real> ce6_strength_;   // Model::ce6_strength in slots (heterogeneous rock only)
-  DeviceArray<real> tet_stiffness_;  // Model::tet_stiffness (heterogeneous E only)
+  DeviceArray<real> ce6_strength_;         // Model::ce6_strength in slots (heterogeneous rock only)
+  DeviceArray<real> tet_stiffness_;        // Model::tet_stiffness (heterogeneous E only)
+  DeviceArray<Sym3> tet_in_situ_;          // Model::tet_initial_stress (in-situ stress only)
+  DeviceArray<Ce6Prestress> ce6_in_situ_;  // Model::ce6_prestress in slots (in-situ stress only)
 };
 
 template <class Exec>
@@ -714,7 +737,8 @@ double ElementPasses<Exec>::bytes_per_step(bool gravity, bool integrates) const 
   // pass integrates, which starts each force itself); fused, its list of CE6s.
   const double read_f = integrates ? 0 : gravity ? 4 * nt : 4 * nt - assigned_corners_;
   // The material byte (several materials) and the factor on E (heterogeneous E), read by each tet.
-  const double laws = (tet_material_.size() ? 1 : 0) + (tet_stiffness_.size() ? sizeof(real) : 0);
+  const double laws = (tet_material_.size() ? 1 : 0) + (tet_stiffness_.size() ? sizeof(real) : 0) +
+                      (tet_in_situ_.size() ? sizeof(Sym3) : 0);
   const double tet =
       nt * (5 * sizeof(int) + sizeof(Mat3) + 2 * sizeof(real) + 1 + laws + (integrates ? 2 : 3) * 4 * vec) +
       read_f * vec + (fused_ ? nt * 4 * sizeof(int) : 0);
@@ -726,8 +750,10 @@ double ElementPasses<Exec>::bytes_per_step(bool gravity, bool integrates) const 
   const auto k = carrying();
   // The law byte (several laws) and the strength factor (heterogeneous rock), read by each CE6.
   const double law = (ce6_law_.size() ? 1 : 0) + (ce6_strength_.size() ? sizeof(real) : 0);
-  double ce6 = ce6_coloured_ * (6 * sizeof(int) + sizeof(real) + sizeof(Ce6Damage) + 1 + law) + k[0] * 6 * 4 * vec +
-               k[1] * (sizeof(Ce6Damage) + 2 * sizeof(Ce6Anchors));
+  // The in-situ offsets (in-situ stress), read where the CE6 carries force.
+  const double in_situ = ce6_in_situ_.size() ? sizeof(Ce6Prestress) : 0;
+  double ce6 = ce6_coloured_ * (6 * sizeof(int) + sizeof(real) + sizeof(Ce6Damage) + 1 + law) +
+               k[0] * (6 * 4 * vec + in_situ) + k[1] * (sizeof(Ce6Damage) + 2 * sizeof(Ce6Anchors));
   if (fused_) {
     // Fused, each side that computes the CE6: its flags read (own, damaged), and its damage
     // where the flags say damaged or broken; where it carries force, the connectivity, h and
@@ -736,9 +762,9 @@ double ElementPasses<Exec>::bytes_per_step(bool gravity, bool integrates) const 
     // damage, anchors and flags written; where not (broken, inert), the writer reads the other
     // copy's damage.
     const auto e = carrying_sides();
-    ce6 = e[0] * (1 + law) + e[3] * sizeof(Ce6Damage) + e[1] * (6 * sizeof(int) + sizeof(real) + 6 * 2 * vec) +
-          e[2] * sizeof(Ce6Anchors) + k[1] * (sizeof(Ce6Damage) + sizeof(Ce6Anchors) + 1) +
-          (ce6_coloured_ - k[0]) * sizeof(Ce6Damage);
+    ce6 = e[0] * (1 + law) + e[3] * sizeof(Ce6Damage) +
+          e[1] * (6 * sizeof(int) + sizeof(real) + 6 * 2 * vec + in_situ) + e[2] * sizeof(Ce6Anchors) +
+          k[1] * (sizeof(Ce6Damage) + sizeof(Ce6Anchors) + 1) + (ce6_coloured_ - k[0]) * sizeof(Ce6Damage);
   }
   return tet + ce6;
 }

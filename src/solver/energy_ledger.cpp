@@ -14,7 +14,7 @@ template <class Ledger, class F>
 void each_saved(Ledger& e, F&& f) {
   for (auto* r : {&e.external, &e.cohesive, &e.friction, &e.viscous, &e.platen_friction, &e.contact, &e.contact_slip,
                   &e.initial_kinetic, &e.contact_spring, &e.contact_stored, &e.p_cohesive, &e.p_friction, &e.p_viscous,
-                  &e.p_contact})
+                  &e.p_contact, &e.cohesive_start, &e.excavated})
     f(*r);
 }
 }  // namespace

@@ -36,6 +36,17 @@ struct EnergyLedger {
   // at each monitor row). Where an absorbing boundary takes out what came in, the net input is
   // near zero: the balance is then measured against what came in.
   real inflow = 0;
+  // J, the elastic energy of the in-situ stress (scene initial_stress): the most that releasing
+  // it, as a free face or an excavation does, can turn into motion with no work put in.
+  real in_situ = 0;
+  // J, what the rock has given up of it so far (minus the strain energy, set at each monitor row):
+  // the scale of a balance with no work put in.
+  real released = 0;
+  // J, the CE6s' stored energy in the in-situ state, from which their stored energy counts
+  // (less an excavation's removed CE6s').
+  real cohesive_start = 0;
+  // J, the strain and kinetic energy the excavation stages took out with their rock.
+  real excavated = 0;
 
   /// Its part of a checkpoint: the works and the last powers (the floor comes from the scene).
   void save(CheckpointOut& out) const;
@@ -57,12 +68,12 @@ struct EnergyLedger {
   /// platen-spring energies a monitor row measures (the CE6s' stored energy is in `cohesive`,
   /// the friction springs' of broken faces in `friction`).
   real accounted(real kinetic, real strain, real platen_stored) const {
-    return kinetic + strain + cohesive + friction + viscous + platen_stored + platen_friction + contact;
+    return kinetic + strain + cohesive + friction + viscous + platen_stored + platen_friction + contact + excavated;
   }
-  /// The balance's relative error: |input - accounted| over the input (or the floor, or the
-  /// conditions' inflow where larger).
+  /// The balance's relative error: |input - accounted| over the input (or the floor, the
+  /// conditions' inflow or the in-situ energy released where larger).
   real balance_error(real accounted) const {
-    return std::fabs(input() - accounted) / std::max({std::fabs(input()), floor, inflow});
+    return std::fabs(input() - accounted) / std::max({std::fabs(input()), floor, inflow, released});
   }
 
   /// The checks that stop an unstable run with RunError. `at`: "step n (t = ... s)"; `advice`
@@ -72,7 +83,7 @@ struct EnergyLedger {
   /// A kinetic energy ke (J) far above the work put in.
   template <class Advice>
   void check_runaway(real ke, bool own_work, const std::string& at, Advice&& advice) const {
-    if (own_work || ke <= 2 * std::fabs(input()) + floor) return;
+    if (own_work || ke <= 2 * (std::fabs(input()) + in_situ) + floor) return;
     throw RunError(at + ": kinetic energy " + fmt(ke, 3) + " J against external work " + fmt(input(), 3) +
                    " J: the run is unstable. " + advice());
   }
@@ -84,7 +95,8 @@ struct EnergyLedger {
       throw RunError(at + ": an energy is no longer finite: the run is unstable. " + advice());
     check_runaway(ke, own_work, at, advice);
     const real error = balance_error(accounted);
-    if (tolerance > 0 && !own_work && std::max(std::fabs(input()), inflow) > 100 * floor && error > tolerance)
+    if (tolerance > 0 && !own_work && std::max({std::fabs(input()), inflow, released}) > 100 * floor &&
+        error > tolerance)
       throw RunError(at + ": the energy balance is off by " + fmt(100 * error, 3) + " % of the work put in (" +
                      fmt(input(), 3) + " J against " + fmt(accounted, 3) +
                      " J stored, dissipated and kinetic), above solver.max_energy_error " + fmt(100 * tolerance, 3) +

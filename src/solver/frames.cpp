@@ -76,15 +76,30 @@ void write_frame(FieldWriter& w, const Solver& s, real time, long step, const st
     fr.extra.push_back({"group", &group});
   }
   // With heterogeneous E: each tet's factor on its material's E.
-  if (!s.model().tet_stiffness.empty()) fr.extra.push_back({"youngs_modulus_factor", &s.model().tet_stiffness});
+  const auto& mats = s.scene().materials;
+  if (std::any_of(mats.begin(), mats.end(), [](const Material& m) { return m.heterogeneity.youngs_modulus; }))
+    fr.extra.push_back({"youngs_modulus_factor", &s.model().tet_stiffness});
+  // With an in-situ stress: each tet's, Pa, the six components apart.
+  std::array<std::vector<real>, 6> in_situ;
+  if (s.scene().initial_stress.given) {  // (every rank, also one that holds no tets)
+    static const char* const kNames[6] = {"initial_stress_xx", "initial_stress_yy", "initial_stress_zz",
+                                          "initial_stress_yz", "initial_stress_xz", "initial_stress_xy"};
+    for (const Sym3& t : s.model().tet_initial_stress) {
+      const real c[6] = {t.xx, t.yy, t.zz, t.yz, t.xz, t.xy};
+      for (int k = 0; k < 6; ++k) in_situ[k].push_back(c[k]);
+    }
+    for (int k = 0; k < 6; ++k) fr.extra.push_back({kNames[k], &in_situ[k]});
+  }
   fr.extra.insert(fr.extra.end(), more.begin(), more.end());
-  if (!s.distributed()) {
+  if (!s.distributed() && s.excavation_stages_done() == 0) {
     w.write(fr);
     return;
   }
   // Several ranks: this rank's own tets only (ghosts are written by their owners), and the
-  // rank of each tet as a field.
-  const std::vector<std::uint8_t>& own = s.owned_tets();
+  // rank of each tet as a field. Not the tets an excavation removed.
+  std::vector<std::uint8_t> own = s.owned_tets();
+  own.resize(s.model().tet_nodes.size(), 1);  // (one rank: every tet its own)
+  for (std::size_t t = 0; t < own.size(); ++t) own[t] = own[t] && !s.removed_tet(t);
   std::vector<std::array<int, 4>> tets;
   std::vector<Sym3> st;
   std::vector<real> vm_own, rank;
@@ -101,7 +116,7 @@ void write_frame(FieldWriter& w, const Solver& s, real time, long step, const st
   fr.stress = &st;
   fr.von_mises = &vm_own;
   for (std::size_t k = 0; k < extra.size(); ++k) fr.extra[k].values = &extra[k];
-  fr.extra.push_back({"rank", &rank});
+  if (s.distributed()) fr.extra.push_back({"rank", &rank});
   w.write(fr);
 }
 

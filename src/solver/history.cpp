@@ -71,7 +71,9 @@ std::vector<real> Solver::history_group_sums() const {
     Vec3 x[4], vel[4], f[4];
     for (int k = 0; k < 4; ++k) x[k] = state.x[m.tet_nodes[t][k]], vel[k] = state.v[m.tet_nodes[t][k]];
     const Tet4Law law = tet4_law_of(laws_, m.tet_material, m.tet_stiffness, t);
-    const Sym3 s = tet4_forces(x, vel, m.tet_Xinv[t], m.tet_V0[t], law.lambda, law.mu, m.tet_eta[t], f).stress;
+    const Sym3 s =
+        tet4_forces(x, vel, m.tet_Xinv[t], m.tet_V0[t], law.lambda, law.mu, m.tet_eta[t], f, m.initial_stress_of(t))
+            .stress;
     const real V = m.tet_V0[t];
     const real values[7] = {V * s.xx, V * s.yy, V * s.zz, V * s.xy, V * s.yz, V * s.xz, V};
     for (std::size_t i = 0; i < ne; ++i)
@@ -92,8 +94,9 @@ std::array<real, HistoryPoint::kColumns> Solver::history_point_values(const Hist
     rate += p.w[k] * state.v[n];
   }
   const Tet4Law law = tet4_law_of(laws_, m.tet_material, m.tet_stiffness, p.tet);
-  const Sym3 s =
-      tet4_forces(x, vel, m.tet_Xinv[p.tet], m.tet_V0[p.tet], law.lambda, law.mu, m.tet_eta[p.tet], f).stress;
+  const Sym3 s = tet4_forces(x, vel, m.tet_Xinv[p.tet], m.tet_V0[p.tet], law.lambda, law.mu, m.tet_eta[p.tet], f,
+                             m.initial_stress_of(p.tet))
+                     .stress;
   return {u.x, u.y, u.z, rate.x, rate.y, rate.z, s.xx, s.yy, s.zz, s.xy, s.yz, s.xz};
 }
 

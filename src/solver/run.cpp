@@ -25,6 +25,7 @@
 #include "io/fields.hpp"
 #include "io/run_lock.hpp"
 #include "model/conditions.hpp"
+#include "model/initial_stress.hpp"
 #include "model/joints.hpp"
 #include "model/materials.hpp"
 #include "solver/frames.hpp"
@@ -73,6 +74,8 @@ void report_model(const Solver& solver, std::ostream& out) {
   out << describe_materials(solver.scene(), m, dd.distributed() ? " (this rank)" : "");
   out << describe_joints(solver.scene(), m, dd.distributed() ? " (this rank)" : "");
   out << describe_conditions(solver.scene(), m, dd.distributed() ? " (this rank)" : "");
+  out << describe_initial_stress(solver.scene());
+  out << describe_excavation(solver.scene(), m, dd.distributed() ? " (this rank)" : "");
   out << "  height " << m.height0 << " m, loaded area " << m.area0 << " m^2, mean edge " << m.mean_edge
       << " m, minimum altitude " << m.min_altitude << " m\n"
       << (m.min_altitude < kSliver * m.mean_edge && m.min_altitude_tet >= 0
@@ -370,7 +373,8 @@ void RunSession::write_broken_ce6() const {
   r_.solver.sync_host();
   const ElementLaws& laws = r_.solver.laws();
   for (std::size_t i = 0; i < r_.solver.state.ce6.size(); ++i)
-    if (r_.solver.state.ce6.damage[i].mode != 0 && r_.solver.owned_ce6()[i])
+    if (r_.solver.state.ce6.damage[i].mode != 0 && r_.solver.state.ce6.damage[i].mode != kCe6Excavated &&
+        r_.solver.owned_ce6()[i])
       broken.insert(broken.end(),
                     {r_.dist ? r_.solver.decomposition().ce6_global[i] : long(i),
                      long(r_.solver.state.ce6.damage[i].mode), long(laws.joint_of_law(r_.solver.model().ce6_law[i]))});

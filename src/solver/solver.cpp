@@ -11,6 +11,7 @@
 #include "core/format.hpp"
 #include "core/gather.hpp"
 #include "io/checkpoint.hpp"
+#include "model/initial_stress.hpp"
 #include "model/laws.hpp"
 #include "partition/grow.hpp"
 #include "partition/halo.hpp"
@@ -50,11 +51,13 @@ void Solver::setup(Decomposition dd) {
 
   check_law_indices();
   break_frictional_joints();
+  place_initial_stress(scene_, laws_, model_);
   locate_history_points();
   // The loads' automatic ramps last ten transits of the slowest P wave (the longest transit).
   real wave_speed = 1e300;
   for (const Tet4Law& l : laws_.tet4) wave_speed = std::min(wave_speed, std::sqrt((l.lambda + 2 * l.mu) / l.density));
   loads_ = make_loads(scene_, model_, wave_speed);
+  remove_excavated();  // (after a growth: the stages done so far)
   stable_ = stable_step_bound(model_, scene_, laws_, loads_.platens.k, layout_);
   stable_.dt = sol.time_step_safety * stable_.dt;
   dt_ = sol.time_step > 0 ? sol.time_step : stable_.dt;
@@ -69,6 +72,42 @@ void Solver::setup(Decomposition dd) {
   for (const Material& mat : scene_.materials)
     energy_density = std::min(energy_density, mat.tensile_strength * mat.tensile_strength / (2 * mat.youngs_modulus));
   energy_.floor = 1e-3 * energy_density * volume;
+  energy_.in_situ = in_situ_energy();
+  energy_.cohesive_start = in_situ_cohesive_energy();
+}
+
+real Solver::in_situ_cohesive_energy() const {
+  const Model& m = model_;
+  real sum = 0;
+  for (std::size_t c = 0; c < m.ce6_prestress.size(); ++c) {
+    if (!layout_.own_ce6[c] || ce6_broken(state.ce6.damage[c])) continue;
+    Vec3 x[6], v[6] = {}, f[6];
+    for (int i = 0; i < 6; ++i) x[i] = m.X[m.ce6_nodes[c][i]];
+    Ce6Damage intact{};
+    Vec3 anchors[3] = {};
+    const real strength = m.ce6_strength.empty() ? real(1) : m.ce6_strength[c];
+    sum +=
+        cohesive6_forces(laws_.ce6[m.ce6_law[c]], x, v, m.ce6_h[c], intact, anchors, f, strength, &m.ce6_prestress[c])
+            .stored;
+  }
+  layout_.sum(&sum, 1);
+  return sum;
+}
+
+real Solver::in_situ_energy() const {
+  const Model& m = model_;
+  real sum = 0;
+  for (std::size_t t = 0; t < m.tet_initial_stress.size(); ++t) {
+    if (!layout_.own_tet[t]) continue;
+    const Sym3& s = m.tet_initial_stress[t];
+    const Tet4Law l = tet4_law_of(laws_, m.tet_material, m.tet_stiffness, t);
+    if (!(l.mu > 0)) continue;  // (removed by an excavation)
+    const real ss = s.xx * s.xx + s.yy * s.yy + s.zz * s.zz + 2 * (s.yz * s.yz + s.xz * s.xz + s.xy * s.xy);
+    const real tr = s.xx + s.yy + s.zz;
+    sum += m.tet_V0[t] * (ss - l.lambda / (3 * l.lambda + 2 * l.mu) * tr * tr) / (4 * l.mu);
+  }
+  layout_.sum(&sum, 1);
+  return sum;
 }
 
 void Solver::check_law_indices() const {
@@ -78,7 +117,9 @@ void Solver::check_law_indices() const {
   for (std::uint8_t k : m.ce6_law) ok = ok && k < laws_.ce6.size();
   ok = ok && (m.ce6_strength.empty() || m.ce6_strength.size() == m.ce6_nodes.size());
   ok = ok && (m.tet_stiffness.empty() || m.tet_stiffness.size() == m.tet_nodes.size());
-  for (real f : m.tet_stiffness) ok = ok && f > 0 && f < 1e6;
+  for (std::size_t t = 0; t < m.tet_stiffness.size(); ++t)  // (0: an excavation stage's)
+    ok = ok && m.tet_stiffness[t] < 1e6 && (m.tet_stiffness[t] > 0 || stage_of(t) != 0);
+  for (std::size_t t = 0; t < m.tet_stage.size(); ++t) ok = ok && m.tet_stage[t] <= scene_.excavation.size();
   ok = ok && (m.tet_joint.empty() || m.tet_joint.size() == m.tet_nodes.size());
   for (std::uint8_t j : m.tet_joint) ok = ok && j <= laws_.joint_friction.size();
   if (ok)  // (rank files: drawn at the partition, perhaps with another law than this scene's)
@@ -134,8 +175,14 @@ void Solver::adopt_layout(RankModel rm) {
   model_ = std::move(rm.model);
   const real dt = dt_;  // the run's time step stays
   const StableStep stable = stable_;
+  std::vector<NodePush> push = std::move(loads_.gravity.push);  // (the ghosts' nodes appended: none)
+  const real relax_start = loads_.gravity.relax_start, relax_time = loads_.gravity.relax_time;
+  const EnergyLedger energy = energy_;  // (the in-situ energies of the rock before the stages)
   setup(std::move(rm.dd));
   dt_ = dt, stable_ = stable;
+  energy_.in_situ = energy.in_situ, energy_.cohesive_start = energy.cohesive_start;
+  loads_.gravity.relax_start = relax_start, loads_.gravity.relax_time = relax_time;
+  if (!push.empty()) push.resize(model_.X.size()), loads_.gravity.push = std::move(push);
 }
 
 void Solver::restart_device() {
@@ -160,11 +207,13 @@ void Solver::report_inverted() const {
   sync_host();
   const Model& m = model_;
   for (std::size_t t = 0; t < m.tet_nodes.size(); ++t) {
+    if (removed_tet(t)) continue;  // (no stiffness: it may fold, as the device's count allows)
     Vec3 xe[4], ve[4], fe[4];
     gather(state.x, m.tet_nodes[t], xe);
     gather(state.v, m.tet_nodes[t], ve);
     const Tet4Law l = tet4_law_of(laws_, m.tet_material, m.tet_stiffness, t);
-    const Tet4Eval r = tet4_forces(xe, ve, m.tet_Xinv[t], m.tet_V0[t], l.lambda, l.mu, m.tet_eta[t], fe);
+    const Tet4Eval r =
+        tet4_forces(xe, ve, m.tet_Xinv[t], m.tet_V0[t], l.lambda, l.mu, m.tet_eta[t], fe, m.initial_stress_of(t));
     if (!(r.J > 0))
       throw RunError("step " + std::to_string(state.step) + " (t = " + fmt(state.time, 3) + " s): TET4 #" +
                      std::to_string(model_.tet_input[t] + 1) + " inverted (J = " + fmt(r.J, 3) +
@@ -267,6 +316,7 @@ std::string Solver::instability_advice() const {
 
 void Solver::step() {
   const real dt = dt_;
+  if (!scene_.excavation.empty()) excavate_due();
   upload_if_changed();
   if (state.step == 0) {  // velocities given as initial conditions bring their own energy
     real ke = 0.5 * dev_->kinetic2();
@@ -378,7 +428,8 @@ Monitors Solver::measure() {
   }
   const real lat = sums.lateral_ratio, n_lateral = sums.lateral_nodes, ke = sums.kinetic, se = sums.strain;
   const real lat_sv = sums.lateral_stress_volume, lat_v = sums.middle_volume;
-  const real coh_stored = sums.cohesive_stored, pl_stored = sums.platen_stored;
+  // (The CE6s' stored energy counts from the in-situ state, as the strain energy does.)
+  const real coh_stored = sums.cohesive_stored - energy_.cohesive_start, pl_stored = sums.platen_stored;
   const long damaged = long(sums.damaged), broken = long(sums.broken), b1 = long(sums.broken_I),
              b2 = long(sums.broken_II), b3 = long(sums.broken_mixed);
   r.lateral_strain = n_lateral > 0 ? -lat / n_lateral : 0;
@@ -409,6 +460,7 @@ Monitors Solver::measure() {
   r.contacts = contacts.touching;
   // (sums.friction_stored, the friction-spring energy of broken faces, is counted with their work)
   const real accounted = energy_.accounted(ke, se, pl_stored);
+  energy_.released = std::max(real(0), -se);
   r.energy_error = energy_.balance_error(accounted);
   // The energy balance: work put in against everything stored, dissipated and moving. Runs
   // whose caller prescribes node velocities (tests) are not checked.
@@ -429,7 +481,9 @@ void Solver::tet_stress(const std::vector<Vec3>& xs, const std::vector<Vec3>& vs
     gather(xs, m.tet_nodes[t], xe);
     gather(vs, m.tet_nodes[t], ve);
     const Tet4Law l = tet4_law_of(laws_, m.tet_material, m.tet_stiffness, t);
-    stress[t] = tet4_forces(xe, ve, m.tet_Xinv[t], m.tet_V0[t], l.lambda, l.mu, m.tet_eta[t], fe).stress;
+    stress[t] =
+        tet4_forces(xe, ve, m.tet_Xinv[t], m.tet_V0[t], l.lambda, l.mu, m.tet_eta[t], fe, m.initial_stress_of(t))
+            .stress;
     von_mises[t] = fdem::von_mises(stress[t]);
   }
 }
@@ -440,7 +494,7 @@ void Solver::crack_faces(const std::vector<Ce6State>& cs, std::vector<std::array
   damage.clear();
   mode.clear();
   for (std::size_t i = 0; i < cs.size(); ++i) {
-    if (!layout_.own_ce6[i]) continue;
+    if (!layout_.own_ce6[i] || cs[i].mode == kCe6Excavated) continue;
     const real d = ce6_broken(cs[i]) ? 1 : ce6_max_damage(cs[i]);
     if (d <= 0) continue;
     const auto& q = model_.ce6_nodes[i];
@@ -455,8 +509,9 @@ void Solver::broken_faces(std::vector<std::array<Vec3, 3>>& corners, std::vector
   corners.clear();
   mode.clear();
   for (std::size_t i = 0; i < state.ce6.size(); ++i) {
-    if (!layout_.own_ce6[i] || !ce6_broken(state.ce6.damage[i]) || laws_.joint_of_law(model_.ce6_law[i]) >= 0)
-      continue;  // (the rock's fractures: not the joints)
+    if (!layout_.own_ce6[i] || !ce6_broken(state.ce6.damage[i]) || laws_.joint_of_law(model_.ce6_law[i]) >= 0 ||
+        state.ce6.damage[i].mode == kCe6Excavated)
+      continue;  // (the rock's fractures: not the joints, nor what an excavation removed)
     const auto& q = model_.ce6_nodes[i];
     corners.push_back({model_.X[q[0]], model_.X[q[1]], model_.X[q[2]]});
     mode.push_back(state.ce6.damage[i].mode);
@@ -550,6 +605,16 @@ std::uint64_t physics_fingerprint(const Scene& s, const Model& m, real dt) {
   if (s.materials.size() > 1 || !s.interfaces.empty() || !s.joints.empty()) h = hash_materials(s, m, h);
   h = fnv1a64(m.ce6_strength.data(), m.ce6_strength.size() * sizeof(real), h);  // (none: h as it was)
   h = fnv1a64(m.tet_stiffness.data(), m.tet_stiffness.size() * sizeof(real), h);
+  for (const ExcavationStage& e : s.excavation) {  // (which tets: tet_stage)
+    const real v[] = {e.start, e.relax};
+    h = fnv1a64(v, sizeof v, h);
+  }
+  h = fnv1a64(m.tet_stage.data(), m.tet_stage.size(), h);
+  if (s.initial_stress.given) {
+    const InitialStress& in = s.initial_stress;
+    const Sym3 v[] = {in.stress, in.gradient, {in.reference_z, 0, 0, 0, 0, 0}};
+    h = fnv1a64(v, sizeof v, h);
+  }
   for (const BoundaryCondition& c : s.conditions) {
     const real v[] = {real(c.type), c.velocity.x, c.velocity.y, c.velocity.z,       real(c.components), c.traction.x,
                       c.traction.y, c.traction.z, c.pressure,   real(c.time.shape), c.time.duration};
@@ -569,6 +634,9 @@ void Solver::save(CheckpointOut& out) const {
   // After the contact ghosts grew, the rank model is no longer the one the run started with.
   out.put(growth_);
   if (growth_.count > 0) put_rank_model(out, {model_, layout_.dd}, 0);
+  out.put(excavated_);
+  out.put(loads_.gravity.relax_start);
+  out.put(loads_.gravity.push);
   out.put(physics_fingerprint(scene_, model_, dt_));
   out.put(std::uint64_t(loads_.prescribed.node.size()));
   save_state(out);
@@ -588,8 +656,19 @@ void Solver::load(CheckpointIn& in) {
     if (!layout_.dd.distributed() || rm.dd.rank != layout_.dd.rank || rm.dd.size != layout_.dd.size)
       in.mismatch("a rank model of rank " + std::to_string(rm.dd.rank) + " of " + std::to_string(rm.dd.size));
     adopt_layout(std::move(rm));
-    dev_ = make_device_loop(backend_, loop_parts());
   }
+  // The excavation stages done: their forces, and the model without their rock.
+  std::vector<NodePush> push;
+  in.get(excavated_);
+  in.get(loads_.gravity.relax_start);
+  in.get(push);
+  if (excavated_ < 0 || excavated_ > int(scene_.excavation.size()) || (!push.empty() && push.size() != model_.X.size()))
+    in.mismatch(std::to_string(excavated_) + " excavation stages done, with forces on " + std::to_string(push.size()) +
+                " nodes");
+  loads_.gravity.push = std::move(push);
+  if (excavated_ > 0) loads_.gravity.relax_time = scene_.excavation[excavated_ - 1].relax;
+  remove_excavated();
+  if (growth_.count > 0 || excavated_ > 0) dev_ = make_device_loop(backend_, loop_parts());
   std::uint64_t fp = 0, fixed = 0;
   in.get(fp);
   if (fp != physics_fingerprint(scene_, model_, dt_))

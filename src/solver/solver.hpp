@@ -74,6 +74,9 @@ class Solver : private StepBookkeeping {
   /// of the contact reach from where they were last gathered; the model() then holds the new
   /// ghosts after the old ones (every local id keeps its meaning). Counts of that so far.
   const GhostGrowths& ghost_growths() const { return growth_; }
+  /// Whether an excavation stage done has removed tet t (solver/excavation.cpp), and how many.
+  bool removed_tet(std::size_t t) const;
+  int excavation_stages_done() const { return excavated_; }
   double halo_seconds() const { return layout_.halo_seconds; }
 
   const Model& model() const { return model_; }
@@ -212,6 +215,26 @@ class Solver : private StepBookkeeping {
   void break_frictional_joints();
   /// Throws RunError when the kinetic energy ke (J) far exceeds the work put in.
   void check_runaway(real ke) const;
+  /// J, the elastic energy of the in-situ stress in the rock, all ranks: sum V s:C^-1:s / 2.
+  real in_situ_energy() const;
+  /// J, the intact CE6s' stored energy in the in-situ state at rest, all ranks.
+  real in_situ_cohesive_energy() const;
+  // Excavation (solver/excavation.cpp).
+  /// The stages whose start has come, in order: the forces their rock put on the rest, then their
+  /// removal; the relaxation runs from now.
+  void excavate_due();
+  /// The forces that the tets of `stage` (1 + its index) and their CE6s put on the nodes that
+  /// stay, into the gravity load's relaxing forces; the weight taken off those nodes, and off
+  /// the nodes only removed tets hold, into its held forces.
+  void excavation_forces(int stage);
+  /// The model and state for the stages done: their tets without stiffness or in-situ stress,
+  /// out of contact, their CE6s removed, the nodes only they hold marked. Idempotent.
+  void remove_excavated();
+  /// Into the energy ledger: the strain and kinetic energy that `stage`'s rock takes out, and
+  /// its CE6s' stored energy off the cohesive column's start.
+  void book_removed_energy(int stage);
+  /// 0, or 1 + the excavation stage that removes tet t.
+  int stage_of(std::size_t t) const;
   /// "step n (t = ... s)": where a check stopped the run.
   std::string where() const;
 
@@ -226,8 +249,10 @@ class Solver : private StepBookkeeping {
   Backend backend_ = Backend::cpu;
   std::unique_ptr<DeviceLoop> dev_;
   GhostGrowths growth_;
-  bool device_current_ = false;       // the device arrays hold the newest state
-  mutable bool host_current_ = true;  // the host copy holds it
+  int excavated_ = 0;                     // excavation stages done
+  std::vector<char> held_by_excavation_;  // per node: only removed tets hold it
+  bool device_current_ = false;           // the device arrays hold the newest state
+  mutable bool host_current_ = true;      // the host copy holds it
 };
 
 }  // namespace fdem

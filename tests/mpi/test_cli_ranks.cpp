@@ -201,6 +201,34 @@ TEST(CliRanks, AFrictionalJointOnTwoRanksGivesTheOneRankRun) {
   });
 }
 
+TEST(CliRanks, AnExcavationOnTwoRanksGivesTheOneRankRun) {
+  // The upper layer of a box in in-situ stress excavated and relaxed, with every tet a contact
+  // candidate: each tet's stage travels with the cut (DMPlex, rank 0's, the rank files), every
+  // rank removes its part at the same step, and the removed tets leave the candidates.
+  if (mpiexec(2).empty()) GTEST_SKIP() << "mpiexec not found";
+  TempDir tmp("ranks_excavation");
+  const std::string scene = (kData / "cli" / "excavation_box.yaml").string();
+  const Outcome c = run_fdem("check " + quote(scene));
+  ASSERT_EQ(c.code, 0) << c.text;
+  std::smatch lower;  // the lower layer's tets, which stay
+  ASSERT_TRUE(std::regex_search(c.text, lower, std::regex("group volume 'lower' \\(3D, tag 1\\): ([0-9]+) tets")))
+      << c.text;
+  EXPECT_TRUE(cli_test::has(c.text, "excavation stage 0: volume 'upper'")) << c.text;
+  const fs::path one = tmp.path / "one";
+  const Outcome a = run_fdem("run " + quote(scene) + " -q -o " + quote(one.string()));
+  ASSERT_EQ(a.code, 0) << a.text;
+  const Csv c1 = read_csv(one / "monitors.csv");
+  const int active = column(c1, "active_tets"), strain = column(c1, "strain_J");
+  ASSERT_GE(active, 0);
+  EXPECT_GT(c1.rows.front()[active], std::stod(lower[1])) << "every tet a candidate";
+  EXPECT_EQ(c1.rows.back()[active], std::stod(lower[1])) << "the lower layer's tets only";
+  EXPECT_LT(c1.rows.back()[strain], 0.0) << "J: the lower layer gave up in-situ energy";
+  EXPECT_TRUE(cli_test::has(slurp(one / "fields.xdmf"), "<Attribute Name=\"initial_stress_zz\""));
+  two_rank_runs_match(scene, tmp.path, c1, [&](const fs::path& two) {
+    EXPECT_EQ(c1.rows.back()[active], read_csv(two / "monitors.csv").rows.back()[active]);
+  });
+}
+
 // The first job's ranks (the launcher's children) are stopped while the second job tries the
 // folder, so a fast first job cannot end before the second starts. Stopped ranks keep the lock.
 const std::string kStopRanks = "kids=$(cat /proc/$pid/task/*/children 2>/dev/null); kill -STOP $kids; ";

@@ -26,23 +26,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-/// The layered box with the plane between its layers (z = 10 mm) as surface group 'joint' (tag 7).
-Mesh jointed_box() {
-  Mesh mesh = test::layered_box();
-  MeshGroup joint{"joint", 2, 7, {}, {}};
-  for (int t : mesh.groups[0].tets) {  // (the lower layer's tets: each face of the plane once)
-    const auto& q = mesh.tets[t];
-    for (int i = 0; i < 4; ++i) {
-      std::array<int, 3> f{q[(i + 1) % 4], q[(i + 2) % 4], q[(i + 3) % 4]};
-      bool on = true;
-      for (int v : f) on = on && std::fabs(mesh.vertices[v].z - 0.01) < 1e-9;
-      if (on) joint.faces.push_back(f);
-    }
-  }
-  mesh.groups.push_back(joint);
-  return mesh;
-}
-
 /// The jointed box at rest under gravity g inclined by psi (degrees) from -z towards +x, its
 /// bottom fixed: the upper layer rests on the joint. `joints`: the joints key's value, `contact`:
 /// the activation.
@@ -96,7 +79,7 @@ real upper_acceleration(Solver& s, real t0, real t1) {
   return (n * stv - st * sv) / (n * stt - st * st);
 }
 
-std::string joint_error(const std::string& joints, const Mesh& mesh = jointed_box()) {
+std::string joint_error(const std::string& joints, const Mesh& mesh = test::jointed_box()) {
   return test::build_error(block_scene(30, joints, "none", "time: 1e-3"), "rock.yaml", mesh);
 }
 
@@ -113,7 +96,7 @@ TEST(Joints, AJointBreaksAloneAtItsOwnStrengthAndDissipatesItsFractureEnergy) {
   b.top = "velocity: [~, ~, 0.5], time_function: {shape: smooth, duration: 1e-5}";
   b.end = "time: 6e-5";
   const Scene scene = parse_scene(test::roller_box_scene(b), "rock.yaml");
-  Solver s(scene, build_model(jointed_box(), scene));
+  Solver s(scene, build_model(test::jointed_box(), scene));
   const Model& m = s.model();
   ASSERT_EQ(m.ce6_nodes.size(), 32u) << "4 x 4 cells, two triangles each";
   for (std::size_t c = 0; c < m.ce6_nodes.size(); ++c) EXPECT_EQ(m.ce6_law[c], joint_law(scene, 0));
@@ -149,7 +132,7 @@ TEST(Joints, ABlockSlidesOnAFrictionalJointAtTheClosedFormAcceleration) {
   for (const char* contact : {"none", "adaptive, law: munjiza"}) {
     SCOPED_TRACE(contact);
     const Scene scene = parse_scene(block_scene(30, joint, contact, "time: 1e-3"), "rock.yaml");
-    Solver s(scene, build_model(jointed_box(), scene));
+    Solver s(scene, build_model(test::jointed_box(), scene));
     const Monitors start = s.measure();
     EXPECT_EQ(start.joint_broken, 32) << "a frictional joint is broken from the start";
     EXPECT_EQ(start.broken, 0);
@@ -170,7 +153,7 @@ TEST(Joints, ABlockSticksOnAFrictionalJointBelowItsFrictionAngle) {
   for (const char* contact : {"none", "adaptive, law: munjiza"}) {
     SCOPED_TRACE(contact);
     const Scene scene = parse_scene(block_scene(15, joint, contact, "time: 1e-3"), "rock.yaml");
-    Solver s(scene, build_model(jointed_box(), scene));
+    Solver s(scene, build_model(test::jointed_box(), scene));
     const real a = contact[0] == 'n' ? upper_acceleration(s, 0.25e-3, 1e-3) : upper_acceleration(s, 0.1e-3, 0.4e-3);
     RecordProperty(std::string("acceleration_over_free_") + (contact[0] == 'n' ? "ce6" : "contact"),
                    std::to_string(a / free));
@@ -208,7 +191,7 @@ TEST(Joints, ListingsAndTheFracturePatternCountTheJointsApart) {
   std::string text = block_scene(30, joint, "none", "time: 1e-3");
   text.replace(text.find("material: {friction_rock: 0.9}"), 30, "materials: [{name: granite}]");
   const Scene scene = parse_scene(text, "rock.yaml");
-  const Model m = build_model(jointed_box(), scene);
+  const Model m = build_model(test::jointed_box(), scene);
   const std::string listing = describe_materials(scene, m, "") + describe_joints(scene, m, "");
   EXPECT_TRUE(cli_test::has(listing, "material 'granite' (every tet): 768 tets, 0 CE6s with its law")) << listing;
   EXPECT_TRUE(cli_test::has(listing, "joint 'bedding' (surfaces joint): 32 CE6s, frictional, friction 0.5")) << listing;
@@ -230,7 +213,7 @@ TEST(Joints, JointsThatDoNotFitTheMeshAreRefusedWithTheFix) {
   EXPECT_TRUE(cli_test::has(e, "embed its surface in the volume")) << e;
   e = joint_error("[{name: a, surfaces: [joint]}, {name: b, surfaces: [joint]}]");
   EXPECT_TRUE(cli_test::has(e, "is also on joints[0] ('a'); give each surface to one joint")) << e;
-  Mesh tagged = jointed_box();
+  Mesh tagged = test::jointed_box();
   tagged.groups.back().name = "";
   EXPECT_EQ(joint_error("[{name: j, surfaces: [7]}]", tagged), "") << "by gmsh tag";
   // The scene's keys.
@@ -246,7 +229,7 @@ TEST(Joints, JointsThatDoNotFitTheMeshAreRefusedWithTheFix) {
   e = joint_error("[{name: j, surfaces: [joint], friction: -1}]");
   EXPECT_TRUE(cli_test::has(e, "joints[0].friction")) << e;
   e = test::build_error(block_scene(30, "[{name: j, surfaces: [joint], frictional: true}]", "adaptive", "time: 1e-3"),
-                        "rock.yaml", jointed_box());
+                        "rock.yaml", test::jointed_box());
   EXPECT_TRUE(cli_test::has(e, "joints[0].frictional: a frictional joint with tet-tet contact by the volume law")) << e;
   EXPECT_TRUE(cli_test::has(e, "set contact.law: munjiza")) << e;
   e = joint_error("{name: j}");

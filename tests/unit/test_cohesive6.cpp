@@ -367,6 +367,45 @@ TEST(Cohesive6, RotationInvariance) {
   }
 }
 
+TEST(Cohesive6, InSituOffsetsGiveATractionAtZeroGapThatTurnsWithTheFace) {
+  // Offsets of compression and shear: at zero gap the faces carry a traction, balanced between
+  // the two sides, with no damage; rotating the pair rotates the forces.
+  Material m;
+  const Ce6Params p = make_ce6_params(m);
+  const Triangle tri;
+  const Mat3 R = rotation({-0.6, 0.2, 0.9}, 2.1);
+  Ce6Prestress pre;
+  for (int k = 0; k < 3; ++k) pre.at[k] = {-2e-9 * (1 + k), 3e-9, -1e-9 * k};
+  Vec3 x[6], v[6] = {}, xr[6], f[6], fr[6];
+  for (int i = 0; i < 3; ++i) x[i] = x[i + 3] = tri.X[i];
+  for (int i = 0; i < 6; ++i) xr[i] = R * x[i];
+  Ce6State s{}, sr{};
+  const Ce6Eval e = cohesive6_forces(p, x, v, kH, s, f, 1, &pre);
+  cohesive6_forces(p, xr, v, kH, sr, fr, 1, &pre);
+  Vec3 onA{0, 0, 0}, onB{0, 0, 0};
+  for (int i = 0; i < 3; ++i) onA += f[i], onB += f[i + 3];
+  EXPECT_LT(norm(onA + onB), 1e-12 * norm(onA));
+  // Compression: B pushes A back against n; the mean normal traction is the overlap penalty's.
+  const real mean_o = -2e-9 * 2;
+  EXPECT_NEAR(dot(onA, tri.n) / tri.area, p.P_overlap / kH * mean_o, 1e-9 * p.P_overlap / kH * 4e-9);
+  // The shear: per point the pre-peak curve at the offset's length, along e1 = unit(X1 - X0) and
+  // e2 = n x e1, with the shear strength its compression gives.
+  const Vec3 e1 = (1 / norm(tri.X[1] - tri.X[0])) * (tri.X[1] - tri.X[0]), e2 = cross(tri.n, e1);
+  Vec3 shear{0, 0, 0};
+  for (int k = 0; k < 3; ++k) {
+    const real sigma = p.P_overlap / kH * pre.at[k].x;
+    const real fs = p.cohesion + -sigma * p.tan_phi, sp = 2 * kH * fs / p.P_tan;
+    const Vec3 sv = pre.at[k].y * e1 + pre.at[k].z * e2;
+    const real y = norm(sv) / sp;
+    ASSERT_LT(y, 1.0);
+    shear += (tri.area / 3 * fs * (2 * y - y * y) / norm(sv)) * sv;
+  }
+  EXPECT_LT(norm(onA - dot(onA, tri.n) * tri.n - shear), 1e-9 * norm(shear));
+  EXPECT_EQ(ce6_max_damage(s), 0.0);
+  EXPECT_GT(e.stored, 0.0);
+  for (int i = 0; i < 6; ++i) EXPECT_LT(norm(fr[i] - R * f[i]), 1e-12 * max_abs_force(f)) << i;
+}
+
 // 6. Damage never decreases; unloading follows z(D) sigma_pre; work - stored >= 0.
 TEST(Cohesive6, DamageMonotoneAndUnloading) {
   Material m;

@@ -124,6 +124,47 @@ TEST(Tet4, ForcesAreTheGradientOfTheStrainEnergy) {
     }
 }
 
+TEST(Tet4, AnInSituStressIsHeldTurnsWithTheBodyAndIsTheGradientOfItsEnergy) {
+  // S0 at F = I: the stress is S0, the forces S0 a_i / 3, no strain energy. Rotated rigidly: the
+  // stress turns with the body and still stores nothing. Deformed: the forces are -dW/dx.
+  Vec3 X[4], x[4], v[4] = {}, f[4], fr[4];
+  reference(X);
+  const Sym3 S0{-9e6, -3e6, -6e6, 1e6, -2e6, 0.5e6};
+  const Tet4Reference ref = tet4_reference(X);
+  auto eval0 = [&](const Vec3(&at)[4], Vec3(&out)[4]) {
+    return tet4_forces(at, v, ref.Xinv, ref.V0, lam, mu, 0, out, &S0);
+  };
+  const Tet4Eval r = eval0(X, f);
+  const real s[6] = {r.stress.xx - S0.xx, r.stress.yy - S0.yy, r.stress.zz - S0.zz,
+                     r.stress.yz - S0.yz, r.stress.xz - S0.xz, r.stress.xy - S0.xy};
+  for (real d : s) EXPECT_LT(std::fabs(d), 1e-9 * 9e6);
+  EXPECT_NEAR(r.strain_energy, 0, 1e-12 * 9e6 * ref.V0);
+  for (int i = 0; i < 4; ++i) {
+    const Vec3 a = X[(i + 1) % 4], b = X[(i + 2) % 4], c = X[(i + 3) % 4];
+    Vec3 n = 0.5 * cross(b - a, c - a);
+    if (dot(n, X[i] - a) > 0) n = -n;
+    EXPECT_LT(norm(f[i] - (1.0 / 3) * (S0 * n)), 1e-9 * norm(f[i]));
+  }
+  const Mat3 R = rotation(0.7, -1.1, 2.3);
+  for (int i = 0; i < 4; ++i) x[i] = R * X[i];
+  const Tet4Eval rr = eval0(x, fr);
+  for (int i = 0; i < 4; ++i) EXPECT_LT(norm(fr[i] - R * f[i]), 1e-9 * norm(f[i]));
+  EXPECT_NEAR(rr.strain_energy, 0, 1e-12 * 9e6 * ref.V0);
+  const Mat3 F{{{1.01, 0.004, 0}, {0.002, 0.99, 0.001}, {0, 0.003, 1.02}}};
+  for (int i = 0; i < 4; ++i) x[i] = F * X[i];
+  eval0(x, f);
+  const real h = 1e-9;
+  for (int i = 0; i < 4; ++i)
+    for (int d = 0; d < 3; ++d) {
+      Vec3 xp[4], xm[4], fd[4];
+      for (int j = 0; j < 4; ++j) xp[j] = xm[j] = x[j];
+      xp[i][d] += h;
+      xm[i][d] -= h;
+      const real dW = (eval0(xp, fd).strain_energy - eval0(xm, fd).strain_energy) / (2 * h);
+      EXPECT_NEAR(f[i][d], -dW, 1e-5 * norm(f[i]) + 1e-3);
+    }
+}
+
 TEST(Tet4, ViscousStressIsEtaTimesStrainRate) {
   Vec3 X[4], v[4], f[4];
   reference(X);
