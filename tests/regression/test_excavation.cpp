@@ -320,3 +320,29 @@ TEST(Excavation, AThickWalledCylinderUnderInternalPressureTakesLamesStress) {
   RecordProperty("kinetic_over_strain", fmt(r.kinetic / r.strain, 3));
   EXPECT_LT(r.kinetic, 1e-4 * r.strain) << "J: at rest";
 }
+
+TEST(Excavation, TheReadyTunnelSceneClosesMostAlongTheLargerInSituStress) {
+  // scenes/tunnel_jointed.yaml: 40 MPa horizontal, 12 MPa vertical. Over the relaxation's first
+  // millisecond the side walls close in several times faster than the crown: an elastic hole's
+  // wall moves most along the larger stress (Kirsch's displacement, (p1 + p2) + 2 (3 - 4 nu)
+  // (p1 - p2) cos 2 theta). The joints and the stage come from the .geo's groups.
+  Scene scene = load_scene(std::string(FDEM_SOURCE_DIR) + "/scenes/tunnel_jointed.yaml");
+  scene.solver.threads = 1;
+  Solver s(scene, build_model(load_mesh(scene.mesh), scene));
+  const Model& m = s.model();
+  long tunnel = 0, joint_ce6 = 0;
+  for (std::uint8_t k : m.tet_stage) tunnel += k == 1;
+  for (std::uint8_t l : m.ce6_law) joint_ce6 += s.laws().joint_of_law(l) >= 0;
+  EXPECT_GT(tunnel, 1000);
+  EXPECT_GT(joint_ce6, 200);
+  while (s.time() < 1.2e-3) s.step();
+  const Monitors r = s.measure();
+  ASSERT_EQ(r.history_columns, 24);
+  const real crown_uz = r.history[2], wall_ux = r.history[12];
+  RecordProperty("wall_over_crown_convergence", fmt(wall_ux / crown_uz, 3));
+  EXPECT_LT(wall_ux, 0) << "m: the side wall moves into the tunnel";
+  EXPECT_LT(crown_uz, 0) << "m: so does the crown";
+  EXPECT_GT(wall_ux / crown_uz, 3.0);
+  EXPECT_LT(r.energy_error, 1e-2);
+  EXPECT_EQ(r.broken, 0) << "nothing breaks in the first millisecond";
+}
