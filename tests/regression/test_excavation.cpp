@@ -161,6 +161,42 @@ TEST(Excavation, DiggingAColumnsUpperHalfUnderGravityLeavesTheLowerOneGeostaticF
   EXPECT_LT(r.energy_error, 1e-3);
 }
 
+TEST(Excavation, TwoStagesDigTheUpperHalfInTwoLiftsToTheSameEnd) {
+  // The upper layer split at z = 15 mm: the top lift goes first, then the one below it. After
+  // the first, the block below z = 15 mm has a free top (sigma_zz 0); after the second, the lower
+  // half is as if dug at once: sigma_xx fell by nu / (1 - nu) of 8 MPa, its top rose H sigma_zz / M.
+  const real E = 12.2e9, nu = 0.25, H = 0.01, szz = -8e6;
+  const real M = E * (1 - nu) / ((1 + nu) * (1 - 2 * nu)), k = nu / (1 - nu);
+  std::string yaml = dig_scene("none");
+  const std::string one = "excavate: [{group: upper, start: 2e-5, relax: 1e-4}]";
+  yaml.replace(yaml.find(one), one.size(),
+               "excavate: [{group: top_lift, start: 2e-5, relax: 1e-4}, {group: upper, start: 4e-4, relax: 1e-4}]");
+  Mesh mesh = test::layered_box();
+  MeshGroup lift{"top_lift", 3, 9, {}, {}};
+  std::vector<int> rest;
+  for (int t : mesh.groups[1].tets) {
+    real z = 0;
+    for (int v : mesh.tets[t]) z += 0.25 * mesh.vertices[v].z;
+    (z > 0.015 ? lift.tets : rest).push_back(t);
+  }
+  mesh.groups[1].tets = rest;
+  mesh.groups.insert(mesh.groups.begin() + 2, lift);
+  const Scene s = parse_scene(yaml, "dig.yaml");
+  Solver solver(s, build_model(mesh, s));
+  while (solver.time() < 3.8e-4) solver.step();
+  EXPECT_EQ(solver.excavation_stages_done(), 1);
+  EXPECT_LT(std::fabs(lower_stress(solver).zz), 5e-3 * 8e6) << "Pa: the lift below has a free top";
+  while (solver.time() < 8e-4) solver.step();
+  EXPECT_EQ(solver.excavation_stages_done(), 2);
+  const Sym3 st = lower_stress(solver);
+  const real rise = dug_face_rise(solver), want = -szz * H / M;
+  RecordProperty("two_lifts_rise_over_closed_form", fmt(rise / want, 4));
+  EXPECT_LT(std::fabs(st.zz), 5e-3 * 8e6) << "Pa";
+  EXPECT_NEAR(st.xx, -6e6 - k * szz, 5e-3 * 8e6) << "Pa";
+  EXPECT_NEAR(rise, want, 1e-2 * want) << "m";
+  EXPECT_LT(solver.measure().energy_error, 1e-2);
+}
+
 TEST(Excavation, BothSchedulesAndARestartMidRelaxationGoOnAlike) {
   // The cpu backend's colour passes and the debug backend's fused pass give the same motion
   // through the excavation; a run saved halfway through the relaxation and loaded goes on as the
