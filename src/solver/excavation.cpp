@@ -29,6 +29,15 @@ bool Solver::removed_tet(std::size_t t) const {
   return s != 0 && s <= excavated_;
 }
 
+std::vector<char> Solver::kept_nodes(int stages) const {
+  const Model& m = model_;
+  std::vector<char> kept(m.X.size(), 0);
+  for (std::size_t t = 0; t < m.tet_nodes.size(); ++t)
+    if (stage_of(t) == 0 || stage_of(t) > stages)
+      for (int n : m.tet_nodes[t]) kept[n] = 1;
+  return kept;
+}
+
 void Solver::excavate_due() {
   while (excavated_ < int(scene_.excavation.size()) && state.time >= scene_.excavation[excavated_].start) {
     sync_host();
@@ -52,11 +61,7 @@ void Solver::excavation_forces(int stage) {
   std::vector<NodePush>& push = loads_.gravity.push;
   push.resize(m.X.size());
   for (NodePush& p : push) p.relaxing = Vec3{0, 0, 0};  // (the stage before has relaxed)
-  auto gone = [&](int t) { return stage_of(t) != 0 && stage_of(t) <= stage; };
-  std::vector<char> kept(m.X.size(), 0);
-  for (std::size_t t = 0; t < m.tet_nodes.size(); ++t)
-    if (!gone(int(t)))
-      for (int n : m.tet_nodes[t]) kept[n] = 1;
+  const std::vector<char> kept = kept_nodes(stage);
   const Vec3 g = loads_.gravity.g;
   // The removed TET4s' elastic forces on the nodes that stay, and their share of those nodes'
   // weight: it relaxes with them, and is then off for good (the nodes keep the mass).
@@ -97,10 +102,7 @@ void Solver::book_removed_energy(int stage) {
   // What leaves with the removed rock: its tets' strain energy, the kinetic energy of the nodes
   // that stop, and (for the cohesive column only) its CE6s' stored energy.
   const Model& m = model_;
-  std::vector<char> kept(m.X.size(), 0);
-  for (std::size_t t = 0; t < m.tet_nodes.size(); ++t)
-    if (stage_of(t) == 0 || stage_of(t) > stage)
-      for (int n : m.tet_nodes[t]) kept[n] = 1;
+  const std::vector<char> kept = kept_nodes(stage);
   real sums[2] = {0, 0};  // J: strain and kinetic energy; CE6 stored energy
   for (std::size_t t = 0; t < m.tet_nodes.size(); ++t) {
     if (stage_of(t) != stage || !layout_.own_tet[t]) continue;
@@ -134,16 +136,13 @@ void Solver::remove_excavated() {
   held_by_excavation_.assign(m.X.size(), 0);
   if (excavated_ == 0) return;
   if (m.tet_stiffness.empty()) m.tet_stiffness.assign(m.tet_nodes.size(), 1);
-  std::vector<char> kept(m.X.size(), 0);
   for (std::size_t t = 0; t < m.tet_nodes.size(); ++t) {
-    if (!removed_tet(t)) {
-      for (int n : m.tet_nodes[t]) kept[n] = 1;
-      continue;
-    }
+    if (!removed_tet(t)) continue;
     m.tet_stiffness[t] = 0, m.tet_eta[t] = 0;
     if (!m.tet_initial_stress.empty()) m.tet_initial_stress[t] = Sym3{0, 0, 0, 0, 0, 0};
     if (t < contacts.tet_flags.size()) contacts.tet_flags[t] |= TetFlag::kExcavated;
   }
+  const std::vector<char> kept = kept_nodes(excavated_);
   for (std::size_t n = 0; n < m.X.size(); ++n) held_by_excavation_[n] = !kept[n];
   for (std::size_t c = 0; c < m.ce6_nodes.size(); ++c)
     if (removed_tet(m.ce6_tets[c][0]) || removed_tet(m.ce6_tets[c][1])) state.ce6.damage[c] = excavated_state();

@@ -235,6 +235,8 @@ class Solver : private StepBookkeeping {
   void book_removed_energy(int stage);
   /// 0, or 1 + the excavation stage that removes tet t.
   int stage_of(std::size_t t) const;
+  /// Per node, 1 where a tet that the first `stages` excavation stages leave holds it.
+  std::vector<char> kept_nodes(int stages) const;
   /// "step n (t = ... s)": where a check stopped the run.
   std::string where() const;
 
