@@ -307,41 +307,164 @@ struct Overlap {
   real area;          // m^2, the boundary's area
 };
 
-/// Adds the faces of tet `a` inside tet `b` (its face planes pb) to the overlap: their part of
-/// V, and dV/dx of a's nodes to `grad`. On a clipped polygon the node weights are linear, so
-/// int lambda_i dS is the area times lambda_i at the polygon's centroid.
-FDEM_HD void add_faces_inside(const Vec3 (&a)[4], const Planes& pb, Vec3 (&grad)[4], Overlap& ov) {
-  Poly buf[2];
-  for (int f = 0; f < 4; ++f) {  // face of a opposite node f
-    const int i0 = (f + 1) % 4, i1 = (f + 2) % 4, i2 = (f + 3) % 4;
-    const Vec3 q0 = a[i0], q1 = a[i1], q2 = a[i2];
-    const Vec3 na = cross(q1 - q0, q2 - q0);  // along the face's own orientation (q0, q1, q2)
-    const real na2 = dot(na, na);
-    if (!(na2 > 0)) continue;
-    const int cur = clip_to_tet(q0, q1, q2, pb, buf);
-    if (cur < 0) continue;
-    const Poly& q = buf[cur];
-    // Area (twice, along na, times |na|) and first moment of the polygon's fan.
-    real area2 = 0;
-    Vec3 moment{0, 0, 0};
-    for (int t = 1; t + 1 < q.n; ++t) {
-      const real at = dot(cross(q.p[t] - q.p[0], q.p[t + 1] - q.p[0]), na);
-      area2 += at;
-      moment += (at / 3) * (q.p[0] + q.p[t] + q.p[t + 1]);
+constexpr int kMaxVerts = 40;    // a tet cut by four planes has at most 26 vertices
+constexpr int kMaxEdges = 72;    // and at most 18 edges, each held twice (once per face)
+constexpr int kMaxCuts = 4;      // crossings of one plane by one face (1 but for round-off)
+constexpr int kMaxCrossed = 16;  // edges one plane crosses (at most 7 but for round-off)
+
+/// Tet a cut by tet b's four face planes, kept as a closed surface: a pool of vertices and
+/// directed edges, each edge tagged with the face it bounds (0-3: a's face opposite that
+/// node; 4-7: b's face plane k + 4, the caps). Each edge lies in two faces, once in each
+/// direction, on the same two vertices of the pool. So the surface closes exactly whatever
+/// the round-off, and V = (1/3) int p.n dS does not depend on the origin. (Two clipped faces
+/// that each decide alone which side of a plane they lie on do not close where a face of a
+/// lies in a face of b, as on a joint: one of them can keep its whole face and the other
+/// none, and V was then off by up to a tet's volume.)
+struct CutTet {
+  Vec3 v[kMaxVerts];
+  int nv;
+  unsigned char from[kMaxEdges], to[kMaxEdges], face[kMaxEdges];
+  int ne;
+};
+
+FDEM_HD_INLINE void cut_tet_start(const Vec3 (&a)[4], CutTet& t) {
+  t.nv = 4;
+  t.ne = 0;
+  for (int i = 0; i < 4; ++i) t.v[i] = a[i];
+  for (int f = 0; f < 4; ++f) {  // face opposite f, its edges outward (counter-clockwise from outside)
+    int q[3] = {(f + 1) % 4, (f + 2) % 4, (f + 3) % 4};
+    if (dot(cross(a[q[1]] - a[q[0]], a[q[2]] - a[q[0]]), a[f] - a[q[0]]) > 0) {
+      const int swap = q[1];
+      q[1] = q[2];
+      q[2] = swap;
     }
-    if (!(area2 > 0)) continue;
-    const Vec3 c = (real(1) / area2) * moment;  // the polygon's centroid
-    const real inv_na = real(1) / std::sqrt(na2);
-    const real area = real(0.5) * area2 * inv_na;
-    const Vec3 nhat = (dot(na, a[f] - q0) > 0 ? -inv_na : inv_na) * na;  // outward
-    const real l0 = dot(cross(q1 - c, q2 - c), na) / na2;
-    const real l1 = dot(cross(q2 - c, q0 - c), na) / na2;
-    grad[i0] += (area * l0) * nhat;
-    grad[i1] += (area * l1) * nhat;
-    grad[i2] += (area * (1 - l0 - l1)) * nhat;
-    ov.volume += area * dot(nhat, q0) / 3;
-    ov.first_moment += area * c;
-    ov.area += area;
+    for (int e = 0; e < 3; ++e) {
+      t.from[t.ne] = (unsigned char)q[e];
+      t.to[t.ne] = (unsigned char)q[(e + 1) % 3];
+      t.face[t.ne++] = (unsigned char)f;
+    }
+  }
+}
+
+/// The vertex where edge (in, out) crosses the plane, s the plane function at both ends:
+/// made once per edge and plane (cut[] holds this plane's), from the inner end, so that
+/// both faces of the edge share it. -1 where the pool is full.
+FDEM_HD_INLINE int crossing(CutTet& t, int in, int out, const real* s, int (*cut)[3], int& ncut) {
+  if (s[in] == 0) return in;
+  for (int c = 0; c < ncut; ++c)
+    if (cut[c][0] == in && cut[c][1] == out) return cut[c][2];
+  if (t.nv == kMaxVerts || ncut == kMaxCrossed) return -1;
+  t.v[t.nv] = t.v[in] + (s[in] / (s[in] - s[out])) * (t.v[out] - t.v[in]);
+  cut[ncut][0] = in, cut[ncut][1] = out, cut[ncut][2] = t.nv;
+  ++ncut;
+  return t.nv++;
+}
+
+/// Keeps the part of t where dot(n, p - o) >= 0 and closes it with a cap tagged `cap`.
+/// Returns false where nothing of positive volume is left, or a buffer would overflow
+/// (only round-off could make so many crossings; the pair then counts as apart).
+FDEM_HD bool cut_tet_by(CutTet& t, Vec3 n, Vec3 o, int cap) {
+  real s[kMaxVerts];
+  bool some_in = false, some_out = false;
+  for (int i = 0; i < t.nv; ++i) s[i] = dot(n, t.v[i] - o);
+  for (int e = 0; e < t.ne; ++e) some_in |= s[t.from[e]] > 0, some_out |= s[t.from[e]] < 0;
+  if (!some_in) return false;
+  if (!some_out) return true;
+  int cut[kMaxCrossed][3], ncut = 0;
+  int exits[8][kMaxCuts], entries[8][kMaxCuts], nexit[8] = {0}, nentry[8] = {0};
+  int kept = 0;
+  for (int e = 0; e < t.ne; ++e) {
+    const int p = t.from[e], q = t.to[e], f = t.face[e];
+    const bool p_in = s[p] >= 0, q_in = s[q] >= 0;
+    int a = p, b = q;
+    if (p_in && !q_in) {
+      b = crossing(t, p, q, s, cut, ncut);
+      if (b < 0 || nexit[f] == kMaxCuts) return false;
+      exits[f][nexit[f]++] = b;
+    } else if (!p_in && q_in) {
+      a = crossing(t, q, p, s, cut, ncut);
+      if (a < 0 || nentry[f] == kMaxCuts) return false;
+      entries[f][nentry[f]++] = a;
+    } else if (!p_in) {
+      continue;
+    }
+    if (a == b) continue;
+    t.from[kept] = (unsigned char)a, t.to[kept] = (unsigned char)b, t.face[kept] = (unsigned char)f;
+    ++kept;
+  }
+  t.ne = kept;
+  // Each face leaves at an exit and comes back at an entry, both on the plane: the face is
+  // closed along the plane from the one to the other, and the cap runs the other way. Where
+  // round-off makes several, any pairing gives the same segments of that one line.
+  for (int f = 0; f < 8; ++f) {
+    if (nexit[f] != nentry[f]) return false;
+    for (int c = 0; c < nexit[f]; ++c) {
+      if (exits[f][c] == entries[f][c]) continue;
+      if (t.ne + 2 > kMaxEdges) return false;
+      t.from[t.ne] = (unsigned char)exits[f][c], t.to[t.ne] = (unsigned char)entries[f][c];
+      t.face[t.ne++] = (unsigned char)f;
+      t.from[t.ne] = (unsigned char)entries[f][c], t.to[t.ne] = (unsigned char)exits[f][c];
+      t.face[t.ne++] = (unsigned char)cap;
+    }
+  }
+  return true;
+}
+
+/// Integral of the barycentric weight of q0 over a polygon in triangle (q0, q1, q2) (na its
+/// normal, na2 = |na|^2), from the polygon's area A and first moment M: the weight is affine.
+FDEM_HD_INLINE real weight_integral(Vec3 q1, Vec3 q2, Vec3 na, real na2, real A, Vec3 M) {
+  return (A * dot(cross(q1, q2), na) + dot(cross(M, q1 - q2), na)) / na2;
+}
+
+/// Adds face f of the cut tet (its area A and first moment M, outward unit normal nhat) to
+/// the overlap: its share of V, and dV/dx of the three nodes q[] of the face it lies on.
+FDEM_HD_INLINE void add_face(const Vec3 (&x)[4], const int (&q)[3], Vec3 nhat, real A, Vec3 M, Vec3 (&grad)[4],
+                             Overlap& ov) {
+  const Vec3 na = cross(x[q[1]] - x[q[0]], x[q[2]] - x[q[0]]);
+  const real na2 = dot(na, na);
+  if (!(na2 > 0)) return;
+  const real l0 = weight_integral(x[q[1]], x[q[2]], na, na2, A, M);
+  const real l1 = weight_integral(x[q[2]], x[q[0]], na, na2, A, M);
+  grad[q[0]] += l0 * nhat;
+  grad[q[1]] += l1 * nhat;
+  grad[q[2]] += (A - l0 - l1) * nhat;
+  ov.volume += dot(nhat, M) / 3;
+  ov.first_moment += M;
+  ov.area += A;
+}
+
+/// The overlap of tets a and b (face planes pa, pb): a cut by b's four planes, its faces
+/// summed. On a's faces the node weights are a's, on the caps b's. Volume 0 where none.
+FDEM_HD void overlap_of(const Vec3 (&a)[4], const Vec3 (&b)[4], const Planes& pa, const Planes& pb, Overlap& ov) {
+  CutTet t;
+  cut_tet_start(a, t);
+  for (int k = 0; k < 4; ++k)
+    if (!cut_tet_by(t, pb.n[k], pb.o[k], 4 + k)) return;
+  real A[8] = {0};
+  Vec3 M[8], r[8];
+  bool seen[8] = {false};
+  Vec3 nhat[8];
+  for (int f = 0; f < 8; ++f) {
+    const Vec3 n = f < 4 ? pa.n[f] : pb.n[f - 4];  // inward: the overlap lies on its positive side
+    nhat[f] = (real(-1) / norm(n)) * n;
+    M[f] = Vec3{0, 0, 0};
+  }
+  for (int e = 0; e < t.ne; ++e) {  // each face fanned from its first vertex met
+    const int f = t.face[e];
+    if (!seen[f]) seen[f] = true, r[f] = t.v[t.from[e]];
+    const Vec3 p = t.v[t.from[e]], q = t.v[t.to[e]];
+    const real at = real(0.5) * dot(nhat[f], cross(p - r[f], q - r[f]));
+    A[f] += at;
+    M[f] += (at / 3) * (r[f] + p + q);
+  }
+  for (int f = 0; f < 8; ++f) {
+    if (!seen[f]) continue;
+    const int k = f % 4;
+    const int q[3] = {(k + 1) % 4, (k + 2) % 4, (k + 3) % 4};
+    if (f < 4)
+      add_face(a, q, nhat[f], A[f], M[f], ov.grad_a, ov);
+    else
+      add_face(b, q, nhat[f], A[f], M[f], ov.grad_b, ov);
   }
 }
 
@@ -369,8 +492,7 @@ FDEM_HD_INLINE ContactEval contact_volume_pair(const Vec3 (&a_in)[4], const Vec3
   if (!(va > 0) || !(vb > 0)) return e;  // degenerate
   if (separated_by(pb, a) || separated_by(pa, b) || separated_by_edges(a, b)) return e;
   Overlap ov{0, {}, {}, {0, 0, 0}, 0};  // (the gradients' {} are zeros)
-  add_faces_inside(a, pb, ov.grad_a, ov);
-  add_faces_inside(b, pa, ov.grad_b, ov);
+  overlap_of(a, b, pa, pb, ov);
   const real V = ov.volume;
   if (!(V > 0) || !(ov.area > 0)) return e;
   e.overlap = V;

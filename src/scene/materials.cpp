@@ -263,17 +263,6 @@ void read_joints(YamlReader& r, const YAML::Node& n, Scene& s) {
   }
 }
 
-void check_joint_contact(YamlReader& r, const Scene& s) {
-  if (!s.contact.enabled() || s.contact.law != ContactLaw::volume) return;
-  for (std::size_t i = 0; i < s.joints.size(); ++i)
-    if (s.joints[i].frictional)
-      r.error(Joint::key(i) + ".frictional",
-              "a frictional joint with tet-tet contact by the volume law: on the joint's coincident faces that "
-              "law is unstable (docs/physics.md, Joints)",
-              "set contact.law: munjiza, or contact.activation: none (the joint's CE6s then hold it, for sliding "
-              "small against the elements)");
-}
-
 void check_materials(YamlReader& r, const Scene& s) {
   const Material& first = s.material();
   for (std::size_t i = 1; i < s.materials.size(); ++i) {

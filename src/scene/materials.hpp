@@ -21,9 +21,6 @@ void read_interfaces(YamlReader& r, const YAML::Node& n, Scene& s);
 /// The list under `joints` into s.joints (after the materials, whose first gives the keys not given).
 void read_joints(YamlReader& r, const YAML::Node& n, Scene& s);
 
-/// A frictional joint needs a contact law that holds coincident faces: not the volume law.
-void check_joint_contact(YamlReader& r, const Scene& s);
-
 /// Cross-checks of the materials and interfaces read: the contact values every material must
 /// share, and, on a generated mesh, each CE6 law's fracture energies against its element size.
 void check_materials(YamlReader& r, const Scene& s);

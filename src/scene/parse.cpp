@@ -374,7 +374,6 @@ class Reader : public YamlReader {
     if (given("platens")) platens(root["platens"], s.platens);
     if (given("confinement")) confinement(root["confinement"], s.confinement, s.platens.enabled);
     if (given("contact")) contact(root["contact"], s.contact);
-    check_joint_contact(*this, s);
     if (root["gravity"]) vec3(root["gravity"], "gravity", closed(-1e4, 1e4), s.gravity);
     if (root["boundary_conditions"]) read_boundary_conditions(*this, root["boundary_conditions"], s.conditions);
     if (root["history"]) read_history(*this, root["history"], s.history);

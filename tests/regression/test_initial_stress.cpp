@@ -138,7 +138,7 @@ TEST(InitialStress, AFrictionalJointHoldsTheStressAcrossIt) {
         {"{zz: -1e6, xz: 0.6e6}", "shear traction 6e+05 Pa above the joint's friction 5e+05 Pa"}};
     for (const auto& [stress, want] : cases) {
       std::string scene = box_scene(all, std::string("{stress: ") + stress + "}", "joints: " + joints);
-      if (contact) scene.replace(scene.find(no_contact), no_contact.size(), "contact: {law: munjiza}\n");
+      if (contact) scene.replace(scene.find(no_contact), no_contact.size(), "contact: {activation: adaptive}\n");
       const std::string e = setup_error(scene, test::jointed_box());
       EXPECT_NE(e.find(want), std::string::npos) << e;
     }
