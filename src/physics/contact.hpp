@@ -349,13 +349,13 @@ FDEM_HD_INLINE void cut_tet_start(const Vec3 (&a)[4], CutTet& t) {
 /// The vertex where edge (in, out) crosses the plane, s the plane function at both ends:
 /// made once per edge and plane (cut[] holds this plane's), from the inner end, so that
 /// both faces of the edge share it. -1 where the pool is full.
-FDEM_HD_INLINE int crossing(CutTet& t, int in, int out, const real* s, int (*cut)[3], int& ncut) {
+FDEM_HD_INLINE int crossing(CutTet& t, int in, int out, const real* s, unsigned char (*cut)[3], int& ncut) {
   if (s[in] == 0) return in;
   for (int c = 0; c < ncut; ++c)
     if (cut[c][0] == in && cut[c][1] == out) return cut[c][2];
   if (t.nv == kMaxVerts || ncut == kMaxCrossed) return -1;
   t.v[t.nv] = t.v[in] + (s[in] / (s[in] - s[out])) * (t.v[out] - t.v[in]);
-  cut[ncut][0] = in, cut[ncut][1] = out, cut[ncut][2] = t.nv;
+  cut[ncut][0] = (unsigned char)in, cut[ncut][1] = (unsigned char)out, cut[ncut][2] = (unsigned char)t.nv;
   ++ncut;
   return t.nv++;
 }
@@ -370,8 +370,8 @@ FDEM_HD bool cut_tet_by(CutTet& t, Vec3 n, Vec3 o, int cap) {
   for (int e = 0; e < t.ne; ++e) some_in |= s[t.from[e]] > 0, some_out |= s[t.from[e]] < 0;
   if (!some_in) return false;
   if (!some_out) return true;
-  int cut[kMaxCrossed][3], ncut = 0;
-  int exits[8][kMaxCuts], entries[8][kMaxCuts], nexit[8] = {0}, nentry[8] = {0};
+  unsigned char cut[kMaxCrossed][3], exits[8][kMaxCuts], entries[8][kMaxCuts];  // (vertex indices: local memory)
+  int ncut = 0, nexit[8] = {0}, nentry[8] = {0};
   int kept = 0;
   for (int e = 0; e < t.ne; ++e) {
     const int p = t.from[e], q = t.to[e], f = t.face[e];
@@ -380,11 +380,11 @@ FDEM_HD bool cut_tet_by(CutTet& t, Vec3 n, Vec3 o, int cap) {
     if (p_in && !q_in) {
       b = crossing(t, p, q, s, cut, ncut);
       if (b < 0 || nexit[f] == kMaxCuts) return false;
-      exits[f][nexit[f]++] = b;
+      exits[f][nexit[f]++] = (unsigned char)b;
     } else if (!p_in && q_in) {
       a = crossing(t, q, p, s, cut, ncut);
       if (a < 0 || nentry[f] == kMaxCuts) return false;
-      entries[f][nentry[f]++] = a;
+      entries[f][nentry[f]++] = (unsigned char)a;
     } else if (!p_in) {
       continue;
     }
