@@ -8,22 +8,29 @@
 // (slowest rank; it includes waiting for the other ranks, i.e. load imbalance), halo
 // bytes sent per step (largest rank and all ranks), ghost tets against own tets, neighbours.
 //
-// Part 2 (--weak N, one process): weak scaling to 8 and 64 ranks without running them. A box
-// of about N tets per rank times P is partitioned for P = 1, 2, 8, 64; for a sample of ranks
-// the halo is built exactly as a run would build it, giving the largest ghost-node count,
-// neighbour count and ghost-tet fraction. The time per step is then modelled as
-//   t(P) = t_compute(N) * (1 + elements computed twice / own elements) + neighbours * latency
-//          + bytes / bandwidth
-// with t_compute measured here per own tet (part 1 or --tet-us) and the latency and bandwidth
+// Part 2 (--weak N, one process): weak scaling without running the ranks. A box of about N
+// tets per rank times P is partitioned for each P of --ranks (default 1,2,8,64); for a sample
+// of ranks the halo is built exactly as a run would build it, giving the largest ghost-node
+// count, neighbour count and ghost-tet fraction. The time per step is then modelled as
+//   t(P) = t_tet * own * (1 + elements computed twice / own elements) + t_contact * held
+//          + neighbours * latency + bytes / bandwidth + ceil(log2 P) * latency
+// with t_tet measured per own tet-step (part 1 or --tet-us) and the latency and bandwidth
 // given (--latency-us, --gbps; defaults 2 us and 12.5 GB/s, an HDR100 InfiniBand link; these
-// are assumptions, not measurements).
+// are assumptions, not measurements). The last term is the step's one reduction over the
+// ranks (recursive doubling). --contact-us C (us per own tet-step of the contact passes,
+// every tet a candidate) adds contact: the ranks then also hold the contact ghosts within two
+// mean edges, and the positions and velocities of every ghost tet's nodes cross the halo each
+// step with a flag per ghost tet (every tet a candidate: the halo at its largest, counted on the
+// receiving side). A pair across ranks is evaluated on both, so the own tets with a corner
+// where a ghost has one count twice.
 //
 // --fracture-below F: CE6s only in the lower fraction F of the box (0 < F < 1; default: CE6
 // everywhere), where a tet costs about 4 times one outside; --uniform: METIS balances tet counts
 // instead of the tets' step cost (partition/partition.hpp, tet_cost_weights).
 //
 // Usage: mpiexec -n 2 bench_ranks [--cells 6,10,14] [--steps N] [--contact] [--fracture-below F] [--uniform]
-//        bench_ranks --weak 20000 [--tet-us 0.5] [--latency-us 2] [--gbps 12.5] [--sample 6]
+//        bench_ranks --weak 20000 [--ranks 1,2,8,64] [--tet-us 0.5] [--contact-us C] [--latency-us 2]
+//                    [--gbps 12.5] [--sample 6]
 // Prints Markdown. A benchmark, not a test: it checks nothing.
 #include <mpi.h>
 #include <omp.h>
@@ -35,6 +42,7 @@
 #include <cstring>
 #include <sstream>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "model/structured.hpp"
@@ -127,51 +135,113 @@ void measured(const std::vector<int>& cells, int steps, bool contact, double fra
   }
 }
 
-void weak(long per_rank, double tet_us, double latency_us, double gbps, int sample) {
-  const Scene scene = bench_scene(false);
+/// The halo of a sample of ranks of a partition: the largest of each figure over the sample.
+struct HaloSample {
+  double own = 0, ghost_ratio = 0, border = 0, neighbours = 0, bytes = 0, twice = 0;
+};
+
+/// The share of a rank's own tets with a corner where a ghost tet has one: the tets whose
+/// contact pairs can reach across ranks, evaluated on both.
+double border_share(const RankModel& rm) {
+  std::vector<std::tuple<real, real, real>> ghost_corners;
+  const Model& m = rm.model;
+  for (std::size_t t = 0; t < m.tet_nodes.size(); ++t)
+    if (!rm.dd.tet_owned[t])
+      for (int n : m.tet_nodes[t]) ghost_corners.emplace_back(m.X[n].x, m.X[n].y, m.X[n].z);
+  std::sort(ghost_corners.begin(), ghost_corners.end());
+  double own = 0, border = 0;
+  for (std::size_t t = 0; t < m.tet_nodes.size(); ++t) {
+    if (!rm.dd.tet_owned[t]) continue;
+    bool on = false;
+    for (int n : m.tet_nodes[t])
+      on = on || std::binary_search(ghost_corners.begin(), ghost_corners.end(),
+                                    std::make_tuple(m.X[n].x, m.X[n].y, m.X[n].z));
+    own += 1, border += on;
+  }
+  return own > 0 ? border / own : 0;
+}
+
+HaloSample sample_halo(const Model& global, const PartitionPlan& plan, int P, int sample) {
+  HaloSample h;
+  for (int k = 0; k < std::min(P, sample); ++k) {
+    const int r = int((long(k) * P) / std::min(P, sample));  // spread over the rank numbers
+    const RankModel rm = extract_rank(global, plan, r);
+    double own = 0, ghost = 0, sent = 0, own_elems = 0, twice = 0;
+    for (auto o : rm.dd.tet_owned) own += o, ghost += !o;
+    // Elements computed on two ranks: CE6s of the boundary (ghost TET4s and the other CE6s
+    // are skipped: they act on no owned node).
+    for (std::size_t c = 0; c < rm.model.ce6_nodes.size(); ++c) {
+      bool touches = false;
+      for (int n : rm.model.ce6_nodes[c]) touches = touches || rm.dd.node_owned[n];
+      twice += !rm.dd.ce6_owned[c] && touches;
+      own_elems += rm.dd.ce6_owned[c];
+    }
+    own_elems += own;
+    h.twice = std::max(h.twice, twice / own_elems);
+    for (const Neighbour& n : rm.dd.neighbours) sent += 2.0 * sizeof(Vec3) * double(n.send_nodes.size());
+    if (plan.reach > 0) {  // every tet a candidate: the nodes of every ghost tet, and a flag per ghost tet
+      std::vector<char> ghost_node(rm.model.X.size(), 0);
+      for (std::size_t t = 0; t < rm.model.tet_nodes.size(); ++t)
+        if (!rm.dd.tet_owned[t])
+          for (int n : rm.model.tet_nodes[t]) ghost_node[n] = !rm.dd.node_owned[n];
+      double nodes = 0;
+      for (char g : ghost_node) nodes += g;
+      sent = std::max(sent, 2.0 * sizeof(Vec3) * nodes + ghost);
+    }
+    h.own = std::max(h.own, own);
+    if (plan.reach > 0) h.border = std::max(h.border, border_share(rm));
+    h.ghost_ratio = std::max(h.ghost_ratio, own > 0 ? ghost / own : 0);
+    h.neighbours = std::max(h.neighbours, double(rm.dd.neighbours.size()));
+    h.bytes = std::max(h.bytes, sent);
+  }
+  return h;
+}
+
+struct WeakCosts {
+  double tet_us, contact_us, latency_us, gbps;
+};
+
+void weak(long per_rank, const std::vector<int>& ranks, const WeakCosts& c, int sample) {
+  const bool contact = c.contact_us > 0;
+  const Scene scene = bench_scene(contact);
   std::printf(
-      "\n### Weak scaling model: about %ld tets per rank\n\n"
+      "\n### Weak scaling model: about %ld tets per rank%s\n\n"
       "Measured: partition, ghosts and halo of a sample of %d ranks (the largest shown). Modelled: compute %.3f us "
-      "per own tet-step (x (1 + elements computed twice / own elements)), latency %.1f us per neighbour, %.1f GB/s per "
-      "rank.\n\n"
-      "| ranks | tets | own tets (largest) | ghost tets / own | computed twice / own elements | neighbours | "
-      "halo kB/step | compute us | halo us | step us | halo share | efficiency vs 1 rank |\n"
-      "|---|---|---|---|---|---|---|---|---|---|---|---|\n",
-      per_rank, sample, tet_us, latency_us, gbps);
+      "per own tet-step (x (1 + elements computed twice / own elements)), contact %.3f us per own tet-step (x (1 + "
+      "own tets on the border / own)), latency "
+      "%.1f us per neighbour and per reduction stage, %.1f GB/s per rank.\n\n"
+      "| ranks | tets | own tets (largest) | ghost tets / own | computed twice / own elements | border / own | "
+      "neighbours | "
+      "halo kB/step | compute us | contact us | halo us | reduction us | step us | efficiency vs 1 rank | "
+      "largest loss |\n"
+      "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+      per_rank, contact ? ", contact" : "", sample, c.tet_us, c.contact_us, c.latency_us, c.gbps);
   double t1 = 0;
-  for (int P : {1, 2, 8, 64}) {
+  for (int P : ranks) {
     const int nx = std::max(2, int(std::lround(std::cbrt(double(per_rank) * P / 12.0))));
     const Model global = box_model(nx, scene);
-    const PartitionPlan plan = plan_partition(global, partition_tets(global, P), 0);
-    double own_max = 0, ghost_ratio = 0, nb_max = 0, bytes_max = 0, redundant = 0;
-    for (int k = 0; k < std::min(P, sample); ++k) {
-      const int r = int((long(k) * P) / std::min(P, sample));  // spread over the rank numbers
-      const RankModel rm = extract_rank(global, plan, r);
-      double own = 0, ghost = 0, sent = 0, own_elems = 0, twice = 0;
-      for (auto o : rm.dd.tet_owned) own += o, ghost += !o;
-      // Elements computed on two ranks: CE6s of the boundary (ghost TET4s and the other CE6s
-      // are skipped: they act on no owned node).
-      for (std::size_t c = 0; c < rm.model.ce6_nodes.size(); ++c) {
-        bool touches = false;
-        for (int n : rm.model.ce6_nodes[c]) touches = touches || rm.dd.node_owned[n];
-        twice += !rm.dd.ce6_owned[c] && touches;
-        own_elems += rm.dd.ce6_owned[c];
-      }
-      own_elems += own;
-      redundant = std::max(redundant, twice / own_elems);
-      for (const Neighbour& n : rm.dd.neighbours) sent += 2.0 * sizeof(Vec3) * double(n.send_nodes.size());
-      own_max = std::max(own_max, own);
-      ghost_ratio = std::max(ghost_ratio, own > 0 ? ghost / own : 0);
-      nb_max = std::max(nb_max, double(rm.dd.neighbours.size()));
-      bytes_max = std::max(bytes_max, sent);
-    }
-    const double compute = tet_us * own_max * (1 + redundant);
-    const double halo = P > 1 ? nb_max * latency_us + bytes_max / (gbps * 1e3) : 0;
-    const double step = compute + halo;
-    if (P == 1) t1 = step / own_max;
-    std::printf("| %d | %zu | %.0f | %.3f | %.3f | %.0f | %.1f | %.0f | %.1f | %.0f | %.1f %% | %.2f |\n", P,
-                global.tet_nodes.size(), own_max, ghost_ratio, redundant, nb_max, bytes_max / 1e3, compute, halo, step,
-                100 * halo / step, t1 * own_max / step);
+    const real reach = contact ? 2 * global.mean_edge : 0;  // a fixed distance: weak scaling
+    const PartitionPlan plan = plan_partition(global, partition_tets(global, P), reach);
+    const HaloSample h = sample_halo(global, plan, P, sample);
+    const double compute = c.tet_us * h.own * (1 + h.twice);
+    const double contact_us = c.contact_us * h.own * (1 + h.border);
+    const double halo = P > 1 ? h.neighbours * c.latency_us + h.bytes / (c.gbps * 1e3) : 0;
+    const double reduce = c.latency_us * std::ceil(std::log2(double(P)));
+    const double step = compute + contact_us + halo + reduce;
+    if (P == 1) t1 = step / h.own;
+    // What the step costs beyond one rank's own work, term by term: the largest names the limit.
+    const std::pair<double, const char*> losses[] = {{c.tet_us * h.own * h.twice, "CE6s computed twice"},
+                                                     {c.contact_us * h.own * h.border, "contact pairs twice"},
+                                                     {h.neighbours * c.latency_us, "neighbour latency"},
+                                                     {h.bytes / (c.gbps * 1e3), "halo bytes"},
+                                                     {reduce, "reduction"}};
+    const auto* worst = &losses[0];
+    for (const auto& l : losses) worst = l.first > worst->first ? &l : worst;
+    std::printf(
+        "| %d | %zu | %.0f | %.3f | %.3f | %.3f | %.0f | %.1f | %.0f | %.0f | %.1f | %.1f | %.0f | %.3f | %s |\n", P,
+        global.tet_nodes.size(), h.own, h.ghost_ratio, h.twice, h.border, h.neighbours, h.bytes / 1e3, compute,
+        contact_us, halo, reduce, step, t1 * h.own / step, P > 1 ? worst->second : "-");
+    std::fflush(stdout);
   }
 }
 
@@ -183,7 +253,8 @@ int main(int argc, char** argv) {
   int steps = 200, sample = 6;
   long per_rank = 0;
   bool contact = false, uniform = false;
-  double tet_us = 0.5, latency_us = 2, gbps = 12.5, fracture_below = 0;
+  double tet_us = 0.5, contact_us = 0, latency_us = 2, gbps = 12.5, fracture_below = 0;
+  std::vector<int> ranks = {1, 2, 8, 64};
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto next = [&] { return i + 1 < argc ? std::string(argv[++i]) : std::string(); };
@@ -201,6 +272,10 @@ int main(int argc, char** argv) {
       per_rank = std::atol(next().c_str());
     else if (a == "--tet-us")
       tet_us = std::atof(next().c_str());
+    else if (a == "--contact-us")
+      contact_us = std::atof(next().c_str());
+    else if (a == "--ranks")
+      ranks = parse_ints(next());
     else if (a == "--latency-us")
       latency_us = std::atof(next().c_str());
     else if (a == "--gbps")
@@ -214,8 +289,13 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
+  if (per_rank > 0 && (ranks.empty() || ranks.front() != 1)) {
+    std::fprintf(stderr, "bench_ranks: --ranks must start with 1 (the efficiency is against one rank)\n");
+    MPI_Finalize();
+    return 2;
+  }
   if (per_rank > 0)
-    weak(per_rank, tet_us, latency_us, gbps, sample);
+    weak(per_rank, ranks, WeakCosts{tet_us, contact_us, latency_us, gbps}, sample);
   else
     measured(cells, steps, contact, fracture_below, uniform);
   MPI_Finalize();
