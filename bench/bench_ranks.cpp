@@ -12,7 +12,8 @@
 // tets per rank times P is partitioned for each P of --ranks (default 1,2,8,64); for a sample
 // of ranks the halo is built exactly as a run would build it, giving the largest ghost-node
 // count, neighbour count and ghost-tet fraction. The time per step is then modelled as
-//   t(P) = t_tet * own * (1 + elements computed twice / own elements) + t_contact * held
+//   t(P) = t_tet * own * (1 + elements computed twice / own elements)
+//          + t_contact * own * (1 + own tets on the rank border / own)
 //          + neighbours * latency + bytes / bandwidth + ceil(log2 P) * latency
 // with t_tet measured per own tet-step (part 1 or --tet-us) and the latency and bandwidth
 // given (--latency-us, --gbps; defaults 2 us and 12.5 GB/s, an HDR100 InfiniBand link; these
@@ -289,8 +290,11 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
-  if (per_rank > 0 && (ranks.empty() || ranks.front() != 1)) {
-    std::fprintf(stderr, "bench_ranks: --ranks must start with 1 (the efficiency is against one rank)\n");
+  const bool counts_ok = std::all_of(ranks.begin(), ranks.end(), [](int p) { return p >= 1; });
+  if (per_rank > 0 && (ranks.empty() || ranks.front() != 1 || !counts_ok)) {
+    std::fprintf(
+        stderr,
+        "bench_ranks: --ranks must be counts of 1 or more starting with 1 (the efficiency is against one rank)\n");
     MPI_Finalize();
     return 2;
   }

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <random>
 
+#include "core/format.hpp"
 #include "physics/contact.hpp"
 
 using namespace fdem;
@@ -372,8 +373,8 @@ TEST(VolumeLaw, TetsSharingAFaceOverlapByTheirGapWhateverTheRoundOff) {
         worst_pressed = std::fmax(worst_pressed, std::fabs(V / (area * d) - 1));
     }
   }
-  RecordProperty("touching_overlap_over_tet_volume", std::to_string(worst_touching));
-  RecordProperty("pressed_overlap_over_area_times_depth", std::to_string(worst_pressed));
+  RecordProperty("touching_overlap_over_tet_volume", fmt(worst_touching, 3));
+  RecordProperty("pressed_overlap_over_area_times_depth", fmt(worst_pressed, 3));
   EXPECT_LT(worst_touching, 1e-8) << "the overlap of two tets that only touch";
   EXPECT_LT(worst_pressed, 1e-3) << "relative error of A d";
 }
