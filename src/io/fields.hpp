@@ -13,6 +13,12 @@
 //                              every frame (write to .xdmf.tmp, then rename).
 //
 // The .h5 file is opened and closed for every frame, so a crash keeps all earlier frames.
+//
+// Several ranks write one file together: each frame's nodes, tets and crack faces are the
+// ranks' slabs in rank order, node ids shifted to the file's numbering. Parallel HDF5 (MPI-IO)
+// lets every rank write its own slab; without it rank 0 gathers the slabs and writes them.
+#include <mpi.h>
+
 #include <array>
 #include <string>
 #include <vector>
@@ -29,6 +35,8 @@ struct TetField {
 
 /// One output frame. Pointers are borrowed for the duration of write(). x and tets are required;
 /// u, v, stress, von_mises and the crack arrays may be null (then they are not written).
+/// Several ranks: each gives its slab (its nodes, its tets and crack faces by index into them);
+/// the time, step, label, the arrays given and the extra fields' names are the same on all.
 struct FieldFrame {
   real time = 0;
   long step = 0;
@@ -42,7 +50,7 @@ struct FieldFrame {
   std::vector<TetField> extra;                                   // more per-tet scalars (e.g. rank, active)
   const std::vector<std::array<int, 3>>* crack_faces = nullptr;  // node ids of damaged/broken CE6 faces
   const std::vector<real>* crack_damage = nullptr;               // D in [0,1] per crack face
-  const std::vector<int>* crack_mode = nullptr;                  // 0 intact(damaged), 1 I, 2 II, 3 mixed, 4 never bonded
+  const std::vector<int>* crack_mode = nullptr;  // 0 intact(damaged), 1 I, 2 II, 3 mixed, 4 never bonded
 };
 
 /// What a FieldWriter has written, so that a restarted run can take over its files.
@@ -58,6 +66,14 @@ struct FieldWriterState {
 /// program leaves without it (src/app/main.cpp).
 int open_hdf5_files();
 
+/// How the ranks of a shared file write it.
+enum class SharedWrite {
+  collective,  // parallel HDF5: every rank writes its slab through MPI-IO
+  gathered,    // rank 0 gathers the slabs and writes them (HDF5 built without MPI)
+};
+/// Collective where this build's HDF5 has MPI-IO, gathered where it has not.
+SharedWrite default_shared_write();
+
 /// Appends frames to <folder>/<basename>.h5 and keeps <folder>/<basename>.xdmf up to date.
 /// A file-system or HDF5 failure throws OutputError; a non-finite value or inconsistent sizes
 /// throw RunError
@@ -66,14 +82,18 @@ int open_hdf5_files();
 class FieldWriter {
  public:
   /// Creates folder if missing, starts a fresh .h5 (truncating an old one) and removes a stale .xdmf.
-  FieldWriter(const std::string& folder, const std::string& basename);
+  /// `ranks`: the ranks that write the file together (collective over them, every call after
+  /// too); MPI_COMM_NULL for this process alone. An error on one rank is thrown on all.
+  FieldWriter(const std::string& folder, const std::string& basename, MPI_Comm ranks = MPI_COMM_NULL,
+              SharedWrite how = default_shared_write());
   /// Takes over the files of an earlier writer whose state was saved (a restart): frames after
   /// those in `state` are removed from the .h5, the labels of the kept ones are set as saved
   /// (a later relabel is undone) and the index is rewritten. Throws OutputError if the .h5 is
   /// missing or lacks a saved frame.
   /// A frame cut short (the disk filled) that cannot be removed: the kept frames are copied into
   /// a new .h5 and repaired() says so.
-  FieldWriter(const std::string& folder, const std::string& basename, const FieldWriterState& state);
+  FieldWriter(const std::string& folder, const std::string& basename, const FieldWriterState& state,
+              MPI_Comm ranks = MPI_COMM_NULL, SharedWrite how = default_shared_write());
   /// After a restart that had to copy the kept frames into a new file: why; else "".
   const std::string& repaired() const { return repaired_; }
   FieldWriterState state() const { return {grids_, labels_, mesh_tets_, have_mesh_}; }
@@ -97,7 +117,18 @@ class FieldWriter {
   std::vector<std::string> labels_;  // and its label
 
   std::string repaired_;
+  MPI_Comm ranks_ = MPI_COMM_NULL;  // the ranks sharing the file; null: this process alone
+  int rank_ = 0, size_ = 1;
+  SharedWrite how_ = SharedWrite::collective;
 
+  void share(MPI_Comm ranks, SharedWrite how);
+  bool shared() const { return size_ > 1; }
+  /// Runs `work` on every rank (everywhere) or on rank 0 only; where it threw on a rank, every
+  /// rank throws the first such rank's error, of its kind.
+  template <class Work>
+  void agree(Work&& work, bool everywhere) const;
+  /// Several ranks writing through MPI-IO: file operations are collective (else rank 0's alone).
+  bool collective() const { return shared() && how_ == SharedWrite::collective; }
   void rewrite_index() const;
   /// The restart's work on the .h5: the kept frames' labels as saved, later frames removed.
   void take_over();

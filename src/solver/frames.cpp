@@ -6,10 +6,8 @@
 #include <array>
 #include <cmath>
 #include <filesystem>
-#include <sstream>
 
 #include "core/error.hpp"
-#include "io/atomic_file.hpp"
 #include "io/checkpoint.hpp"
 
 namespace fdem {
@@ -20,6 +18,44 @@ template <class F, class S>
 void frame_state_fields(F&& f, S& s) {
   f(s.time), f(s.stress), f(s.step), f(s.x), f(s.v), f(s.ce6), f(s.active);
 }
+/// Several ranks, or an excavation: the frame of this rank's own tets (ghosts are written by
+/// their owners), not those an excavation removed, with the rank of each tet as a field. Its
+/// nodes are those of its tets and crack faces, renumbered: the rank's slab of the shared file.
+void write_own_tets(FieldWriter& w, const Solver& s, FieldFrame& fr) {
+  std::vector<std::uint8_t> own = s.owned_tets();
+  own.resize(s.model().tet_nodes.size(), 1);  // (one rank: every tet its own)
+  std::vector<std::array<int, 4>> tets;
+  std::vector<Sym3> stress;
+  std::vector<real> von_mises, rank;
+  std::vector<std::vector<real>> extra(fr.extra.size());
+  for (std::size_t t = 0; t < own.size(); ++t) {
+    if (!own[t] || s.removed_tet(t)) continue;
+    tets.push_back(s.model().tet_nodes[t]);
+    stress.push_back((*fr.stress)[t]);
+    von_mises.push_back((*fr.von_mises)[t]);
+    for (std::size_t k = 0; k < extra.size(); ++k) extra[k].push_back((*fr.extra[k].values)[t]);
+  }
+  std::vector<std::array<int, 3>> faces = *fr.crack_faces;
+  std::vector<int> slot(fr.x->size(), -1);
+  std::vector<Vec3> x, u, v;
+  auto renumber = [&](int& n) {
+    if (slot[n] < 0) {
+      slot[n] = int(x.size());
+      x.push_back((*fr.x)[n]), u.push_back((*fr.u)[n]), v.push_back((*fr.v)[n]);
+    }
+    n = slot[n];
+  };
+  for (auto& q : tets) std::for_each(q.begin(), q.end(), renumber);
+  for (auto& q : faces) std::for_each(q.begin(), q.end(), renumber);
+  rank.assign(tets.size(), real(s.rank()));
+  fr.x = &x, fr.u = &u, fr.v = &v, fr.tets = &tets, fr.crack_faces = &faces;
+  fr.stress = &stress;
+  fr.von_mises = &von_mises;
+  for (std::size_t k = 0; k < extra.size(); ++k) fr.extra[k].values = &extra[k];
+  if (s.distributed()) fr.extra.push_back({"rank", &rank});
+  w.write(fr);
+}
+
 /// One ParaView frame of the state (x, v, ce6, activation flags). `more` adds per-tet fields; a
 /// diagnostic frame shows a stress that is not finite (an inverted tet) as zero instead of
 /// refusing the frame.
@@ -91,33 +127,10 @@ void write_frame(FieldWriter& w, const Solver& s, real time, long step, const st
     for (int k = 0; k < 6; ++k) fr.extra.push_back({kNames[k], &in_situ[k]});
   }
   fr.extra.insert(fr.extra.end(), more.begin(), more.end());
-  if (!s.distributed() && s.excavation_stages_done() == 0) {
+  if (!s.distributed() && s.excavation_stages_done() == 0)
     w.write(fr);
-    return;
-  }
-  // Several ranks: this rank's own tets only (ghosts are written by their owners), and the
-  // rank of each tet as a field. Not the tets an excavation removed.
-  std::vector<std::uint8_t> own = s.owned_tets();
-  own.resize(s.model().tet_nodes.size(), 1);  // (one rank: every tet its own)
-  for (std::size_t t = 0; t < own.size(); ++t) own[t] = own[t] && !s.removed_tet(t);
-  std::vector<std::array<int, 4>> tets;
-  std::vector<Sym3> st;
-  std::vector<real> vm_own, rank;
-  std::vector<std::vector<real>> extra(fr.extra.size());
-  for (std::size_t t = 0; t < own.size(); ++t) {
-    if (!own[t]) continue;
-    tets.push_back(s.model().tet_nodes[t]);
-    st.push_back(stress[t]);
-    vm_own.push_back(vm[t]);
-    for (std::size_t k = 0; k < extra.size(); ++k) extra[k].push_back((*fr.extra[k].values)[t]);
-  }
-  rank.assign(tets.size(), real(s.rank()));
-  fr.tets = &tets;
-  fr.stress = &st;
-  fr.von_mises = &vm_own;
-  for (std::size_t k = 0; k < extra.size(); ++k) fr.extra[k].values = &extra[k];
-  if (s.distributed()) fr.extra.push_back({"rank", &rank});
-  w.write(fr);
+  else
+    write_own_tets(w, s, fr);
 }
 
 }  // namespace
@@ -192,56 +205,6 @@ void write_diagnostic(FieldWriter& w, const Solver& s) {
   } catch (const std::exception&) {
     // Nothing more to show; the frames written before remain valid.
   }
-}
-
-void write_merged_index(const FieldWriter& w, const Solver& s, const std::string& folder) {
-  std::string mine;
-  for (const std::string& g : w.state().grids) mine += g + '\x1e';
-  int len = int(mine.size());
-  const int size = s.decomposition().size, root = s.rank() == 0;
-  std::vector<int> lens(size), offs(size + 1, 0);
-  MPI_Gather(&len, 1, MPI_INT, lens.data(), 1, MPI_INT, 0, s.comm());
-  for (int r = 0; r < size; ++r) offs[r + 1] = offs[r] + lens[r];
-  std::string all(root ? offs[size] : 0, '\0');
-  MPI_Gatherv(mine.data(), len, MPI_CHAR, all.data(), lens.data(), offs.data(), MPI_CHAR, 0, s.comm());
-  if (!root) return;
-  std::vector<std::vector<std::string>> grids(size);  // [rank][frame]
-  for (int r = 0; r < size; ++r) {
-    std::stringstream in(all.substr(offs[r], lens[r]));
-    for (std::string g; std::getline(in, g, '\x1e');) grids[r].push_back(g);
-  }
-  std::string text =
-      "<?xml version=\"1.0\" encoding=\"utf-8\"?>\n"
-      "<Xdmf xmlns:xi=\"http://www.w3.org/2001/XInclude\" Version=\"3.0\">\n"
-      "  <Domain>\n"
-      "  <Grid Name=\"fdem\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
-  for (std::size_t i = 0; i < grids[0].size(); ++i) {
-    // Head (the frame's collection, time, step, label) from rank 0; the inner grids of all.
-    const std::string& g0 = grids[0][i];
-    std::size_t head = 0;
-    for (int l = 0; l < 4; ++l) head = g0.find('\n', head) + 1;
-    text += g0.substr(0, head);
-    for (int r = 0; r < size; ++r) {
-      if (i >= grids[r].size())
-        throw OutputError("field output: rank " + std::to_string(r) + " lacks frame " + std::to_string(i) +
-                          " of the merged index");
-      const std::string& g = grids[r][i];
-      std::size_t b = 0;
-      for (int l = 0; l < 4; ++l) b = g.find('\n', b) + 1;
-      const std::size_t e = g.rfind("    </Grid>");
-      std::string inner = g.substr(b, e - b);
-      for (const char* name : {"rock", "cracks"}) {
-        const std::string from = std::string("<Grid Name=\"") + name + "\"";
-        const std::size_t at = inner.find(from);
-        if (at != std::string::npos)
-          inner.replace(at, from.size(), std::string("<Grid Name=\"") + name + "_rank" + std::to_string(r) + "\"");
-      }
-      text += inner;
-    }
-    text += "    </Grid>\n";
-  }
-  text += "  </Grid>\n  </Domain>\n</Xdmf>\n";
-  write_file_atomically((std::filesystem::path(folder) / "fields.xdmf").string(), text);
 }
 
 void PeakFrames::observe(const Solver& s, real stress) {

@@ -1,6 +1,6 @@
 #pragma once
 // The run's ParaView frames (run_scene): the state now, states kept for the frames before and at
-// the peak, the diagnostic frame of an unstable run, and the merged index of several ranks' files.
+// the peak, and the diagnostic frame of an unstable run.
 #include <deque>
 #include <string>
 #include <utility>
@@ -40,12 +40,6 @@ void write_frame(FieldWriter& w, const Solver& s, const FrameState& f, const std
 /// show where it went wrong: "non_finite" (a node of the tet had a non-finite value) and
 /// "inverted" (volume ratio J <= 0). Never throws: the frames written before stay valid.
 void write_diagnostic(FieldWriter& w, const Solver& s);
-
-/// Several ranks: each writes its own tets to fields_rank<r>.{h5,xdmf}; rank 0 writes fields.xdmf,
-/// which shows every rank's grids in each frame (the per-rank "rock" and "cracks" grids of a
-/// frame side by side, renamed rock_rank<r> and cracks_rank<r>). Collective; the frames must be
-/// the same on every rank (they are: their labels and steps follow the global monitors).
-void write_merged_index(const FieldWriter& w, const Solver& s, const std::string& folder);
 
 /// Keeps what the pre-peak and peak frames need: the state at the running maximum of the axial
 /// stress, and a ladder of states 5 % apart in stress between 0.7 and 1 of that maximum, from

@@ -121,6 +121,9 @@ class RunSession {
 
  private:
   bool all_ranks(bool ok) const;
+  /// The ranks that write fields.h5 together; none (this process alone) on one rank.
+  MPI_Comm field_ranks() const { return r_.dist ? r_.solver.comm() : MPI_COMM_NULL; }
+  void write_diagnostic_frame() const;
   void open_folder();
   std::vector<std::string> restart_candidates() const;
   std::string load_checkpoint(const std::string& file, FieldWriterState& fields_state);
@@ -132,19 +135,17 @@ class RunSession {
   const RunOptions options_;
   const Scene& scene_;
   const OutputSettings& out_;
-  std::string ckpt_dir_, fields_name_, suffix_;
+  std::string ckpt_dir_, suffix_;
   std::unique_ptr<RunLock> lock_;
   // The observers of a step, in the order they are called; the index and the checkpoints also
   // by name.
   std::vector<std::unique_ptr<StepObserver>> observers_;
-  FrameIndex* index_ = nullptr;
 };
 
 RunSession::RunSession(Solver& solver, std::ostream& log, const RunOptions& options)
     : r_(solver, log), options_(options), scene_(solver.scene()), out_(scene_.output) {
   namespace fs = std::filesystem;
   ckpt_dir_ = (fs::path(out_.folder) / "checkpoints").string();
-  fields_name_ = r_.dist ? "fields_rank" + std::to_string(solver.rank()) : "fields";
   suffix_ = checkpoint_suffix(solver.rank(), r_.dist ? solver.decomposition().size : 1);
   open_folder();
   if (!options_.restart.empty())
@@ -154,24 +155,18 @@ RunSession::RunSession(Solver& solver, std::ostream& log, const RunOptions& opti
   if (!r_.csv.f) throw InputError(scene_.file + ": output.folder: cannot write '" + r_.csv_path + "'");
   if (!r_.fields) {
     r_.csv.put(monitors_header(scene_));
-    r_.fields = std::make_unique<FieldWriter>(out_.folder, fields_name_);
+    r_.fields = std::make_unique<FieldWriter>(out_.folder, "fields", field_ranks());
   }
   // The automatic field interval: about 20 frames over the steps the end takes.
   const real end_steps = solver.end_steps().steps;
   const real expected = std::isfinite(end_steps) ? end_steps : 0;
   const long field_interval = out_.field_interval > 0 ? out_.field_interval : std::max<long>(1, long(expected / 20));
   r_.t0 = std::chrono::steady_clock::now();
-  auto index = std::make_unique<FrameIndex>(r_, options_.restart.empty());
-  index_ = index.get();
   observers_.push_back(std::make_unique<MonitorRows>(r_));
   observers_.push_back(std::make_unique<FieldFrames>(r_, field_interval));
-  observers_.push_back(std::move(index));
   observers_.push_back(std::make_unique<EndCheck>(r_));
   observers_.push_back(std::make_unique<ProgressLine>(r_));
   observers_.push_back(std::make_unique<Checkpoints>(r_, ckpt_dir_, suffix_));
-  // Several ranks: the merged index after every change of the frames (collective); at once
-  // after a restart, which may have dropped frames.
-  index_->merge();
 }
 
 bool RunSession::all_ranks(bool ok) const {
@@ -247,7 +242,7 @@ std::string RunSession::load_checkpoint(const std::string& file, FieldWriterStat
   in->finish();
   std::uint64_t hash = 0;
   std::error_code ec;
-  const fs::path h5 = fs::path(out_.folder) / (fields_name_ + ".h5");
+  const fs::path h5 = fs::path(out_.folder) / "fields.h5";
   const std::string back =
       ". Fix: put back the monitors.csv the run wrote, or restart in the interrupted run's folder (output.folder or "
       "-o)";
@@ -292,7 +287,7 @@ void RunSession::restart() {
                        " s, where the scene's end is already reached (" + reason +
                        "); nothing was changed. Fix: move solver.end in " + scene_.file +
                        " past it to continue the run, or run without --restart to start again");
-    r_.fields = std::make_unique<FieldWriter>(out_.folder, fields_name_, fields_state);
+    r_.fields = std::make_unique<FieldWriter>(out_.folder, "fields", fields_state, field_ranks());
     if (!r_.fields->repaired().empty())
       (r_.root ? r_.log : std::cerr) << "warning: " << r_.fields->repaired() << std::endl;
     std::error_code ec;
@@ -318,10 +313,10 @@ void RunSession::restart() {
 /// broken-CE6 list go (they belong to the files replaced), and the rest is overwritten.
 void RunSession::replace_earlier_run() {
   namespace fs = std::filesystem;
-  std::vector<std::string> names{fields_name_ + ".h5", fields_name_ + ".xdmf"};
+  std::vector<std::string> names;
   if (r_.root)
-    names.insert(names.end(), {"monitors.csv", "summary.csv", "broken_ce6.csv", "stress_strain.png", "checkpoints"});
-  if (r_.root && r_.dist) names.push_back("fields.xdmf");  // the merged index of the ranks' files
+    names = {"fields.h5",      "fields.xdmf",       "monitors.csv", "summary.csv",
+             "broken_ce6.csv", "stress_strain.png", "checkpoints"};
   const std::string problem = replace_problem(out_.folder, names);
   if (!all_ranks(problem.empty()))
     throw OutputError(("the run cannot replace the outputs of an earlier one: " +
@@ -332,6 +327,10 @@ void RunSession::replace_earlier_run() {
     fs::remove_all(ckpt_dir_, ec);
     for (const char* stale : {"summary.csv", "broken_ce6.csv", "stress_strain.png"})
       fs::remove(fs::path(out_.folder) / stale, ec);
+    std::vector<fs::path> diagnostic;  // an earlier run's diagnostic frames of its ranks
+    for (fs::directory_iterator e(out_.folder, ec), end; !ec && e != end; e.increment(ec))
+      if (e->path().filename().string().rfind("diagnostic_rank", 0) == 0) diagnostic.push_back(e->path());
+    for (const fs::path& p : diagnostic) fs::remove(p, ec);
   }
   r_.csv.f.open(r_.csv_path);
 }
@@ -341,7 +340,6 @@ void RunSession::start() {
   r_.row = r_.solver.measure();
   r_.csv.put(monitor_row(r_.row, r_.solver));
   write_frame(*r_.fields, r_.solver, "initial");
-  index_->merge();
 }
 
 void RunSession::loop() {
@@ -360,8 +358,20 @@ void RunSession::loop() {
     r_.row = r_.solver.measure();
     if (r_.solver.step_count() % out_.monitor_interval != 0) r_.csv.put(monitor_row(r_.row, r_.solver));
   } catch (const RunError&) {
-    write_diagnostic(*r_.fields, r_.solver);
+    write_diagnostic_frame();
     throw;
+  }
+}
+
+/// The diagnostic frame of a run stopped as unstable. Several ranks: the rank that stopped may
+/// be alone, so each writes its own diagnostic_rank<r>.{h5,xdmf} rather than the shared file.
+void RunSession::write_diagnostic_frame() const {
+  if (!r_.dist) return write_diagnostic(*r_.fields, r_.solver);
+  try {
+    FieldWriter own(out_.folder, "diagnostic_rank" + std::to_string(r_.solver.rank()));
+    write_diagnostic(own, r_.solver);
+  } catch (const std::exception&) {
+    // Nothing more to show; the frames of fields.h5 remain valid.
   }
 }
 
@@ -407,7 +417,6 @@ RunSummary RunSession::finish() {
   r_.csv.f.close();
   if (!r_.csv.f) throw OutputError("cannot write " + r_.csv_path + ": " + write_failure(r_.csv_path, errno));
   write_frame(*r_.fields, r_.solver, "final");
-  index_->merge();
   r_.sum.steps = r_.solver.step_count();
   r_.sum.time = r_.solver.time();
   r_.sum.wall_seconds = r_.wall_before + r_.elapsed();

@@ -171,12 +171,6 @@ void MonitorRows::follow_peak() {
   }
 }
 
-void FrameIndex::merge() {
-  if (!r_.dist || r_.fields->frames() == merged_frames_) return;
-  write_merged_index(*r_.fields, r_.solver, r_.out.folder);
-  merged_frames_ = r_.fields->frames();
-}
-
 std::string EndCheck::reason(bool monitor_row) const {
   const Solver& s = r_.solver;
   const long n = s.step_count();

@@ -1,8 +1,8 @@
 #pragma once
 // What a run does after each step, one observer each: the monitor rows (with the peak and its
-// frames), the field frames, the merged index of several ranks' frames, the end condition, the
-// progress line and the checkpoints. The run loop (run.cpp) takes a step, then calls them in
-// that order. They share the run's record: its files, its last row, the peak and the clock.
+// frames), the field frames, the end condition, the progress line and the checkpoints. The run
+// loop (run.cpp) takes a step, then calls them in that order. They share the run's record: its files, its last row, the
+// peak and the clock.
 #include <chrono>
 #include <memory>
 #include <ostream>
@@ -88,19 +88,6 @@ class FieldFrames final : public StepObserver {
  private:
   RunRecord& r_;
   long interval_;
-};
-
-/// Several ranks: the merged index of the ranks' field files, after every change of the frames
-/// (collective). `fresh`: a run from step 0; a restart merges at once, as it may drop frames.
-class FrameIndex final : public StepObserver {
- public:
-  FrameIndex(RunRecord& r, bool fresh) : r_(r), merged_frames_(fresh ? 0 : -1) {}
-  void after_step(StepEvent&) override { merge(); }
-  void merge();
-
- private:
-  RunRecord& r_;
-  int merged_frames_;  // frames in the merged index
 };
 
 /// The scene's end condition (solver.end).

@@ -3,6 +3,7 @@
 // reference and compares the nodes and CE6s it owns with it, by global id; sums go through
 // MPI. With one rank the decomposed path is the plain one and the comparisons are exact.
 #include <gtest/gtest.h>
+#include <hdf5.h>
 #include <mpi.h>
 #include <unistd.h>
 
@@ -11,7 +12,10 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <functional>
+#include <iterator>
+#include <map>
 #include <memory>
 #include <set>
 
@@ -20,6 +24,7 @@
 #include "core/device_memory.hpp"
 #include "core/error.hpp"
 #include "io/checkpoint.hpp"
+#include "io/fields.hpp"
 #include "model/structured.hpp"
 #include "partition/halo.hpp"
 #include "partition/partition.hpp"
@@ -927,4 +932,133 @@ TEST(Ranks, DeviceLoopCopiesToTheHostAFewTimesAStep) {
       EXPECT_EQ(t.to_device, to_device * steps) << path << (direct ? ", device buffers to MPI" : "");
       EXPECT_EQ(reductions, reduced * steps) << path << (direct ? ", device buffers to MPI" : "");
     }
+}
+
+namespace {
+
+/// Rank r's slab of a synthetic field frame: tets of four nodes each, values that name the
+/// rank, the row and the frame, crack faces on even ranks; with three ranks or more, rank 1
+/// holds nothing. Frame 1 turns rank 0's tets, so that the frame carries its own connectivity.
+struct Slab {
+  std::vector<Vec3> x, u;
+  std::vector<std::array<int, 4>> tets;
+  std::vector<real> von_mises;
+  std::vector<std::array<int, 3>> faces;
+  std::vector<real> damage;
+  std::vector<int> mode;
+
+  /// This slab after `other`'s, as one process would hold both: node ids shifted.
+  void append(const Slab& o) {
+    const int shift = int(x.size());
+    x.insert(x.end(), o.x.begin(), o.x.end());
+    u.insert(u.end(), o.u.begin(), o.u.end());
+    for (auto q : o.tets) tets.push_back({q[0] + shift, q[1] + shift, q[2] + shift, q[3] + shift});
+    von_mises.insert(von_mises.end(), o.von_mises.begin(), o.von_mises.end());
+    for (auto q : o.faces) faces.push_back({q[0] + shift, q[1] + shift, q[2] + shift});
+    damage.insert(damage.end(), o.damage.begin(), o.damage.end());
+    mode.insert(mode.end(), o.mode.begin(), o.mode.end());
+  }
+  FieldFrame frame(int index) const {
+    FieldFrame f;
+    f.time = 1e-3 * index, f.step = 100 * index, f.label = index == 0 ? "initial" : "";
+    f.x = &x, f.u = &u, f.tets = &tets, f.von_mises = &von_mises;
+    f.crack_faces = &faces, f.crack_damage = &damage, f.crack_mode = &mode;
+    return f;
+  }
+};
+
+Slab slab_of(int r, int size, int index) {
+  Slab s;
+  const int tets = size >= 3 && r == 1 ? 0 : r + 2;
+  for (int t = 0; t < tets; ++t) {
+    for (int k = 0; k < 4; ++k) {
+      const double id = 1000 * r + 4 * t + k;
+      s.x.push_back({id, -id, index + 0.5 * id});
+      s.u.push_back({index * 1e-3 * id, 0, 1});
+    }
+    const int n = 4 * t;
+    s.tets.push_back(index == 1 && r == 0 ? std::array<int, 4>{n + 1, n, n + 2, n + 3}
+                                          : std::array<int, 4>{n, n + 1, n + 2, n + 3});
+    s.von_mises.push_back(1e6 * r + t + index);
+    if (r % 2 == 1) continue;
+    s.faces.push_back({n, n + 1, n + 3});
+    s.damage.push_back(0.25 * (t % 4));
+    s.mode.push_back(t % 5);
+  }
+  return s;
+}
+
+/// Every dataset of a field file by path, as raw bytes.
+std::map<std::string, std::string> field_datasets(const std::string& file) {
+  std::map<std::string, std::string> out;
+  const hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  if (f < 0) return out;
+  auto visit = [](hid_t loc, const char* name, const H5O_info_t* info, void* data) -> herr_t {
+    if (info->type != H5O_TYPE_DATASET) return 0;
+    const hid_t ds = H5Dopen2(loc, name, H5P_DEFAULT), type = H5Dget_type(ds), space = H5Dget_space(ds);
+    std::string bytes(std::size_t(H5Sget_simple_extent_npoints(space)) * H5Tget_size(type), '\0');
+    if (!bytes.empty()) H5Dread(ds, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, bytes.data());
+    (*static_cast<std::map<std::string, std::string>*>(data))[name] = bytes;
+    H5Sclose(space), H5Tclose(type), H5Dclose(ds);
+    return 0;
+  };
+  H5Ovisit(f, H5_INDEX_NAME, H5_ITER_INC, visit, &out);
+  H5Fclose(f);
+  return out;
+}
+
+}  // namespace
+
+TEST(Ranks, OneFieldFileOfAllRanksHoldsWhatOneProcessWritesOfTheWhole) {
+  // The ranks write their slabs into one fields.h5, through MPI-IO and by gathering on rank 0,
+  // with a restart's take-over and a relabel between the frames. Rank 0 writes the ranks'
+  // slabs joined, alone. Every dataset and the index must be the same, byte for byte.
+  const int rank = world_rank(), size = world_size();
+  std::string dir = "/tmp/fdem_test_fields_" + std::to_string(getpid());
+  int len = int(dir.size());
+  MPI_Bcast(&len, 1, MPI_INT, 0, MPI_COMM_WORLD);
+  dir.resize(len);
+  MPI_Bcast(dir.data(), len, MPI_CHAR, 0, MPI_COMM_WORLD);
+  auto write = [&](const std::string& folder, MPI_Comm ranks, SharedWrite how, const Slab* frames) {
+    FieldWriterState after_first;
+    {
+      FieldWriter w(folder, "fields", ranks, how);
+      w.write(frames[0].frame(0));
+      after_first = w.state();
+      w.write(frames[1].frame(1));  // written, then dropped by the take-over below
+    }
+    FieldWriter w(folder, "fields", after_first, ranks, how);
+    EXPECT_EQ(w.frames(), 1);
+    w.write(frames[1].frame(1));
+    w.relabel(0, "first");
+  };
+  const Slab mine[2] = {slab_of(rank, size, 0), slab_of(rank, size, 1)};
+  write(dir + "/collective", MPI_COMM_WORLD, SharedWrite::collective, mine);
+  write(dir + "/gathered", MPI_COMM_WORLD, SharedWrite::gathered, mine);
+  int same = 1;
+  if (rank == 0) {
+    Slab whole[2];
+    for (int i = 0; i < 2; ++i)
+      for (int r = 0; r < size; ++r) whole[i].append(slab_of(r, size, i));
+    write(dir + "/one", MPI_COMM_NULL, SharedWrite::collective, whole);
+    const auto one = field_datasets(dir + "/one/fields.h5");
+    EXPECT_TRUE(one.count("frame_000001/tets") && one.count("frame_000000/crack_mode")) << "the cases the test is for";
+    for (const char* how : {"collective", "gathered"}) {
+      const std::string folder = dir + "/" + how;
+      const auto shared = field_datasets(folder + "/fields.h5");
+      EXPECT_EQ(shared.size(), one.size()) << how;
+      for (const auto& [path, bytes] : one) {
+        const bool equal = shared.count(path) && shared.at(path) == bytes;
+        EXPECT_TRUE(equal) << how << ": " << path;
+        same = same && equal;
+      }
+      std::ifstream a(dir + "/one/fields.xdmf"), b(folder + "/fields.xdmf");
+      const std::string ta((std::istreambuf_iterator<char>(a)), {}), tb((std::istreambuf_iterator<char>(b)), {});
+      EXPECT_EQ(ta, tb) << how;
+      EXPECT_NE(ta.find("frame_000000_first"), std::string::npos);
+    }
+    std::filesystem::remove_all(dir);
+  }
+  MPI_Bcast(&same, 1, MPI_INT, 0, MPI_COMM_WORLD);
+  EXPECT_TRUE(same) << "rank 0 found a dataset that differs";
 }

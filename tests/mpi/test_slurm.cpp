@@ -45,7 +45,7 @@ TEST(Slurm, RunScriptStopsAtTheLimitResubmitsAndContinues) {
   const std::string script = quote((kSlurm / "run.sbatch").string());
   const Outcome a = run_cmd(s.env(2) + "bash " + script + " " + quote(scene) + " " + quote(whole.string()) + " -q");
   ASSERT_EQ(a.code, 0) << a.text;
-  EXPECT_TRUE(fs::exists(whole / "summary.csv") && fs::exists(whole / "fields_rank1.h5")) << a.text;
+  EXPECT_TRUE(fs::exists(whole / "summary.csv") && fs::exists(whole / "fields.h5")) << a.text;
 
   // The time limit: TERM to the ranks mid-run.
   const std::string log = (s.tmp.path / "job.log").string(), rc = (s.tmp.path / "job.rc").string();
