@@ -94,16 +94,16 @@ std::vector<long> cell_starts(const std::vector<BinEntry>& entries) {
 
 /// Pass 6 (pair test per cell): all pairs within a run; a pair is kept only by the cell
 /// holding the low corner of the two boxes' intersection, so it is found exactly once.
-/// Per-thread lists, concatenated and sorted, so the result does not depend on the thread
-/// count (a GPU would count per cell, scan, then write). Returns the pairs tested.
-long test_pairs_in_cells(const std::vector<Aabb>& boxes, const Grid& grid, const std::vector<BinEntry>& entries,
-                         const std::vector<long>& cell_start, std::vector<std::array<int, 2>>& pairs) {
+/// `visit(thread, a, b)` gets each overlapping pair (of two groups, where groups are given).
+/// Returns the pairs tested.
+template <class Visit>
+long visit_pairs_in_cells(const std::vector<Aabb>& boxes, const Grid& grid, const std::vector<BinEntry>& entries,
+                          const std::vector<long>& cell_start, const std::vector<int>* groups, Visit&& visit) {
   const long cells = static_cast<long>(cell_start.size()) - 1;
-  std::vector<std::vector<std::array<int, 2>>> found(static_cast<std::size_t>(omp_get_max_threads()));
   long tested = 0;
 #pragma omp parallel reduction(+ : tested)
   {
-    std::vector<std::array<int, 2>>& mine = found[static_cast<std::size_t>(omp_get_thread_num())];
+    const int thread = omp_get_thread_num();
 #pragma omp for schedule(dynamic, 64)
     for (long c = 0; c < cells; ++c) {
       const long s = cell_start[c], e = cell_start[c + 1];
@@ -113,20 +113,46 @@ long test_pairs_in_cells(const std::vector<Aabb>& boxes, const Grid& grid, const
         const Aabb& ba = boxes[a];
         for (long k = j + 1; k < e; ++k) {
           const int b = entries[k].box;
+          if (groups && (*groups)[a] == (*groups)[b]) continue;
           const Aabb& bb = boxes[b];
           ++tested;
-          if (!boxes_overlap(ba, bb) || !grid.reports(ba, bb, key)) continue;
-          mine.push_back({std::min(a, b), std::max(a, b)});
+          if (boxes_overlap(ba, bb) && grid.reports(ba, bb, key)) visit(thread, a, b);
         }
       }
     }
   }
-  std::size_t count = 0;
-  for (const auto& f : found) count += f.size();
-  pairs.reserve(count);
-  for (const auto& f : found) pairs.insert(pairs.end(), f.begin(), f.end());
-  std::sort(pairs.begin(), pairs.end());
   return tested;
+}
+
+/// The grid of the boxes in `ids` (passes 1-5): its cell, the sorted entries and where each
+/// cell's run starts.
+struct BinnedBoxes {
+  Grid grid;
+  std::vector<BinEntry> entries;
+  std::vector<long> cell_start;
+};
+
+BinnedBoxes bin_boxes(const std::vector<Aabb>& boxes, const std::vector<int>& ids, real cell, long max_cells_per_box) {
+  const std::size_t n = ids.size();
+  const long cap = std::clamp(max_cells_per_box, 1L, 1L << 20);
+  const BoxSpread spread = spread_of(boxes, ids);
+  const real span = spread.span();
+  // Cell edge: twice the mean extent by default; never zero (all boxes points).
+  if (!(cell > 0)) cell = 2 * spread.extent_sum / static_cast<real>(n);
+  if (!(cell > 0)) cell = span > 0 ? 1e-6 * span : 1;
+  BinnedBoxes b{Grid{spread.lo, cell}, {}, {}};
+  std::vector<long> offset(n + 1);
+  count_cells(boxes, ids, span, cap * static_cast<long>(n), b.grid, offset);
+  const long total = exclusive_scan(offset);  // where each box writes its entries
+
+  // Pass 3 (fill): each box writes one entry per covered cell into its own slice.
+  b.entries.resize(static_cast<std::size_t>(total));
+  for_each(n, [&](std::size_t i) { b.grid.bin(boxes[ids[i]], ids[i], b.entries.data() + offset[i]); });
+  // Pass 4 (sort) by (ix, iy, iz, box). A GPU would radix-sort on a 64-bit hash of the
+  // triple and break ties (hash collisions) on the triple itself, so runs stay exact.
+  std::sort(b.entries.begin(), b.entries.end(), bin_entry_less);
+  b.cell_start = cell_starts(b.entries);
+  return b;
 }
 
 }  // namespace
@@ -136,40 +162,40 @@ long test_pairs_in_cells(const std::vector<Aabb>& boxes, const Grid& grid, const
 // lo <= hi per axis (an inverted box is binned nowhere and never reported). A non-finite
 // coordinate throws RunError.
 void find_box_pairs(const std::vector<Aabb>& boxes, const std::vector<int>& ids, real cell,
-                    std::vector<std::array<int, 2>>& pairs, BroadPhaseStats* stats, long max_cells_per_box) {
+                    std::vector<std::array<int, 2>>& pairs, BroadPhaseStats* stats, long max_cells_per_box,
+                    const std::vector<int>* groups) {
   pairs.clear();
-  const std::size_t n = ids.size();
-  const long cap = std::clamp(max_cells_per_box, 1L, 1L << 20);
-  if (n == 0) {
+  if (ids.empty()) {
     if (stats) *stats = BroadPhaseStats{0, 0, 0, 0, cell > 0 ? cell : 0};
     return;
   }
-  const BoxSpread spread = spread_of(boxes, ids);
-  const real span = spread.span();
-  // Cell edge: twice the mean extent by default; never zero (all boxes points).
-  if (!(cell > 0)) cell = 2 * spread.extent_sum / static_cast<real>(n);
-  if (!(cell > 0)) cell = span > 0 ? 1e-6 * span : 1;
-  Grid grid{spread.lo, cell};
-  std::vector<long> offset(n + 1);
-  count_cells(boxes, ids, span, cap * static_cast<long>(n), grid, offset);
-  const long total = exclusive_scan(offset);  // where each box writes its entries
-
-  // Pass 3 (fill): each box writes one entry per covered cell into its own slice.
-  std::vector<BinEntry> entries(static_cast<std::size_t>(total));
-  for_each(n, [&](std::size_t i) { grid.bin(boxes[ids[i]], ids[i], entries.data() + offset[i]); });
-  // Pass 4 (sort) by (ix, iy, iz, box). A GPU would radix-sort on a 64-bit hash of the
-  // triple and break ties (hash collisions) on the triple itself, so runs stay exact.
-  std::sort(entries.begin(), entries.end(), bin_entry_less);
-
-  const std::vector<long> cell_start = cell_starts(entries);
-  const long tested = test_pairs_in_cells(boxes, grid, entries, cell_start, pairs);
+  const BinnedBoxes b = bin_boxes(boxes, ids, cell, max_cells_per_box);
+  // Per-thread lists, concatenated and sorted, so the result does not depend on the thread
+  // count (a GPU would count per cell, scan, then write).
+  std::vector<std::vector<std::array<int, 2>>> found(static_cast<std::size_t>(omp_get_max_threads()));
+  const long tested =
+      visit_pairs_in_cells(boxes, b.grid, b.entries, b.cell_start, groups, [&](int thread, int a, int c) {
+        found[static_cast<std::size_t>(thread)].push_back({std::min(a, c), std::max(a, c)});
+      });
+  std::size_t count = 0;
+  for (const auto& f : found) count += f.size();
+  pairs.reserve(count);
+  for (const auto& f : found) pairs.insert(pairs.end(), f.begin(), f.end());
+  std::sort(pairs.begin(), pairs.end());
   if (stats) {
-    stats->boxes = static_cast<long>(n);
-    stats->entries = total;
+    stats->boxes = static_cast<long>(ids.size());
+    stats->entries = static_cast<long>(b.entries.size());
     stats->tested = tested;
     stats->pairs = static_cast<long>(pairs.size());
-    stats->cell = grid.cell;
+    stats->cell = b.grid.cell;
   }
+}
+
+void for_each_box_pair(const std::vector<Aabb>& boxes, const std::vector<int>& ids, const std::vector<int>* groups,
+                       const std::function<void(int, int, int)>& visit) {
+  if (ids.empty()) return;
+  const BinnedBoxes b = bin_boxes(boxes, ids, 0, 64);
+  visit_pairs_in_cells(boxes, b.grid, b.entries, b.cell_start, groups, visit);
 }
 
 }  // namespace fdem

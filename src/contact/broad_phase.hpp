@@ -4,6 +4,7 @@
 // sum, fill, sort, scan of cell ranges) so the same algorithm maps onto a GPU.
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include "core/vec.hpp"
@@ -32,8 +33,16 @@ struct BroadPhaseStats {
 /// `max_cells_per_box` caps the multi-insertion on average: when all boxes together would
 /// cover more than that many cells per box, the cell edge is enlarged (and reported in
 /// stats.cell), so memory stays bounded; one long box alone does not coarsen the grid.
+/// `groups` (indexed like `boxes`), where given: only pairs of boxes in different groups, such
+/// as two ranks' tets, are tested and reported (stats count those only).
 void find_box_pairs(const std::vector<Aabb>& boxes, const std::vector<int>& ids, real cell,
                     std::vector<std::array<int, 2>>& pairs, BroadPhaseStats* stats = nullptr,
-                    long max_cells_per_box = 64);
+                    long max_cells_per_box = 64, const std::vector<int>* groups = nullptr);
+
+/// The pairs find_box_pairs finds (default cell), not stored: `visit(thread, a, b)` is called
+/// for each, from several OpenMP threads at once (thread: omp_get_thread_num()), in no fixed
+/// order. For a search whose pairs would not fit in memory (the partition's contact ghosts).
+void for_each_box_pair(const std::vector<Aabb>& boxes, const std::vector<int>& ids, const std::vector<int>* groups,
+                       const std::function<void(int, int, int)>& visit);
 
 }  // namespace fdem

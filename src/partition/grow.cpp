@@ -151,13 +151,14 @@ std::vector<std::string> request_ghosts(const Candidates& cand, int shell_size,
                                         const std::unordered_map<long, int>& tet_local, int size) {
   std::vector<int> ids(cand.boxes.size());
   for (std::size_t i = 0; i < ids.size(); ++i) ids[i] = int(i);
+  std::vector<int> received(cand.boxes.size(), 0);  // 0: own shell box, 1: received
+  std::fill(received.begin() + shell_size, received.end(), 1);
   std::vector<std::array<int, 2>> pairs;
-  find_box_pairs(cand.boxes, ids, 0, pairs);
+  find_box_pairs(cand.boxes, ids, 0, pairs, nullptr, 64, &received);
   std::vector<std::vector<long>> want(size);
   const int ns = shell_size;
   for (const auto& p : pairs)  // (min, max): an own box and a received one
-    if (p[0] < ns && p[1] >= ns && !tet_local.count(cand.id[p[1] - ns]))
-      want[cand.from[p[1] - ns]].push_back(cand.id[p[1] - ns]);
+    if (!tet_local.count(cand.id[p[1] - ns])) want[cand.from[p[1] - ns]].push_back(cand.id[p[1] - ns]);
   std::vector<std::string> ask(size);
   for (int r = 0; r < size; ++r) {
     std::sort(want[r].begin(), want[r].end());

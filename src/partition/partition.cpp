@@ -1,6 +1,7 @@
 #include "partition/partition.hpp"
 
 #include <metis.h>
+#include <omp.h>
 
 #include <algorithm>
 #include <cmath>
@@ -164,6 +165,56 @@ real default_reach(const Model& m, const Scene& s) {
   return std::max(2 * m.mean_edge, 2.5 * travel);
 }
 
+namespace {
+
+/// Contact ghosts: adds to held[t] each other rank with a tet whose reference box comes within
+/// `reach` of tet t's (ranks sorted).
+void add_contact_ghosts(const Model& g, const std::vector<int>& part, int size, real reach,
+                        std::vector<std::vector<int>>& held) {
+  const int nt = int(g.tet_nodes.size());
+  std::vector<Aabb> boxes(nt);
+  for (int t = 0; t < nt; ++t) {
+    Aabb b{g.X[g.tet_nodes[t][0]], g.X[g.tet_nodes[t][0]]};
+    for (int n : g.tet_nodes[t])
+      for (int d = 0; d < 3; ++d) b.lo[d] = std::min(b.lo[d], g.X[n][d]), b.hi[d] = std::max(b.hi[d], g.X[n][d]);
+    for (int d = 0; d < 3; ++d) b.lo[d] -= 0.5 * reach, b.hi[d] += 0.5 * reach;
+    boxes[t] = b;
+  }
+  // Only tets near another rank's tets can have a partner there: two overlapping boxes
+  // share a cell of a grid whose edge is the largest box, so the pair search needs only
+  // the tets in a cell that holds tets of two ranks (a shell around each interface). All
+  // pairs within the reach took most of rank 0's start time and memory (docs/cluster.md).
+  const std::vector<int> ids = boundary_tets(boxes, part);
+  // Only pairs of two ranks' tets are looked for, and they are not kept: what a tet needs is
+  // the ranks within its reach, a few, where its pairs are hundreds (210 million pairs, 3.4
+  // GB, at 64 ranks of 10,000 tets: bench_ranks --weak). Each thread keeps (tet, rank)
+  // keys, made unique whenever they pile up.
+  const std::size_t threads = std::size_t(omp_get_max_threads());
+  std::vector<std::vector<std::int64_t>> keys(threads);
+  std::vector<std::size_t> limit(threads, std::size_t(1) << 22);  // keys before the next unique()
+  auto unique = [](std::vector<std::int64_t>& k) {
+    std::sort(k.begin(), k.end());
+    k.erase(std::unique(k.begin(), k.end()), k.end());
+  };
+  for_each_box_pair(boxes, ids, &part, [&](int thread, int a, int b) {
+    auto& k = keys[std::size_t(thread)];
+    k.push_back(std::int64_t(a) * size + part[b]), k.push_back(std::int64_t(b) * size + part[a]);
+    if (k.size() >= limit[std::size_t(thread)])
+      unique(k), limit[std::size_t(thread)] = std::max(limit[std::size_t(thread)], 2 * k.size());
+  });
+  std::vector<std::int64_t> all;
+  for (auto& k : keys) all.insert(all.end(), k.begin(), k.end()), std::vector<std::int64_t>().swap(k);
+  unique(all);
+  for (std::int64_t key : all) {
+    auto& h = held[std::size_t(key / size)];
+    const int r = int(key % size);
+    if (std::find(h.begin(), h.end(), r) == h.end()) h.push_back(r);
+  }
+  for (auto& h : held) std::sort(h.begin(), h.end());  // by rank, as the lists below assume
+}
+
+}  // namespace
+
 PartitionPlan plan_partition(const Model& g, const std::vector<int>& part, real reach) {
   const int nt = int(g.tet_nodes.size()), nn = int(g.X.size());
   PartitionPlan plan;
@@ -207,30 +258,7 @@ PartitionPlan plan_partition(const Model& g, const std::vector<int>& part, real 
       for (int t : touched) held[t].push_back(r), in[t] = 0;
     }
   }
-  // Contact ghosts: tets of another rank whose reference boxes come within reach.
-  if (reach > 0) {
-    std::vector<Aabb> boxes(nt);
-    for (int t = 0; t < nt; ++t) {
-      Aabb b{g.X[g.tet_nodes[t][0]], g.X[g.tet_nodes[t][0]]};
-      for (int n : g.tet_nodes[t])
-        for (int d = 0; d < 3; ++d) b.lo[d] = std::min(b.lo[d], g.X[n][d]), b.hi[d] = std::max(b.hi[d], g.X[n][d]);
-      for (int d = 0; d < 3; ++d) b.lo[d] -= 0.5 * reach, b.hi[d] += 0.5 * reach;
-      boxes[t] = b;
-    }
-    // Only tets near another rank's tets can have a partner there: two overlapping boxes
-    // share a cell of a grid whose edge is the largest box, so the pair search needs only
-    // the tets in a cell that holds tets of two ranks (a shell around each interface). All
-    // pairs within the reach took most of rank 0's start time and memory (docs/cluster.md).
-    const std::vector<int> ids = boundary_tets(boxes, part);
-    std::vector<std::array<int, 2>> near;
-    find_box_pairs(boxes, ids, 0, near);
-    auto add = [&](int t, int r) {
-      if (std::find(held[t].begin(), held[t].end(), r) == held[t].end()) held[t].push_back(r);
-    };
-    for (const auto& p : near)
-      if (part[p[0]] != part[p[1]]) add(p[0], part[p[1]]), add(p[1], part[p[0]]);
-    for (auto& h : held) std::sort(h.begin(), h.end());  // by rank, as the lists below assume
-  }
+  if (reach > 0) add_contact_ghosts(g, part, size, reach, held);
 
   // Ranks that need each node's position and velocity every step: those where an element they
   // compute uses it, i.e. a tet or CE6 they own or with a node they own (the other ghosts'

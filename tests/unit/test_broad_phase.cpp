@@ -102,6 +102,28 @@ TEST(BroadPhase, RandomTetCloudsMatchBruteForce) {
   }
 }
 
+TEST(BroadPhase, GroupsKeepOnlyThePairsAcrossGroups) {
+  // Boxes in three groups (ranks of a partition): exactly the brute-force pairs whose boxes lie
+  // in two groups, and fewer pairs tested than without groups.
+  const auto boxes = random_cloud(11, 3000, 0.2 * std::cbrt(3000.0), 0.1, 0.01);
+  const auto ids = all_ids(boxes);
+  std::vector<int> groups(boxes.size());
+  for (std::size_t i = 0; i < groups.size(); ++i) groups[i] = boxes[i].lo.x < 1.0 ? 0 : (i % 5 == 0 ? 1 : 2);
+  Pairs expected;
+  for (const auto& p : brute_force(boxes, ids))
+    if (groups[p[0]] != groups[p[1]]) expected.push_back(p);
+  for (real cell : {0.0, 0.05, 1.0}) {
+    Pairs pairs, all;
+    BroadPhaseStats with, without;
+    find_box_pairs(boxes, ids, cell, pairs, &with, 64, &groups);
+    find_box_pairs(boxes, ids, cell, all, &without);
+    EXPECT_GT(expected.size(), 100u);
+    EXPECT_LT(expected.size(), all.size() / 2) << "most pairs lie within a group";
+    EXPECT_TRUE(pairs == expected) << "cell " << cell;
+    EXPECT_LT(with.tested, without.tested) << "cell " << cell;
+  }
+}
+
 TEST(BroadPhase, ResultDoesNotDependOnTheThreadCount) {
   const auto boxes = random_cloud(7, 2000, 3.0, 0.1, 0.01);
   const auto ids = all_ids(boxes);
