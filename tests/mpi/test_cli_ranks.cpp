@@ -359,41 +359,48 @@ TEST(CliRanks, RankFilesFromPartitionGiveTheSameRun) {
 }
 
 TEST(CliRanks, ABadInputOnOneRankEndsTheJobWithItsMessage) {
-  if (mpiexec(2).empty()) GTEST_SKIP() << "mpiexec not found";
+  // Four ranks (oversubscribed): the others wait in their first exchange, and the failing rank's
+  // MPI_Abort must end them all within seconds.
+  if (mpiexec(4).empty()) GTEST_SKIP() << "mpiexec not found";
   TempDir tmp("fail");
-  // Rank 0 reads a good scene and goes on to the first exchange; rank 1 cannot read its scene.
+  // Ranks 0-2 read a good scene and go on to the first exchange; rank 3 cannot read its scene.
   const std::string bad = (kData / "bad_scenes" / "negative_modulus.yaml").string();
   ASSERT_TRUE(fs::exists(bad));
   const std::string exe = find_mpiexec();
-  const auto t0 = std::chrono::steady_clock::now();
-  const Outcome o = run_cmd(kMpiEnv + kEnv + "timeout 120 " + quote(exe) + " -n 1 " + quote(kExe) + " run " +
+  auto t0 = std::chrono::steady_clock::now();
+  const Outcome o = run_cmd(kMpiEnv + kEnv + "timeout 120 " + quote(exe) + " -n 3 " + quote(kExe) + " run " +
                             quote(kScene) + " -q -o " + quote((tmp.path / "a").string()) + " : -n 1 " + quote(kExe) +
                             " run " + quote(bad) + " -q -o " + quote((tmp.path / "b").string()));
-  const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   EXPECT_NE(o.code, 0) << o.text;
   EXPECT_NE(o.code, 124) << "the job hung until timeout killed it: " << o.text;
-  EXPECT_TRUE(has(o.text, "rank 1: error:")) << o.text;
+  EXPECT_LT(s, 60) << o.text;
+  EXPECT_TRUE(has(o.text, "rank 3: error:")) << o.text;
   EXPECT_TRUE(has(o.text, "negative_modulus.yaml")) << o.text;
   EXPECT_FALSE(has(o.text, "finished:")) << o.text;
-  std::printf("a bad scene on rank 1 ended the job in %.1f s\n", s);
+  std::printf("a bad scene on rank 3 of 4 ended the job in %.1f s\n", s);
 
   // A damaged rank file on one rank: the same.
   const fs::path parts = tmp.path / "parts";
-  ASSERT_EQ(run_fdem("partition " + quote(kScene) + " -n 2 -o " + quote(parts.string())).code, 0);
-  fs::resize_file(parts / "rank_1.fdp", fs::file_size(parts / "rank_1.fdp") / 2);
-  const Outcome d = run_cmd(mpiexec(2) + "timeout 120 " + quote(kExe) + " run " + quote(kScene) + " --partitioned " +
+  ASSERT_EQ(run_fdem("partition " + quote(kScene) + " -n 4 -o " + quote(parts.string())).code, 0);
+  fs::resize_file(parts / "rank_2.fdp", fs::file_size(parts / "rank_2.fdp") / 2);
+  t0 = std::chrono::steady_clock::now();
+  const Outcome d = run_cmd(mpiexec(4) + "timeout 120 " + quote(kExe) + " run " + quote(kScene) + " --partitioned " +
                             quote(parts.string()) + " -q -o " + quote((tmp.path / "c").string()));
+  s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   EXPECT_NE(d.code, 0) << d.text;
   EXPECT_NE(d.code, 124) << d.text;
-  EXPECT_TRUE(has(d.text, "rank 1: error:") && has(d.text, "rank_1.fdp")) << d.text;
+  EXPECT_LT(s, 60) << d.text;
+  EXPECT_TRUE(has(d.text, "rank 2: error:") && has(d.text, "rank_2.fdp")) << d.text;
   EXPECT_TRUE(has(d.text, "not a usable fdem rank file") && has(d.text, "again with fdem partition")) << d.text;
   EXPECT_FALSE(has(d.text, "other checkpoint")) << d.text;
+  std::printf("a damaged rank file on rank 2 of 4 ended the job in %.1f s\n", s);
 }
 
 TEST(CliRanks, ARankKilledMidRunEndsTheJob) {
-  if (mpiexec(2).empty()) GTEST_SKIP() << "mpiexec not found";
+  if (mpiexec(4).empty()) GTEST_SKIP() << "mpiexec not found";
   TempDir tmp("kill");
-  // A long run (1e6 steps); one of its ranks is killed once both are stepping.
+  // A long run (1e6 steps) on four ranks; one of them is killed once all are stepping.
   const fs::path scene = tmp.path / "long.yaml";
   {
     std::ofstream o(scene);
@@ -406,18 +413,18 @@ TEST(CliRanks, ARankKilledMidRunEndsTheJob) {
     o << text;
   }
   const fs::path log = tmp.path / "log.txt";
-  const std::string cmd = mpiexec(2) + "timeout 300 " + quote(kExe) + " run " + quote(scene.string()) + " -o " +
+  const std::string cmd = mpiexec(4) + "timeout 300 " + quote(kExe) + " run " + quote(scene.string()) + " -o " +
                           quote((tmp.path / "out").string()) + " > " + quote(log.string()) + " 2>&1; echo $? > " +
                           quote((tmp.path / "rc").string());
   ASSERT_EQ(std::system(("(" + cmd + ") &").c_str()), 0);
-  // Wait until the run has written monitor rows (both ranks past the start), then kill rank 1.
+  // Wait until the run has written monitor rows (every rank past the start), then kill one.
   const fs::path mon = tmp.path / "out" / "monitors.csv";
   for (int i = 0; i < 600 && !(fs::exists(mon) && fs::file_size(mon) > 2000); ++i)
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
   ASSERT_TRUE(fs::exists(mon)) << slurp(log);
   const std::string marker = quote("^" + kExe + " run " + scene.string());
   const auto t0 = std::chrono::steady_clock::now();
-  // The newest fdem process of this run is one of its two ranks.
+  // The newest fdem process of this run is one of its ranks.
   ASSERT_EQ(std::system(("pkill -KILL -n -f " + marker).c_str()) >> 8, 0);
   const fs::path rc = tmp.path / "rc";
   for (int i = 0; i < 1200 && !fs::exists(rc); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(100));
@@ -426,6 +433,7 @@ TEST(CliRanks, ARankKilledMidRunEndsTheJob) {
   const int code = std::stoi(slurp(rc));
   EXPECT_NE(code, 0);
   EXPECT_NE(code, 124) << "timeout ended it, not MPI";
+  EXPECT_LT(s, 60) << "the job should end within seconds of a rank's death";
   EXPECT_FALSE(fs::exists(tmp.path / "out" / "summary.csv"));
   std::printf("a killed rank ended the job in %.1f s (exit %d)\n", s, code);
 }
