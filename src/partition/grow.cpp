@@ -505,6 +505,8 @@ GrownRank grow_contact_ghosts(MPI_Comm comm, const Model& m, const Decomposition
   // 4. The owner's answer: each requested tet's record for the rank that asked, and to every
   // other rank holding it already, who holds it now.
   const std::map<long, std::vector<int>> new_holders = read_requests(asked, dd, tet_local);
+  GrownRank out;
+  if (sum_over_ranks(comm, double(new_holders.size())) == 0) return out;  // no rank lacks a tet: rm empty
   std::unordered_map<long, std::vector<int>> own_holders = holders_before(new_holders, dd);
   const std::vector<std::string> got =
       exchange_all(comm, answer_requests(m, dd, now, new_holders, tet_local, own_holders));
@@ -514,7 +516,6 @@ GrownRank grow_contact_ghosts(MPI_Comm comm, const Model& m, const Decomposition
 
   // 6. The grown rank model: the old one, then the new nodes, tets, CE6s and faces, each in
   // global order.
-  GrownRank out;
   out.rm.model = m;
   out.rm.dd = dd;
   const std::unordered_map<long, int> node_local = append_ghost_nodes(m, dd, arrived.nodes, out);

@@ -38,6 +38,7 @@ struct GrownRank {
 /// learns who else holds it, so the lists of shared tets stay the same on both sides of every
 /// pair (in global order). Ghosts are never dropped: a rank model only grows. The appended
 /// elements are in no colouring (they act on no owned node, so this rank never computes them).
+/// Where no rank lacks a tet, added_total is 0 and rm is left empty: the rank model stays.
 GrownRank grow_contact_ghosts(MPI_Comm comm, const Model& m, const Decomposition& dd, const GhostState& now);
 
 }  // namespace fdem

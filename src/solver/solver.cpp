@@ -154,6 +154,15 @@ void Solver::grow_contact_ghosts() {
   GhostState now;
   now.x = state.x, now.v = state.v, now.ce6 = state.ce6.states(), now.active = contacts.tet_flags;
   GrownRank g = fdem::grow_contact_ghosts(layout_.comm, model_, layout_.dd, now);
+  ++growth_.count;
+  growth_.step = state.step;
+  if (g.added_total == 0) {  // no rank lacked a tet: the layout stays, the reach counts from here
+    contacts.set_plan(state.x);
+    restart_device();  // (a loop of its own: the step's deferred sums start afresh on every rank)
+    ++growth_.unchanged;
+    growth_.seconds += MPI_Wtime() - t0;
+    return;
+  }
   CheckpointOut kept;
   save_state(kept);
   // The grown layout, then the state, extended by the ghosts'.
@@ -162,9 +171,7 @@ void Solver::grow_contact_ghosts() {
   load_state(in, &g.added);
   in.finish();
   contacts.set_plan(state.x);  // the reach counts from here
-  ++growth_.count;
   growth_.tets += g.added_total;
-  growth_.step = state.step;
   restart_device();
   growth_.seconds += MPI_Wtime() - t0;
 }
@@ -633,7 +640,7 @@ void Solver::save(CheckpointOut& out) const {
   sync_host();
   // After the contact ghosts grew, the rank model is no longer the one the run started with.
   out.put(growth_);
-  if (growth_.count > 0) put_rank_model(out, {model_, layout_.dd}, 0);
+  if (growth_.count > growth_.unchanged) put_rank_model(out, {model_, layout_.dd}, 0);
   out.put(excavated_);
   out.put(loads_.gravity.relax_start);
   out.put(loads_.gravity.push);
@@ -651,7 +658,7 @@ void Solver::save_state(CheckpointOut& out) const {
 
 void Solver::load(CheckpointIn& in) {
   in.get(growth_);
-  if (growth_.count > 0) {  // the grown rank model replaces the one the run started with
+  if (growth_.count > growth_.unchanged) {  // the grown rank model replaces the one the run started with
     RankModel rm = get_rank_model(in, 0);
     if (!layout_.dd.distributed() || rm.dd.rank != layout_.dd.rank || rm.dd.size != layout_.dd.size)
       in.mismatch("a rank model of rank " + std::to_string(rm.dd.rank) + " of " + std::to_string(rm.dd.size));
@@ -668,6 +675,7 @@ void Solver::load(CheckpointIn& in) {
   loads_.gravity.push = std::move(push);
   if (excavated_ > 0) loads_.gravity.relax_time = scene_.excavation[excavated_ - 1].relax;
   remove_excavated();
+  // (After a gathering the reach counts from the saved positions: a new loop places them.)
   if (growth_.count > 0 || excavated_ > 0) dev_ = make_device_loop(backend_, loop_parts());
   std::uint64_t fp = 0, fixed = 0;
   in.get(fp);

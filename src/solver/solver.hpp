@@ -45,6 +45,7 @@ struct GhostState;
 /// Growths of the contact ghosts so far (several ranks, partition/grow.hpp).
 struct GhostGrowths {
   long count = 0;      // how often every rank gathered its contact ghosts again
+  long unchanged = 0;  // of those, the gatherings that added no tet to any rank (layout kept)
   long tets = 0;       // tets added to the rank models, all ranks together
   long step = -1;      // the step of the last growth
   double seconds = 0;  // wall time of the gatherings and the set-ups of the grown layouts

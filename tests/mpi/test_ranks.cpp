@@ -613,8 +613,12 @@ TEST(Ranks, FragmentsTravellingBeyondTheReachGatherTheirContactGhosts) {
     EXPECT_EQ(md.broken, mr.broken) << backend;
     const GhostGrowths& g = d.ghost_growths();
     const double ce6_added = sum_over_ranks(double(d.model().ce6_nodes.size())) - ce6_start;
+    EXPECT_EQ(restarted->ghost_growths().unchanged, g.unchanged) << backend;
     if (world_size() > 1) {
       EXPECT_GT(g.count, 3) << backend;
+      // Both kinds: gatherings while the blocks are apart add nothing and keep the layout.
+      EXPECT_GT(g.unchanged, 0) << backend;
+      EXPECT_LT(g.unchanged, g.count) << backend;
       EXPECT_GT(ce6_added, 0) << backend;
       EXPECT_GT(g.tets, 0) << backend;
       // (A rank that owns no tet, the middle ones of three or more, has nothing to gather for.)
