@@ -9,12 +9,14 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <limits>
 #include <set>
 #include <sstream>
 #include <type_traits>
 
 #include "core/error.hpp"
 #include "io/atomic_file.hpp"
+#include "io/checkpoint.hpp"
 
 namespace fdem {
 namespace {
@@ -67,6 +69,11 @@ class Handle {
     id_ = -1;
     return good;
   }
+  /// Closes the handle held, and holds `id`.
+  void adopt(hid_t id) {
+    reset();
+    id_ = id;
+  }
 
  private:
   hid_t id_;
@@ -100,9 +107,10 @@ struct Column {
 
 /// Writes a column's dataset at loc/name: all its rows (`xfer` the default), or this rank's
 /// rows through MPI-IO (every rank calls, those without rows too: the dataset's creation is
-/// collective).
+/// collective). There a failed write of this rank's rows goes to `failed` (the first only), so
+/// that the rank keeps making the collective calls the others make; the caller throws it.
 void write_dataset(hid_t loc, const Column& c, const Rows& r, hid_t xfer, const std::string& file,
-                   const std::string& where) {
+                   const std::string& where, std::string* failed = nullptr) {
   const int dims_n = c.cols == 0 ? 1 : 2;
   const hsize_t dims[2] = {r.all, c.cols}, start[2] = {r.first, 0}, count[2] = {r.mine, c.cols};
   Handle space(H5Screate_simple(dims_n, dims, nullptr), H5Sclose);
@@ -120,8 +128,14 @@ void write_dataset(hid_t loc, const Column& c, const Rows& r, hid_t xfer, const 
                                 : H5Sselect_hyperslab(space.get(), H5S_SELECT_SET, start, nullptr, count, nullptr);
     static const double none = 0;  // (a rank without rows may hold no array)
     if (!mem.ok() || selected < 0 ||
-        H5Dwrite(ds.get(), c.mem_type, mem.get(), space.get(), xfer, c.data ? c.data : &none) < 0)
-      h5_fail(file, "writing this rank's rows of dataset " + where);
+        H5Dwrite(ds.get(), c.mem_type, mem.get(), space.get(), xfer, c.data ? c.data : &none) < 0) {
+      try {
+        h5_fail(file, "writing this rank's rows of dataset " + where);
+      } catch (const OutputError& e) {
+        if (!failed) throw;
+        if (failed->empty()) *failed = e.what();
+      }
+    }
   }
   if (!ds.reset()) h5_fail(file, "closing dataset " + where);
 }
@@ -347,14 +361,18 @@ void gather_to_root(FrameData& d, const std::vector<std::array<long, 3>>& counts
   std::vector<Column*> all{&d.topology};
   for (Column& c : d.columns) all.push_back(&c);
   for (Column* c : all) {
-    const std::size_t row = c->row_bytes();
-    std::vector<int> bytes(size), offsets(size + 1, 0);
+    // Counted in rows (an MPI type of one row), so that the counts fit an int.
+    MPI_Datatype row;
+    MPI_Type_contiguous(static_cast<int>(c->row_bytes()), MPI_BYTE, &row);
+    MPI_Type_commit(&row);
+    std::vector<int> rows(size), offsets(size + 1, 0);
     for (int r = 0; r < size; ++r) {
-      bytes[r] = static_cast<int>(counts[r][c->kind] * row);
-      offsets[r + 1] = offsets[r] + bytes[r];
+      rows[r] = static_cast<int>(counts[r][c->kind]);
+      offsets[r + 1] = offsets[r] + rows[r];
     }
-    std::vector<char>& buf = d.gathered.emplace_back(rank == 0 ? offsets[size] : 0);
-    MPI_Gatherv(c->data, bytes[rank], MPI_BYTE, buf.data(), bytes.data(), offsets.data(), MPI_BYTE, 0, comm);
+    std::vector<char>& buf = d.gathered.emplace_back(rank == 0 ? std::size_t(offsets[size]) * c->row_bytes() : 0);
+    MPI_Gatherv(c->data, rows[rank], row, buf.data(), rows.data(), offsets.data(), row, 0, comm);
+    MPI_Type_free(&row);
     c->data = buf.data();
   }
 }
@@ -366,6 +384,7 @@ void write_frame_group(const FieldFrame& f, const FrameData& d, const FrameRows&
                        hid_t fapl, hid_t xfer, int index, bool first_mesh, const std::string& tets_path) {
   const std::string gname = frame_name(index);
   const std::string gpath = "/" + gname;
+  std::string failed;  // a failed write of this rank's rows, thrown once the collective calls are made
   Handle h5(H5Fopen(file.c_str(), H5F_ACC_RDWR, fapl), H5Fclose);
   if (!h5.ok()) h5_fail(file, "opening the file for frame " + std::to_string(index));
   // A frame group left behind by an earlier failed write() is replaced.
@@ -376,7 +395,7 @@ void write_frame_group(const FieldFrame& f, const FrameData& d, const FrameRows&
       h5_fail(file, "removing an incomplete /mesh");
     Handle mesh(H5Gcreate2(h5.get(), "mesh", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
     if (!mesh.ok()) h5_fail(file, "creating group /mesh");
-    write_dataset(mesh.get(), d.topology, rows[kTetRows], xfer, file, "/mesh/tets");
+    write_dataset(mesh.get(), d.topology, rows[kTetRows], xfer, file, "/mesh/tets", &failed);
   }
   Handle g(H5Gcreate2(h5.get(), gname.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
   if (!g.ok()) h5_fail(file, "creating group " + gpath);
@@ -384,14 +403,15 @@ void write_frame_group(const FieldFrame& f, const FrameData& d, const FrameRows&
   write_attr_long(g.get(), "step", f.step, file);
   write_attr_string(g.get(), "label", f.label, file);
   if (tets_path != "/mesh/tets")  // topology changed: this frame carries its own connectivity
-    write_dataset(g.get(), d.topology, rows[kTetRows], xfer, file, tets_path);
-  for (const Column& c : d.columns) write_dataset(g.get(), c, rows[c.kind], xfer, file, gpath + "/" + c.name);
+    write_dataset(g.get(), d.topology, rows[kTetRows], xfer, file, tets_path, &failed);
+  for (const Column& c : d.columns) write_dataset(g.get(), c, rows[c.kind], xfer, file, gpath + "/" + c.name, &failed);
   if (!g.reset()) h5_fail(file, "closing group " + gpath);
   // (Through MPI-IO a flush is an fsync on every rank. The close writes the same data, and a
   // checkpoint syncs the file itself.)
   if (xfer == H5P_DEFAULT && H5Fflush(h5.get(), H5F_SCOPE_GLOBAL) < 0)
     h5_fail(file, "flushing frame " + std::to_string(index));
   if (!h5.reset()) h5_fail(file, "closing the file after frame " + std::to_string(index));
+  if (!failed.empty()) throw OutputError(failed);
 }
 
 /// The frame's XDMF grid: the rock tets with their fields, and the crack faces if any.
@@ -449,25 +469,41 @@ class Access {
   Access(MPI_Comm ranks, bool collective, const std::string& file) {
     if (!collective) return;
 #ifdef H5_HAVE_PARALLEL
-    fapl = H5Pcreate(H5P_FILE_ACCESS);
-    xfer = H5Pcreate(H5P_DATASET_XFER);
-    if (fapl < 0 || xfer < 0 || H5Pset_fapl_mpio(fapl, ranks, MPI_INFO_NULL) < 0 ||
-        H5Pset_all_coll_metadata_ops(fapl, true) < 0 || H5Pset_coll_metadata_write(fapl, true) < 0 ||
-        H5Pset_dxpl_mpio(xfer, H5FD_MPIO_INDEPENDENT) < 0)
+    fapl_.adopt(H5Pcreate(H5P_FILE_ACCESS));
+    xfer_.adopt(H5Pcreate(H5P_DATASET_XFER));
+    if (!fapl_.ok() || !xfer_.ok() || H5Pset_fapl_mpio(fapl_.get(), ranks, MPI_INFO_NULL) < 0 ||
+        H5Pset_all_coll_metadata_ops(fapl_.get(), true) < 0 || H5Pset_coll_metadata_write(fapl_.get(), true) < 0 ||
+        H5Pset_dxpl_mpio(xfer_.get(), H5FD_MPIO_INDEPENDENT) < 0)
       h5_fail(file, "setting up MPI-IO");
 #else
     (void)ranks;
     throw OutputError("field output " + file + ": this fdem's HDF5 has no MPI-IO for a collective write");
 #endif
   }
-  Access(const Access&) = delete;
-  Access& operator=(const Access&) = delete;
-  ~Access() {
-    if (fapl > 0) H5Pclose(fapl);
-    if (xfer > 0) H5Pclose(xfer);
+  hid_t fapl() const {
+    return fapl_.ok() ? fapl_.get() : H5P_DEFAULT;
   }
-  hid_t fapl = H5P_DEFAULT, xfer = H5P_DEFAULT;
+  hid_t xfer() const {
+    return xfer_.ok() ? xfer_.get() : H5P_DEFAULT;
+  }
+
+ private:
+  Handle fapl_{-1, H5Pclose}, xfer_{-1, H5Pclose};
 };
+
+/// Several ranks: every rank must give the same datasets, or their collective calls would not
+/// match. Throws RunError on every rank where they differ.
+void check_same_columns(const FrameData& d, MPI_Comm ranks, const std::string& file) {
+  std::string names;
+  for (const Column& c : d.columns) names += c.name + "/" + std::to_string(c.cols) + "/" + std::to_string(c.kind) + ";";
+  const std::uint64_t mine = fnv1a64(names.data(), names.size());
+  std::uint64_t low = mine, high = mine;
+  MPI_Allreduce(MPI_IN_PLACE, &low, 1, MPI_UINT64_T, MPI_MIN, ranks);
+  MPI_Allreduce(MPI_IN_PLACE, &high, 1, MPI_UINT64_T, MPI_MAX, ranks);
+  if (low != high)
+    throw RunError("field output " + file + ": the ranks give different fields (this rank: " + names +
+                   "); every rank must give the same arrays and extra fields");
+}
 
 /// This rank's rows of each kind in the file; `counts` gets every rank's (in rank order).
 FrameRows frame_rows(const FieldFrame& f, MPI_Comm ranks, int rank, int size,
@@ -565,7 +601,7 @@ FieldWriter::FieldWriter(const std::string& folder, const std::string& basename,
   agree(
       [&] {
         const Access access(ranks_, collective(), h5_path_);
-        Handle file(H5Fcreate(h5_path_.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, access.fapl), H5Fclose);
+        Handle file(H5Fcreate(h5_path_.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, access.fapl()), H5Fclose);
         if (!file.ok()) h5_fail(h5_path_, "creating the file");
         write_attr_string(file.get(), "writer", "fdem FieldWriter", h5_path_);
         if (!file.reset()) h5_fail(h5_path_, "closing the file");
@@ -577,12 +613,17 @@ void FieldWriter::write(const FieldFrame& f) {
   agree([&] { validate_frame(f, h5_path_); }, true);  // every rank's checks before any file is touched
   std::vector<std::array<long, 3>> counts;
   const FrameRows rows = frame_rows(f, ranks_, rank_, size_, counts);
+  if (rows[kNodeRows].all > hsize_t(std::numeric_limits<int>::max()))
+    throw RunError("field output " + h5_path_ + ": " + std::to_string(rows[kNodeRows].all) +
+                   " nodes in a frame, more than its 32-bit node ids can number");
+  FrameData data = frame_data(f, rows);
+  if (shared()) check_same_columns(data, ranks_, h5_path_);
   const int index = frames();
   const bool first_mesh = !have_mesh_;
-  int changed = first_mesh || mesh_tets_ != *f.tets;
+  // (Compared in the file's numbering: a rank before this one may have changed its node count.)
+  int changed = first_mesh || mesh_tets_ != data.tets;
   if (shared()) MPI_Allreduce(MPI_IN_PLACE, &changed, 1, MPI_INT, MPI_MAX, ranks_);
   const std::string tets_path = changed && !first_mesh ? "/" + frame_name(index) + "/tets" : "/mesh/tets";
-  FrameData data = frame_data(f, rows);
   FrameRows written = rows;  // the rows this process writes
   if (shared() && !collective()) {
     gather_to_root(data, counts, ranks_, rank_);
@@ -591,11 +632,11 @@ void FieldWriter::write(const FieldFrame& f) {
   agree(
       [&] {
         const Access access(ranks_, collective(), h5_path_);
-        write_frame_group(f, data, written, h5_path_, access.fapl, access.xfer, index, first_mesh, tets_path);
+        write_frame_group(f, data, written, h5_path_, access.fapl(), access.xfer(), index, first_mesh, tets_path);
       },
       collective());
   if (first_mesh) {
-    mesh_tets_ = *f.tets;
+    mesh_tets_ = data.tets;
     have_mesh_ = true;
   }
   grids_.push_back(xdmf_grid(f, rows, h5_name_, index, tets_path));
@@ -615,7 +656,7 @@ void FieldWriter::relabel(int index, const std::string& label) {
   agree(
       [&] {
         const Access access(ranks_, collective(), h5_path_);
-        Handle h5(H5Fopen(h5_path_.c_str(), H5F_ACC_RDWR, access.fapl), H5Fclose);
+        Handle h5(H5Fopen(h5_path_.c_str(), H5F_ACC_RDWR, access.fapl()), H5Fclose);
         if (!h5.ok()) h5_fail(h5_path_, "opening the file to relabel frame " + std::to_string(index));
         Handle g(H5Gopen2(h5.get(), gname.c_str(), H5P_DEFAULT), H5Gclose);
         if (!g.ok()) h5_fail(h5_path_, "opening group /" + gname);
@@ -687,7 +728,7 @@ FieldWriter::FieldWriter(const std::string& folder, const std::string& basename,
 
 void FieldWriter::take_over() {
   const Access access(ranks_, collective(), h5_path_);
-  Handle h5(H5Fopen(h5_path_.c_str(), H5F_ACC_RDWR, access.fapl), H5Fclose);
+  Handle h5(H5Fopen(h5_path_.c_str(), H5F_ACC_RDWR, access.fapl()), H5Fclose);
   if (!h5.ok()) h5_fail(h5_path_, "opening the file of the interrupted run (restart in its output folder)");
   for (int i = 0; i < frames(); ++i) {
     const std::string gname = frame_name(i);

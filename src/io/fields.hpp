@@ -103,6 +103,8 @@ class FieldWriter {
   void relabel(int index, const std::string& label);
   /// Number of frames written so far.
   int frames() const { return static_cast<int>(grids_.size()); }
+  /// Several ranks write the file together (every call is collective over them).
+  bool shared() const { return size_ > 1; }
 
   const std::string& h5_path() const { return h5_path_; }
   const std::string& xdmf_path() const { return xdmf_path_; }
@@ -122,7 +124,6 @@ class FieldWriter {
   SharedWrite how_ = SharedWrite::collective;
 
   void share(MPI_Comm ranks, SharedWrite how);
-  bool shared() const { return size_ > 1; }
   /// Runs `work` on every rank (everywhere) or on rank 0 only; where it threw on a rank, every
   /// rank throws the first such rank's error, of its kind.
   template <class Work>

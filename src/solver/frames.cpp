@@ -105,7 +105,7 @@ void write_frame(FieldWriter& w, const Solver& s, real time, long step, const st
   }
   std::vector<real> group;                    // with volume groups: each tet's gmsh tag (0: none)
   int groups = !s.model().tet_group.empty();  // (a rank whose tets are in none holds no list)
-  if (s.distributed()) MPI_Allreduce(MPI_IN_PLACE, &groups, 1, MPI_INT, MPI_MAX, s.comm());
+  if (w.shared()) MPI_Allreduce(MPI_IN_PLACE, &groups, 1, MPI_INT, MPI_MAX, s.comm());
   if (groups) {
     group.assign(s.model().tet_group.begin(), s.model().tet_group.end());
     group.resize(s.model().tet_nodes.size(), 0);

@@ -1065,4 +1065,23 @@ TEST(Ranks, OneFieldFileOfAllRanksHoldsWhatOneProcessWritesOfTheWhole) {
   }
   MPI_Bcast(&same, 1, MPI_INT, 0, MPI_COMM_WORLD);
   EXPECT_TRUE(same) << "rank 0 found a dataset that differs";
+  if (default_shared_write() != SharedWrite::collective && rank == 0)
+    std::printf("collective: written as gathered, this HDF5 has no MPI-IO\n");
+
+  // A rank that gives a field the others do not: every rank throws, naming it (no rank waits
+  // in a collective call the others never make).
+  if (size > 1) {
+    FieldWriter w(dir + "/mismatch", "fields", MPI_COMM_WORLD);
+    const std::vector<real> extra(mine[0].tets.size(), 1.0);
+    FieldFrame f = mine[0].frame(0);
+    if (rank == size - 1) f.extra.push_back({"only_here", &extra});
+    try {
+      w.write(f);
+      ADD_FAILURE() << "rank " << rank << ": a frame with different fields was written";
+    } catch (const RunError& e) {
+      EXPECT_NE(std::string(e.what()).find("the ranks give different fields"), std::string::npos) << e.what();
+    }
+    MPI_Barrier(MPI_COMM_WORLD);
+    if (rank == 0) std::filesystem::remove_all(dir);
+  }
 }
