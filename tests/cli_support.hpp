@@ -126,17 +126,23 @@ inline std::string dataset_bytes(hid_t file, const std::string& path) {
   return bytes;
 }
 
-/// A dataset of doubles (fields.h5's x, u, v, stress, von_mises ...) of the file at `file`;
-/// empty if the file or the dataset is absent.
-inline std::vector<double> h5_doubles(const fs::path& file, const std::string& path) {
+/// A dataset of T (its values as stored: double or int32) of the file at `file`; empty if
+/// the file or the dataset is absent.
+template <class T>
+std::vector<T> h5_values(const fs::path& file, const std::string& path) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
   const hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
   if (f < 0) return {};
   const std::string bytes = dataset_bytes(f, path);
   H5Fclose(f);
-  std::vector<double> out(bytes.size() / sizeof(double));
-  if (!out.empty()) std::memcpy(out.data(), bytes.data(), out.size() * sizeof(double));
+  std::vector<T> out(bytes.size() / sizeof(T));
+  if (!out.empty()) std::memcpy(out.data(), bytes.data(), out.size() * sizeof(T));
   return out;
+}
+
+/// fields.h5's x, u, v, stress, von_mises ...
+inline std::vector<double> h5_doubles(const fs::path& file, const std::string& path) {
+  return h5_values<double>(file, path);
 }
 
 /// A copy of the scene `base` in `dir` with each `from` replaced by its `to` (one occurrence,

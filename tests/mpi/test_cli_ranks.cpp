@@ -58,12 +58,7 @@ FrameInfo frame_labelled(const std::string& xdmf, const std::string& label) {
 std::vector<std::array<double, 4>> tet_rows(const fs::path& h5, const std::string& group, const std::string& xdmf) {
   const std::string own = group + "/tets";
   const std::string topology = has(xdmf, "fields.h5:" + own + "<") ? own : "/mesh/tets";
-  const hid_t f = H5Fopen(h5.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
-  if (f < 0) return {};
-  const std::string bytes = dataset_bytes(f, topology);
-  H5Fclose(f);
-  std::vector<int> ids(bytes.size() / sizeof(int));
-  if (!ids.empty()) std::memcpy(ids.data(), bytes.data(), ids.size() * sizeof(int));
+  const std::vector<int> ids = h5_values<int>(h5, topology);
   const std::vector<double> x = h5_doubles(h5, group + "/x"), vm = h5_doubles(h5, group + "/von_mises");
   std::vector<std::array<double, 4>> rows(vm.size());
   if (ids.size() != 4 * vm.size()) return {};
