@@ -69,14 +69,12 @@ std::vector<int> tet_cost_weights(const Model& m) {
   return w;
 }
 
-std::vector<int> partition_tets(const Model& m, int parts, PartitionWeights weights) {
+namespace {
+
+/// METIS k-way on the dual graph into `parts` (2 or more); a part may come out empty.
+std::vector<int> metis_parts(const Model& m, int parts, PartitionWeights weights) {
   idx_t ne = idx_t(m.tet_nodes.size());
-  if (parts < 1 || idx_t(parts) > ne)
-    throw InputError("partition: " + std::to_string(parts) + " ranks for a model of " + std::to_string(ne) +
-                     " tets: every rank needs tets. Fix: run with at most " + std::to_string(ne) +
-                     " ranks (a few thousand tets per rank or more is sensible)");
   std::vector<int> part(ne, 0);
-  if (parts == 1) return part;
   // Mesh vertices (not split nodes): tets sharing a face are neighbours even across a CE6.
   std::vector<idx_t> eptr(ne + 1), eind(4 * std::size_t(ne));
   idx_t nv = 0;
@@ -110,13 +108,50 @@ std::vector<int> partition_tets(const Model& m, int parts, PartitionWeights weig
   if (rc != METIS_OK)
     throw InputError("partition: METIS failed (code " + std::to_string(rc) + ") for " + std::to_string(parts) +
                      " parts of " + std::to_string(ne) + " tets");
-  std::vector<long> count(parts, 0);
-  for (idx_t t = 0; t < ne; ++t) part[t] = int(epart[t]), ++count[epart[t]];
-  for (int r = 0; r < parts; ++r)
-    if (count[r] == 0)
-      throw InputError("partition: rank " + std::to_string(r) + " of " + std::to_string(parts) +
-                       " received no tets (the model has " + std::to_string(ne) + "). Fix: run with fewer ranks");
+  for (idx_t t = 0; t < ne; ++t) part[t] = int(epart[t]);
   return part;
+}
+
+/// The first rank of `parts` with no tet in `part`, or -1.
+int empty_rank(const std::vector<int>& part, int parts) {
+  std::vector<char> used(parts, 0);
+  for (int p : part) used[p] = 1;
+  const auto it = std::find(used.begin(), used.end(), 0);
+  return it == used.end() ? -1 : int(it - used.begin());
+}
+
+/// The most ranks, below `parts`, whose every rank METIS gives tets (0 if a few tries find none:
+/// only small models meet this, so the tries are quick).
+int most_filled(const Model& m, int parts, PartitionWeights weights) {
+  const int top = int(std::min<long>(parts - 1, long(m.tet_nodes.size())));
+  for (int q = top; q >= std::max(1, top - 31); --q)
+    if (q == 1 || empty_rank(metis_parts(m, q, weights), q) < 0) return q;
+  return 0;
+}
+
+}  // namespace
+
+std::vector<int> partition_tets(const Model& m, int parts, PartitionWeights weights) {
+  const long ne = long(m.tet_nodes.size());
+  if (parts < 1) throw InputError("partition: " + std::to_string(parts) + " ranks. Fix: run with 1 rank or more");
+  std::vector<int> part;
+  int empty = 0;
+  if (parts == 1) return std::vector<int>(ne, 0);
+  if (parts <= ne) {
+    part = metis_parts(m, parts, weights);
+    empty = empty_rank(part, parts);
+    if (empty < 0) return part;
+  }
+  const int usable = most_filled(m, parts, weights);
+  const std::string fix = "Fix: run with " +
+                          (usable > 0 ? "at most " + std::to_string(usable) + " ranks, the most that each receive tets"
+                                      : std::string("fewer ranks")) +
+                          " (a few thousand tets per rank or more is sensible)";
+  if (parts > ne)
+    throw InputError("partition: " + std::to_string(parts) + " ranks for a model of " + std::to_string(ne) +
+                     " tets: every rank needs tets. " + fix);
+  throw InputError("partition: rank " + std::to_string(empty) + " of " + std::to_string(parts) +
+                   " received no tets (the model has " + std::to_string(ne) + "). " + fix);
 }
 
 void append_tet(Model& m, const std::array<int, 4>& nodes, int input, const Mat3& Xinv, real V0, real eta,

@@ -848,6 +848,42 @@ TEST(Ranks, PartitionIsBalancedAndCoversEveryTet) {
   EXPECT_THROW(partition_tets(global, int(global.tet_nodes.size()) + 1), InputError);
 }
 
+TEST(Ranks, APartitionThatLeavesARankEmptyNamesTheMostRanksThatEachGetTets) {
+  // METIS may leave a part empty well below one rank per tet. The refusal names the largest
+  // rank count below that fills every rank, for a restart onto more ranks than a model can take.
+  const Scene scene = box_scene();
+  const Model global = build_model(structured_box_mesh({0.01, 0.01, 0.01}, 2, 2, 2), scene);
+  const int nt = int(global.tet_nodes.size());
+  auto fills = [&](int parts) {
+    try {
+      const std::vector<int> part = partition_tets(global, parts);
+      std::vector<int> count(parts, 0);
+      for (int p : part) ++count[p];
+      return *std::min_element(count.begin(), count.end()) > 0;
+    } catch (const InputError&) {
+      return false;
+    }
+  };
+  int refused = 0;
+  for (int parts = 2; parts <= nt + 1; ++parts) {
+    try {
+      partition_tets(global, parts);
+    } catch (const InputError& e) {
+      ++refused;
+      const std::string what = e.what();
+      const std::size_t at = what.find("at most ");
+      ASSERT_NE(at, std::string::npos) << what;
+      const int usable = std::atoi(what.c_str() + at + 8);
+      ASSERT_GT(usable, 0) << what;
+      ASSERT_LT(usable, parts) << what;
+      EXPECT_TRUE(fills(usable)) << what;
+      for (int q = usable + 1; q < parts && parts <= nt; ++q) EXPECT_FALSE(fills(q)) << q << ": " << what;
+    }
+  }
+  EXPECT_GT(refused, 1) << "METIS filled every count up to the tet count: the case is not reached";
+  std::printf("%d tets: %d of %d rank counts refused\n", nt, refused, nt);
+}
+
 TEST(Ranks, PartitionBalancesTheWorkWhenFractureRegionsCoverPartOfTheModel) {
   // CE6s only in the lower quarter of a box: a tet there costs about 4 times one above it
   // (docs/benchmarks.md: 90 ns per TET4, 135 ns per CE6 on one core). The work each rank's
