@@ -141,7 +141,8 @@ void define_run(CLI::App* run, CliOptions& o) {
       ->check(CLI::IsMember({"plex", "root"}));
   run->add_option("--restart", o.run_options.restart,
                   "Continue an interrupted run from its newest checkpoint: the run's output folder, its "
-                  "checkpoints/ folder or a .ckpt file (same scene and mesh; solver.end and output may change)");
+                  "checkpoints/ folder or a .ckpt file (same scene and mesh; solver.end and output may change; on "
+                  "any number of ranks)");
 }
 
 void define_check_and_partition(CLI::App* check, CLI::App* partition, CliOptions& o) {

@@ -29,11 +29,13 @@ namespace fdem {
 // 9: and each CE6's strength factor. 10: and each tet's factor on E. 11: and each tet's joint.
 // 12: a monitor row holds the history entries' columns, and a rank model their nodes and tets.
 // 13: and each tet's volume group. 14: the excavation's stages done and forces, and each tet's
-// excavation stage. 15: the count of contact ghost gatherings that added no tet.
+// excavation stage. 15: the count of contact ghost gatherings that added no tet. 16: each rank's
+// file starts with its layout in global numbering (solver/saved_layout.hpp), so that a run on
+// another rank count can read it.
 // Rank files: 4 boundary conditions, 5 materials, 6 CE6 strength factors, 7 tet factors on E,
 // 8 tets' joints, 9 the nodes and tets that history entries follow, 10 tets' volume groups,
 // 11 tets' excavation stages.
-constexpr std::uint32_t kCheckpointVersion = 15;
+constexpr std::uint32_t kCheckpointVersion = 16;
 constexpr std::uint32_t kRankFileVersion = 11;
 
 /// Collects values for a checkpoint payload.

@@ -35,6 +35,11 @@ class ContactSet {
  public:
   ContactSet() = default;
   ContactSet(const Model& m, const Scene& s);
+  /// An empty set sized to read a saved one of another layout into: `tets` tets, and the plan
+  /// positions of `plan_nodes` nodes (0 where it was saved on one rank).
+  ContactSet(bool enabled, std::size_t tets, std::size_t plan_nodes) : plan_x_(plan_nodes), enabled_(enabled) {
+    tet_flags.assign(tets, 0);
+  }
 
   bool enabled() const { return enabled_; }
   real penalty() const { return penalty_; }  // Pa, material.contact_penalty

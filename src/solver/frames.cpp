@@ -247,6 +247,69 @@ void PeakFrames::save(CheckpointOut& o) const {
   }
 }
 
+namespace {
+
+// Marks of what no saved rank has set yet (finish_saved gives it the state now).
+constexpr std::uint8_t kUnsetFlags = 0xFF;  // (no TetFlag combination sets bits 5 and 6)
+bool unset(const Vec3& x) {
+  return std::isnan(x.x);
+}
+
+/// A kept state's clock and stress, its arrays sized for solver s and marked unset.
+FrameState unset_like(const FrameState& saved, const Solver& s) {
+  FrameState f;
+  f.time = saved.time, f.stress = saved.stress, f.step = saved.step;
+  if (saved.x.empty()) return f;  // (no state kept)
+  const Vec3 nan{NAN, NAN, NAN};
+  f.x.assign(s.state.x.size(), nan), f.v.assign(s.state.x.size(), nan);
+  Ce6State c{};
+  c.D[0] = NAN;
+  f.ce6.assign(s.state.ce6.size(), c);
+  if (!saved.active.empty()) f.active.assign(s.contacts.tet_flags.size(), kUnsetFlags);
+  return f;
+}
+
+void take_saved_state(const FrameState& saved, const EntityMap& map, FrameState& f) {
+  if (f.x.empty()) return;
+  scatter_saved(saved.x, map.node, f.x);
+  scatter_saved(saved.v, map.node, f.v);
+  scatter_saved(saved.ce6, map.ce6, f.ce6);
+  if (!f.active.empty()) scatter_saved(saved.active, map.tet, f.active);
+}
+
+void finish_saved_state(FrameState& f, const Solver& s) {
+  const std::vector<Ce6State> now = f.x.empty() ? std::vector<Ce6State>{} : s.state.ce6.states();
+  for (std::size_t n = 0; n < f.x.size(); ++n)
+    if (unset(f.x[n])) f.x[n] = s.state.x[n], f.v[n] = s.state.v[n];
+  for (std::size_t c = 0; c < f.ce6.size(); ++c)
+    if (std::isnan(f.ce6[c].D[0])) f.ce6[c] = now[c];
+  for (std::size_t t = 0; t < f.active.size(); ++t)
+    if (f.active[t] == kUnsetFlags) f.active[t] = s.contacts.tet_flags[t];
+}
+
+}  // namespace
+
+void PeakFrames::take_saved(const PeakFrames& saved, const EntityMap& map, const Solver& s, bool first) {
+  if (first) {
+    max_ = saved.max_;
+    written_ = saved.written_;
+    peak_ = unset_like(saved.peak_, s);
+    ladder_.clear();
+    for (const FrameState& f : saved.ladder_) ladder_.push_back(unset_like(f, s));
+  }
+  if (saved.ladder_.size() != ladder_.size())
+    throw InputError("the checkpoint's rank files keep different peak states (" + std::to_string(saved.ladder_.size()) +
+                     " and " + std::to_string(ladder_.size()) +
+                     "). Fix: restart from a whole set of rank files of one step");
+  take_saved_state(saved.peak_, map, peak_);
+  for (std::size_t i = 0; i < ladder_.size(); ++i) take_saved_state(saved.ladder_[i], map, ladder_[i]);
+}
+
+void PeakFrames::finish_saved(const Solver& s) {
+  finish_saved_state(peak_, s);
+  for (FrameState& f : ladder_) finish_saved_state(f, s);
+}
+
 void PeakFrames::load(CheckpointIn& in) {
   in.get(max_);
   load_frame_state(in, peak_);

@@ -55,6 +55,11 @@ class PeakFrames {
   void write(FieldWriter& w, const Solver& s);
   void save(CheckpointOut& o) const;
   void load(CheckpointIn& in);
+  /// A restart on another rank count: the states a saved rank kept, mapped by `map` into this
+  /// rank's layout (Solver::read_saved_rank), saved rank 0's first. finish_saved() then gives
+  /// what no saved rank owned in a kept state (ghosts gathered after it was kept) the state now.
+  void take_saved(const PeakFrames& saved, const EntityMap& map, const Solver& s, bool first);
+  void finish_saved(const Solver& s);
 
  private:
   real max_ = 0;

@@ -17,6 +17,7 @@
 #include <iostream>
 #include <memory>
 #include <optional>
+#include <sstream>
 
 #include "core/error.hpp"
 #include "core/format.hpp"
@@ -125,8 +126,18 @@ class RunSession {
   MPI_Comm field_ranks() const { return r_.dist ? r_.solver.comm() : MPI_COMM_NULL; }
   void write_diagnostic_frame() const;
   void open_folder();
-  std::vector<std::string> restart_candidates() const;
+  /// A checkpoint to restart from: this rank's file of a step, or every file of a step saved
+  /// on another rank count.
+  struct Candidate {
+    std::string file;                // this rank's ("" where it has none of the step)
+    std::vector<std::string> saved;  // another rank count's files, in rank order
+    std::string name() const { return saved.empty() ? file : saved[0]; }
+  };
+  std::vector<Candidate> restart_candidates() const;
+  std::vector<CheckpointSet> other_rank_counts() const;
   std::string load_checkpoint(const std::string& file, FieldWriterState& fields_state);
+  std::string load_saved_ranks(const std::vector<std::string>& files, FieldWriterState& fields_state);
+  std::string check_outputs(const std::string& file) const;
   void restart();
   void replace_earlier_run();
   void write_broken_ce6() const;
@@ -193,8 +204,9 @@ void RunSession::open_folder() {
 }
 
 /// The checkpoints to restart from, newest first. Several ranks: rank 0's steps are the
-/// candidates, and each rank's file of each ("" where it has none).
-std::vector<std::string> RunSession::restart_candidates() const {
+/// candidates, and each rank's file of each ("" where it has none). Sets of another rank count
+/// follow, or come first where newer.
+std::vector<RunSession::Candidate> RunSession::restart_candidates() const {
   std::vector<std::string> found = find_checkpoints(options_.restart, suffix_);
   auto step_of = [](const std::string& file) {
     const std::string name = std::filesystem::path(file).filename().string();
@@ -216,11 +228,52 @@ std::vector<std::string> RunSession::restart_candidates() const {
     }
     found.swap(mine);
   }
-  if (found.empty())
-    throw InputError("--restart " + options_.restart + ": no checkpoint there (files checkpoints/step_<n>" + suffix_ +
-                     "). Fix: give the output folder of the interrupted run" +
-                     (r_.dist ? " and run it on as many ranks as it had" : " or one of its .ckpt files"));
-  return found;
+  std::vector<Candidate> all;
+  for (const std::string& f : found) all.push_back({f, {}});
+  std::size_t own = 0;  // (a step of this rank count before another's of the same step)
+  for (CheckpointSet& set : other_rank_counts()) {
+    while (own < all.size() && step_of(all[own].name()) >= set.step) ++own;
+    all.insert(all.begin() + long(own++), Candidate{"", std::move(set.files)});
+  }
+  if (all.empty())
+    throw InputError("--restart " + options_.restart + ": no checkpoint there (files checkpoints/step_<n>.ckpt or " +
+                     "step_<n>.rank<r>of<N>.ckpt). Fix: give the output folder of the interrupted run" +
+                     (r_.dist ? "" : " or one of its .ckpt files"));
+  return all;
+}
+
+/// The whole checkpoint sets under --restart saved on another rank count, newest first (none
+/// where --restart names one file of a one-rank run). Rank 0 looks; every rank gets its list.
+std::vector<CheckpointSet> RunSession::other_rank_counts() const {
+  namespace fs = std::filesystem;
+  const int ranks = r_.dist ? r_.solver.decomposition().size : 1;
+  std::string list;  // step, rank count and files, one per line
+  std::error_code ec;
+  const bool one_file = !r_.dist && fs::is_regular_file(options_.restart, ec) &&
+                        fs::path(options_.restart).filename().string().find(".rank") == std::string::npos;
+  if (r_.root && !one_file)
+    for (const CheckpointSet& set : find_checkpoint_sets(options_.restart)) {
+      if (set.ranks == ranks) continue;
+      list += std::to_string(set.step) + "\n" + std::to_string(set.ranks) + "\n";
+      for (const std::string& f : set.files) list += f + "\n";
+    }
+  if (r_.dist) {
+    long n = long(list.size());
+    MPI_Bcast(&n, 1, MPI_LONG, 0, r_.solver.comm());
+    list.resize(std::size_t(n));
+    MPI_Bcast(list.data(), int(n), MPI_CHAR, 0, r_.solver.comm());
+  }
+  std::vector<CheckpointSet> sets;
+  std::istringstream in(list);
+  std::string line;
+  while (std::getline(in, line)) {
+    CheckpointSet& set = sets.emplace_back();
+    set.step = std::atol(line.c_str());
+    std::getline(in, line);
+    set.ranks = std::atoi(line.c_str());
+    for (int r = 0; r < set.ranks && std::getline(in, line); ++r) set.files.push_back(line);
+  }
+  return sets;
 }
 
 /// Loads a checkpoint into the solver and the session; returns why it cannot be used ("" where
@@ -240,6 +293,43 @@ std::string RunSession::load_checkpoint(const std::string& file, FieldWriterStat
   r_.solver.load(*in);
   r_.load(*in, fields_state);
   in->finish();
+  return check_outputs(file);
+}
+
+/// Loads the files of a checkpoint saved on another rank count, every rank reading each in
+/// turn; returns why it cannot be used, as load_checkpoint does. Each file is checked whole
+/// before any is taken, so that a damaged one changes nothing.
+std::string RunSession::load_saved_ranks(const std::vector<std::string>& files, FieldWriterState& fields_state) {
+  for (const std::string& file : files) try {
+      read_checkpoint(file);
+    } catch (const CannotOpen& e) {
+      throw InputError("--restart " + options_.restart + ": " + e.what() + "; nothing was changed");
+    } catch (const InputError& e) {
+      return e.what();
+    }
+  for (std::size_t k = 0; k < files.size(); ++k) {
+    CheckpointIn in = read_checkpoint(files[k]);
+    const EntityMap map = r_.solver.read_saved_rank(in);
+    RunRecord saved(r_.solver, r_.log);
+    FieldWriterState fields;
+    saved.load(in, fields);
+    in.finish();
+    if (k == 0) {
+      r_.take_saved(saved);
+      fields_state = std::move(fields);
+      fields_state.mesh_tets.clear();  // (this rank's slab is another: its frames write their own tets)
+    }
+    r_.peak_frames.take_saved(saved.peak_frames, map, r_.solver, k == 0);
+  }
+  r_.solver.finish_saved_ranks();
+  r_.peak_frames.finish_saved(r_.solver);
+  return check_outputs(files[0]);
+}
+
+/// Why the outputs in the folder are not the checkpoint's ("" where they are): monitors.csv
+/// missing, shorter or changed, or fields.h5 missing.
+std::string RunSession::check_outputs(const std::string& file) const {
+  namespace fs = std::filesystem;
   std::uint64_t hash = 0;
   std::error_code ec;
   const fs::path h5 = fs::path(out_.folder) / "fields.h5";
@@ -266,12 +356,13 @@ std::string RunSession::load_checkpoint(const std::string& file, FieldWriterStat
 /// checkpoints (damaged, or of the history being replaced).
 void RunSession::restart() {
   namespace fs = std::filesystem;
-  const std::vector<std::string> found = restart_candidates();
+  const std::vector<Candidate> found = restart_candidates();
   std::string problems;
   for (std::size_t k = 0; k < found.size(); ++k) {
-    const std::string& file = found[k];
+    const Candidate& c = found[k];
+    const std::string& file = c.name();
     FieldWriterState fields_state;
-    std::string why = load_checkpoint(file, fields_state);
+    std::string why = c.saved.empty() ? load_checkpoint(file, fields_state) : load_saved_ranks(c.saved, fields_state);
     if (!all_ranks(why.empty())) {
       if (why.empty()) why = (file.empty() ? "step " : file + ": ") + std::string("another rank cannot use its file");
       if (r_.dist && !r_.root) why = "rank " + std::to_string(r_.solver.rank()) + ": " + why;
@@ -296,11 +387,20 @@ void RunSession::restart() {
       if (ec) throw OutputError("cannot truncate " + r_.csv_path + ": " + ec.message());
     }
     r_.csv.f.open(r_.csv_path, std::ios::app);
-    for (std::size_t j = 0; j < k; ++j)
-      if (!found[j].empty() && fs::path(found[j]).parent_path() == fs::path(file).parent_path())
-        fs::remove(found[j], ec);
-    r_.log << "restart: continuing from " << file << (r_.dist ? " (and the other ranks' files of that step)" : "")
-           << " at step " << r_.solver.step_count() << ", t = " << r_.solver.time() << " s" << std::endl;
+    for (std::size_t j = 0; j < k; ++j) {  // (newer ones: damaged, or of the history replaced)
+      if (!found[j].file.empty() && fs::path(found[j].file).parent_path() == fs::path(file).parent_path())
+        fs::remove(found[j].file, ec);
+      if (r_.root)
+        for (const std::string& f : found[j].saved) fs::remove(f, ec);
+    }
+    r_.log << "restart: continuing from " << file;
+    if (!c.saved.empty())
+      r_.log << " and the other files of its step, saved on " << c.saved.size() << " rank"
+             << (c.saved.size() > 1 ? "s" : "") << " and taken into " << (r_.dist ? r_.solver.decomposition().size : 1)
+             << " now";
+    else if (r_.dist)
+      r_.log << " (and the other ranks' files of that step)";
+    r_.log << " at step " << r_.solver.step_count() << ", t = " << r_.solver.time() << " s" << std::endl;
     return;
   }
   throw InputError("--restart " + options_.restart + ": no usable checkpoint:" + problems +

@@ -6,9 +6,11 @@
 #include <algorithm>
 #include <cctype>
 #include <cerrno>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <iomanip>
+#include <map>
 #include <sstream>
 
 #include "core/error.hpp"
@@ -131,6 +133,47 @@ std::vector<std::string> find_checkpoints(const std::string& path, const std::st
   // step_<12 digits>.ckpt: the names sort by step.
   std::sort(found.rbegin(), found.rend());
   return found;
+}
+
+namespace {
+
+/// A checkpoint's name, step_<n>.ckpt (one rank) or step_<n>.rank<r>of<N>.ckpt: its step, rank
+/// and rank count. False for any other name.
+bool checkpoint_name(const std::string& name, long& step, int& rank, int& ranks) {
+  int used = 0;
+  rank = 0, ranks = 1;
+  if (std::sscanf(name.c_str(), "step_%ld.ckpt%n", &step, &used) == 1 && used == int(name.size())) return step >= 0;
+  used = 0;
+  return std::sscanf(name.c_str(), "step_%ld.rank%dof%d.ckpt%n", &step, &rank, &ranks, &used) == 3 &&
+         used == int(name.size()) && step >= 0 && ranks > 1 && rank >= 0 && rank < ranks;
+}
+
+}  // namespace
+
+std::vector<CheckpointSet> find_checkpoint_sets(const std::string& path) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  fs::path dir = path;
+  if (fs::is_regular_file(dir, ec)) dir = dir.parent_path();
+  if (fs::is_directory(dir / "checkpoints", ec)) dir /= "checkpoints";
+  std::map<std::pair<long, int>, std::map<int, std::string>> by_step;  // (step, ranks) -> rank -> file
+  if (fs::is_directory(dir, ec))
+    for (const fs::directory_entry& e : fs::directory_iterator(dir, ec)) {
+      const std::string name = e.path().filename().string();
+      long step = -1;
+      int rank = 0, ranks = 1;
+      if (!checkpoint_name(name, step, rank, ranks)) continue;
+      if (e.is_regular_file()) by_step[{step, ranks}][rank] = e.path().string();
+    }
+  std::vector<CheckpointSet> sets;
+  for (auto it = by_step.rbegin(); it != by_step.rend(); ++it) {
+    if (int(it->second.size()) != it->first.second) continue;
+    CheckpointSet set{it->first.first, it->first.second, {}};
+    for (const auto& [rank, file] : it->second) set.files.push_back(file);
+    sets.push_back(std::move(set));
+  }
+  std::stable_sort(sets.begin(), sets.end(), [](const auto& a, const auto& b) { return a.step > b.step; });
+  return sets;
 }
 
 void prune_checkpoints(const std::string& folder, std::size_t keep, const std::string& suffix) {

@@ -52,6 +52,16 @@ std::string checkpoint_suffix(int rank, int size);
 /// Only names ending in `suffix` (checkpoint_suffix; one rank's files by default).
 std::vector<std::string> find_checkpoints(const std::string& path, const std::string& suffix = ".ckpt");
 
+/// The files of one step's checkpoint saved on `ranks` ranks, in rank order.
+struct CheckpointSet {
+  long step = -1;
+  int ranks = 1;
+  std::vector<std::string> files;
+};
+/// The whole sets of checkpoint files under path (a run folder, its checkpoints/ folder or a
+/// file in it), of every rank count, newest step first (a set missing a rank's file is left out).
+std::vector<CheckpointSet> find_checkpoint_sets(const std::string& path);
+
 /// Keeps the newest `keep` checkpoints of a folder and removes the rest.
 void prune_checkpoints(const std::string& folder, std::size_t keep, const std::string& suffix);
 

@@ -124,6 +124,17 @@ void RunRecord::load(CheckpointIn& in, FieldWriterState& fields_state) {
   in.get(fields_state.have_mesh);
 }
 
+void RunRecord::take_saved(const RunRecord& saved) {
+  row = saved.row;
+  sum.peak_stress = saved.sum.peak_stress;
+  sum.strain_at_peak = saved.sum.strain_at_peak;
+  sum.peak_indirect_tensile = saved.sum.peak_indirect_tensile;
+  peak_written = saved.peak_written;
+  wall_before = saved.wall_before;
+  csv.bytes = saved.csv.bytes;
+  csv.hash = saved.csv.hash;
+}
+
 void MonitorRows::record() {
   r_.row = r_.solver.measure();
   r_.csv.put(monitor_row(r_.row, r_.solver));

@@ -44,6 +44,9 @@ struct RunRecord {
   /// hash, and the field writer's state (which load() hands back for a new writer).
   void save(CheckpointOut& o) const;
   void load(CheckpointIn& in, FieldWriterState& fields_state);
+  /// The values every rank saved alike (the row, the peak, the wall time, monitors.csv's
+  /// length and hash) from a record of another rank count.
+  void take_saved(const RunRecord& saved);
 };
 
 /// A step as its observers see it, in turn.

@@ -565,8 +565,8 @@ std::array<real, 14> material_values(const Material& a) {
           a.friction_rock};
 }
 
-/// The materials after the first, the interfaces, the joints, and which tets and CE6s have which.
-std::uint64_t hash_materials(const Scene& s, const Model& m, std::uint64_t h) {
+/// The materials after the first, the interfaces and the joints.
+std::uint64_t hash_materials(const Scene& s, std::uint64_t h) {
   auto add = [&](const Material& a) {
     const std::array<real, 14> v = material_values(a);
     const real softening = real(a.softening);
@@ -580,18 +580,33 @@ std::uint64_t hash_materials(const Scene& s, const Model& m, std::uint64_t h) {
     add(j.law);
     h = fnv1a64(&j.frictional, sizeof j.frictional, h);
   }
+  return h;
+}
+
+/// This rank model's arrays that the equations of motion use: reference positions,
+/// connectivity, masses, and each element's material, law, factors and excavation stage.
+std::uint64_t model_arrays_hash(const Model& m) {
+  std::uint64_t h = fnv1a64(m.X.data(), m.X.size() * sizeof(Vec3));
+  h = fnv1a64(m.tet_nodes.data(), m.tet_nodes.size() * sizeof(m.tet_nodes[0]), h);
+  h = fnv1a64(m.ce6_nodes.data(), m.ce6_nodes.size() * sizeof(m.ce6_nodes[0]), h);
+  h = fnv1a64(m.mass.data(), m.mass.size() * sizeof(real), h);
   h = fnv1a64(m.tet_joint.data(), m.tet_joint.size(), h);
   h = fnv1a64(m.tet_material.data(), m.tet_material.size(), h);
-  return fnv1a64(m.ce6_law.data(), m.ce6_law.size(), h);
+  h = fnv1a64(m.ce6_law.data(), m.ce6_law.size(), h);
+  h = fnv1a64(m.ce6_strength.data(), m.ce6_strength.size() * sizeof(real), h);  // (none: h as it was)
+  h = fnv1a64(m.tet_stiffness.data(), m.tet_stiffness.size() * sizeof(real), h);
+  return fnv1a64(m.tet_stage.data(), m.tet_stage.size(), h);
 }
 
 /// What a checkpoint must agree with: the model (reference positions, connectivity, masses),
 /// the time step, and every scene value the equations of motion use.
 std::uint64_t physics_fingerprint(const Scene& s, const Model& m, real dt) {
-  std::uint64_t h = fnv1a64(m.X.data(), m.X.size() * sizeof(Vec3));
-  h = fnv1a64(m.tet_nodes.data(), m.tet_nodes.size() * sizeof(m.tet_nodes[0]), h);
-  h = fnv1a64(m.ce6_nodes.data(), m.ce6_nodes.size() * sizeof(m.ce6_nodes[0]), h);
-  h = fnv1a64(m.mass.data(), m.mass.size() * sizeof(real), h);
+  return scene_physics_hash(s, dt, model_arrays_hash(m));
+}
+
+}  // namespace
+
+std::uint64_t scene_physics_hash(const Scene& s, real dt, std::uint64_t h) {
   const Material& a = s.material();
   const std::array<real, 14> first = material_values(a);  // (one stream with the values after it)
   h = fnv1a64(first.data(), sizeof first, h);
@@ -609,14 +624,11 @@ std::uint64_t physics_fingerprint(const Scene& s, const Model& m, real dt) {
                          s.solver.damping_scale,
                          dt};
   h = fnv1a64(values, sizeof values, h);
-  if (s.materials.size() > 1 || !s.interfaces.empty() || !s.joints.empty()) h = hash_materials(s, m, h);
-  h = fnv1a64(m.ce6_strength.data(), m.ce6_strength.size() * sizeof(real), h);  // (none: h as it was)
-  h = fnv1a64(m.tet_stiffness.data(), m.tet_stiffness.size() * sizeof(real), h);
-  for (const ExcavationStage& e : s.excavation) {  // (which tets: tet_stage)
+  h = hash_materials(s, h);
+  for (const ExcavationStage& e : s.excavation) {  // (which tets: each tet's stage)
     const real v[] = {e.start, e.relax};
     h = fnv1a64(v, sizeof v, h);
   }
-  h = fnv1a64(m.tet_stage.data(), m.tet_stage.size(), h);
   if (s.initial_stress.given) {
     const InitialStress& in = s.initial_stress;
     const Sym3 v[] = {in.stress, in.gradient, {in.reference_z, 0, 0, 0, 0, 0}};
@@ -634,10 +646,9 @@ std::uint64_t physics_fingerprint(const Scene& s, const Model& m, real dt) {
   return fnv1a64(words.data(), words.size(), h);
 }
 
-}  // namespace
-
 void Solver::save(CheckpointOut& out) const {
   sync_host();
+  saved_layout().save(out);  // (read by a restart on another rank count)
   // After the contact ghosts grew, the rank model is no longer the one the run started with.
   out.put(growth_);
   if (growth_.count > growth_.unchanged) put_rank_model(out, {model_, layout_.dd}, 0);
@@ -657,6 +668,10 @@ void Solver::save_state(CheckpointOut& out) const {
 }
 
 void Solver::load(CheckpointIn& in) {
+  SavedLayout saved;
+  saved.load(in);
+  if (saved.size != layout_.dd.size || saved.rank != layout_.dd.rank)
+    in.mismatch("rank " + std::to_string(saved.rank) + " of " + std::to_string(saved.size));
   in.get(growth_);
   if (growth_.count > growth_.unchanged) {  // the grown rank model replaces the one the run started with
     RankModel rm = get_rank_model(in, 0);

@@ -27,6 +27,7 @@
 #include "solver/energy_ledger.hpp"
 #include "solver/monitors.hpp"
 #include "solver/rank_layout.hpp"
+#include "solver/saved_layout.hpp"
 #include "solver/solver_state.hpp"
 #include "solver/stable_step.hpp"
 
@@ -41,6 +42,7 @@ struct TimeStepBeyondBound : InputError {
 class CheckpointOut;
 class CheckpointIn;
 struct GhostState;
+struct SavedRankState;
 
 /// Growths of the contact ghosts so far (several ranks, partition/grow.hpp).
 struct GhostGrowths {
@@ -50,6 +52,10 @@ struct GhostGrowths {
   long step = -1;      // the step of the last growth
   double seconds = 0;  // wall time of the gatherings and the set-ups of the grown layouts
 };
+
+/// Every scene value the equations of motion use, and the time step dt (s), hashed after seed:
+/// the part of a checkpoint's fingerprint that does not depend on the model.
+std::uint64_t scene_physics_hash(const Scene& s, real dt, std::uint64_t seed);
 
 class Solver : private StepBookkeeping {
  public:
@@ -120,6 +126,15 @@ class Solver : private StepBookkeeping {
   /// differs when the checkpoint belongs to another model, time step or loading.
   void save(CheckpointOut& out) const;
   void load(CheckpointIn& in);
+  /// A checkpoint of another rank count (solver/saved_ranks.cpp): every rank reads each saved
+  /// rank's file in rank order. read_saved_rank() takes the solver's part of one, keeping what
+  /// this rank holds from the saved rank that owned it, and returns where that rank's arrays go
+  /// here (for the run record's part after it). Then finish_saved_ranks(), on every rank
+  /// together: it checks that every node, tet and CE6 was found, gathers the contact ghosts at
+  /// the positions reached and places the saved contact pairs. InputError (naming the file)
+  /// where the files belong to another model or scene, or do not cover it.
+  EntityMap read_saved_rank(CheckpointIn& in);
+  void finish_saved_ranks();
 
   /// The backend running the time loop (scene solver.backend). The state lives in the loop's
   /// arrays during steps; `state`, the contact set and the loads' state are the host
@@ -185,6 +200,16 @@ class Solver : private StepBookkeeping {
   /// before the contact ghosts grew and appends the ghosts' state.
   void save_state(CheckpointOut& out) const;
   void load_state(CheckpointIn& in, const GhostState* appended = nullptr);
+  /// Where this rank's arrays sit in the whole model (the head of its checkpoint).
+  SavedLayout saved_layout() const;
+  /// A fingerprint of the whole model (reference positions, connectivity, each element's
+  /// material, law, factors and stage, in global numbering) and the scene's physics: the same
+  /// on every rank count. Collective.
+  std::uint64_t whole_model_fingerprint() const;
+  /// The saved ranks' scalars and per-entity state into this rank's (read_saved_rank).
+  void take_saved_state(const SavedLayout& l, const EntityMap& map, SavedRankState& saved);
+  /// The saved contact pairs this rank holds both tets of, in local ids (finish_saved_ranks).
+  void place_saved_pairs();
   void compute_forces();
   /// The host copy to the device loop where code wrote it since (host_changed()).
   void upload_if_changed();
@@ -252,6 +277,8 @@ class Solver : private StepBookkeeping {
   Backend backend_ = Backend::cpu;
   std::unique_ptr<DeviceLoop> dev_;
   GhostGrowths growth_;
+  struct SavedRanks;                      // a restart on another rank count in progress
+  std::shared_ptr<SavedRanks> saved_;     // (solver/saved_ranks.cpp; shared: a deleter for an incomplete type)
   int excavated_ = 0;                     // excavation stages done
   std::vector<char> held_by_excavation_;  // per node: only removed tets hold it
   bool device_current_ = false;           // the device arrays hold the newest state

@@ -24,13 +24,15 @@ std::string mpiexec(int ranks) {
 }
 
 /// Largest relative difference of two monitor files, column by column (energy_error aside,
-/// which is a small difference of large sums), and whether their shapes agree.
-double monitor_difference(const Csv& a, const Csv& b) {
+/// which is a small difference of large sums), and whether their shapes agree; only the rows up
+/// to step `last` where given.
+double monitor_difference(const Csv& a, const Csv& b, double last = 1e300) {
   if (a.header != b.header || a.rows.size() != b.rows.size()) return 1e300;
   double worst = 0;
-  const int skip = column(a, "energy_error");
+  const int skip = column(a, "energy_error"), step = column(a, "step");
   for (std::size_t r = 0; r < a.rows.size(); ++r)
     for (std::size_t c = 0; c < a.header.size(); ++c) {
+      if (a.rows[r][step] > last) break;
       if (int(c) == skip) continue;
       const double x = a.rows[r][c], y = b.rows[r][c];
       if (x != y) worst = std::max(worst, std::fabs(x - y) / std::max(std::fabs(x), 1e-300));
@@ -557,4 +559,138 @@ TEST(CliRanks, PeakFramesKeptBeforeContactGhostsGrowAreWrittenWhole) {
     ASSERT_FALSE(t1.empty());
     EXPECT_LT(tet_mismatch(t1, t2), 1e-9) << label;
   }
+}
+
+namespace {
+
+/// summary.csv's value in `name`'s column.
+double summary_value(const fs::path& folder, const std::string& name) {
+  const Csv s = read_csv(folder / "summary.csv");
+  const int c = column(s, name);
+  return c >= 0 && !s.rows.empty() ? s.rows[0][std::size_t(c)] : NAN;
+}
+
+/// The run's continuation from the checkpoint in `folder` on `ranks` ranks (1: without mpiexec).
+Outcome continue_on(int ranks, const std::string& scene, const fs::path& folder, const std::string& more = "") {
+  const std::string args =
+      " run " + quote(scene) + more + " -o " + quote(folder.string()) + " --restart " + quote(folder.string());
+  return ranks == 1 ? run_fdem(args) : run_cmd(mpiexec(ranks) + quote(kExe) + args);
+}
+
+}  // namespace
+
+TEST(CliRanks, ACheckpointOfTwoRanksContinuesOnThreeAndOnOne) {
+  // The state of every rank's file in global numbering, taken into the layout of another rank
+  // count. The checkpoint at step 1000 is taken before the peak (near step 1100), while the
+  // states kept for the pre-peak frame wait in memory; the runs continue through fracture.
+  if (mpiexec(3).empty()) GTEST_SKIP() << "mpiexec not found";
+  TempDir tmp("rerank");
+  const fs::path scene = scene_variant(
+      kScene, tmp.path, "short",
+      {{"end: {steps: 3000}", "end: {steps: 1050}"}, {"checkpoint_wall_interval: 0", "checkpoint_interval: 500"}});
+  struct Case {
+    int saved, continued;
+  };
+  for (const Case k : {Case{2, 3}, Case{2, 1}, Case{1, 2}}) {
+    const std::string name = std::to_string(k.saved) + "to" + std::to_string(k.continued);
+    SCOPED_TRACE(name);
+    const fs::path whole = tmp.path / ("whole" + std::to_string(k.saved)), cut = tmp.path / name;
+    auto run_on = [&](int ranks, const std::string& sc, const fs::path& out) {
+      const std::string args = " run " + quote(sc) + " -q -o " + quote(out.string());
+      return ranks == 1 ? run_fdem(args) : run_cmd(mpiexec(ranks) + quote(kExe) + args);
+    };
+    if (!fs::exists(whole)) {
+      ASSERT_EQ(run_on(k.saved, kScene, whole).code, 0);
+    }
+    ASSERT_EQ(run_on(k.saved, scene.string(), cut).code, 0);
+    const Outcome c = continue_on(k.continued, kScene, cut);
+    ASSERT_EQ(c.code, 0) << c.text;
+    EXPECT_TRUE(has(c.text, "step_000000001000") && has(c.text, "taken into " + std::to_string(k.continued))) << c.text;
+    // To the peak, the uninterrupted run's monitors to round-off; through fracture, its peak and
+    // broken CE6 within the multi-rank tolerances.
+    const Csv a = read_csv(whole / "monitors.csv"), b = read_csv(cut / "monitors.csv");
+    const int stress = column(a, "axial_stress_Pa"), step = column(a, "step");
+    ASSERT_GE(stress, 0);
+    std::size_t peak = 0;
+    for (std::size_t r = 0; r < a.rows.size(); ++r)
+      if (a.rows[r][stress] > a.rows[peak][stress]) peak = r;
+    EXPECT_GT(a.rows[peak][step], 1000) << "the peak after the checkpoint";
+    EXPECT_LT(monitor_difference(a, b, a.rows[peak][step]), 1e-9);
+    EXPECT_NEAR(summary_value(cut, "peak_stress_Pa"), summary_value(whole, "peak_stress_Pa"),
+                0.01 * summary_value(whole, "peak_stress_Pa"));
+    EXPECT_NEAR(summary_value(cut, "broken_ce6"), summary_value(whole, "broken_ce6"),
+                0.05 * summary_value(whole, "broken_ce6"));
+    // The pre-peak and peak frames, written from states kept before the checkpoint and carried
+    // into the new layout: each tet as in the uninterrupted run.
+    const std::string xa = slurp(whole / "fields.xdmf"), xb = slurp(cut / "fields.xdmf");
+    for (const char* label : {"pre-peak", "peak"}) {
+      const FrameInfo fa = frame_labelled(xa, label), fb = frame_labelled(xb, label);
+      ASSERT_GE(fa.step, 0) << label << xa;
+      EXPECT_EQ(fb.step, fa.step) << label;
+      if (std::string(label) == "pre-peak") {
+        EXPECT_LT(fa.step, 1000) << "kept before the checkpoint";
+      }
+      const auto ta = tet_rows(whole / "fields.h5", fa.group, xa), tb = tet_rows(cut / "fields.h5", fb.group, xb);
+      ASSERT_EQ(ta.size(), tb.size()) << label;
+      ASSERT_FALSE(ta.empty()) << label;
+      EXPECT_LT(tet_mismatch(ta, tb), 1e-9) << label;
+    }
+  }
+}
+
+TEST(CliRanks, ACheckpointAfterTheContactGhostsGrewContinuesOnThreeRanks) {
+  // A rank model grown by a gathering of contact ghosts (saved whole in its checkpoint) is
+  // replaced by the partition for three ranks; the ghosts are gathered at the positions reached.
+  // The finer box of PeakFramesKeptBeforeContactGhostsGrow..., whose gathering near step 2850
+  // adds a tet, checkpointed at step 2900.
+  if (mpiexec(3).empty()) GTEST_SKIP() << "mpiexec not found";
+  TempDir tmp("rerank_grown");
+  const fs::path fine = scene_variant(kScene, tmp.path, "fine", {{"element_size: 0.005", "element_size: 0.0025"}});
+  const fs::path cut_scene = scene_variant(
+      fine, tmp.path, "cut",
+      {{"end: {steps: 3000}", "end: {steps: 2950}"}, {"checkpoint_wall_interval: 0", "checkpoint_interval: 2900"}});
+  const std::string reach = " --contact-reach 2e-5";
+  const fs::path whole = tmp.path / "whole", cut = tmp.path / "cut";
+  const Outcome a =
+      run_cmd(mpiexec(2) + quote(kExe) + " run " + quote(fine.string()) + reach + " -q -o " + quote(whole.string()));
+  ASSERT_EQ(a.code, 0) << a.text;
+  const Outcome b =
+      run_cmd(mpiexec(2) + quote(kExe) + " run " + quote(cut_scene.string()) + reach + " -o " + quote(cut.string()));
+  ASSERT_EQ(b.code, 0) << b.text;
+  const std::regex grew("by step ([0-9]+) [^\\n]*, ([1-9][0-9]*) tets added");
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(b.text, m, grew) && std::stol(m[1].str()) < 2900)
+      << "no gathering added tets before the checkpoint: the scene no longer reaches the case this test is for\n"
+      << b.text;
+  const Outcome c = continue_on(3, fine.string(), cut, reach);
+  ASSERT_EQ(c.code, 0) << c.text;
+  EXPECT_TRUE(has(c.text, "saved on 2 ranks and taken into 3")) << c.text;
+  // No CE6 has broken by the end: the uninterrupted run's monitors to round-off.
+  EXPECT_EQ(summary_value(whole, "broken_ce6"), 0);
+  EXPECT_LT(monitor_difference(read_csv(whole / "monitors.csv"), read_csv(cut / "monitors.csv")), 1e-9);
+}
+
+TEST(CliRanks, ARestartOntoMoreRanksThanTheModelFillsIsRefused) {
+  // A 6-tet cube checkpointed on 2 ranks: 7 ranks would leave one without a tet.
+  if (mpiexec(7).empty()) GTEST_SKIP() << "mpiexec not found";
+  TempDir tmp("rerank_many");
+  const fs::path scene = tmp.path / "cube.yaml";
+  std::ofstream(scene) << "name: cube6\nmesh: {file: " << (kData / "meshes" / "cube6_v41.msh").string()
+                       << ", scale: 0.01}\nplatens: {velocity: 0.1}\nsolver: {threads: 1, end: {steps: 200}}\n"
+                       << "output: {monitor_interval: 50, progress_interval: 0, plot: false, "
+                       << "checkpoint_wall_interval: 0, checkpoint_interval: 100}\n";
+  const fs::path out = tmp.path / "out";
+  ASSERT_EQ(run_cmd(mpiexec(2) + quote(kExe) + " run " + quote(scene.string()) + " -q -o " + quote(out.string())).code,
+            0);
+  const std::string monitors = slurp(out / "monitors.csv");
+  const Outcome many = continue_on(7, scene.string(), out, " -q");
+  EXPECT_EQ(many.code, 2) << many.text;
+  EXPECT_TRUE(has(many.text, "7 ranks for a model of 6 tets") && has(many.text, "at most 6 ranks")) << many.text;
+  EXPECT_EQ(slurp(out / "monitors.csv"), monitors) << "nothing changed";
+  EXPECT_TRUE(fs::exists(out / "checkpoints" / "step_000000000100.rank1of2.ckpt"));
+  // Six ranks, one tet each, continue it: the two-rank run's monitors.
+  const Outcome six = continue_on(6, scene.string(), out, " -q");
+  ASSERT_EQ(six.code, 0) << six.text;
+  std::ofstream(tmp.path / "two.csv") << monitors;
+  EXPECT_LT(monitor_difference(read_csv(tmp.path / "two.csv"), read_csv(out / "monitors.csv")), 1e-9);
 }

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cmath>
 #include <thread>
 
 #include "cli_support.hpp"
@@ -63,12 +64,45 @@ TEST(Slurm, RunScriptStopsAtTheLimitResubmitsAndContinues) {
   EXPECT_EQ(std::stoi(slurp(rc)), 5) << slurp(log);
   const std::string sub = slurp(s.tmp.path / "sbatch.txt");
   EXPECT_TRUE(has(sub, "--ntasks=2") && has(sub, "run.sbatch") && has(sub, job.string())) << sub;
+  // A continuation on three ranks instead (a job given other nodes): from a copy of the folder.
+  const fs::path three = s.tmp.path / "three";
+  fs::copy(job, three, fs::copy_options::recursive);
+  const Outcome t = run_cmd(s.env(3) + "bash " + script + " " + quote(scene) + " " + quote(three.string()));
+  ASSERT_EQ(t.code, 0) << t.text;
+  EXPECT_TRUE(has(t.text, "saved on 2 ranks and taken into 3")) << t.text;
+  const Csv w = read_csv(whole / "monitors.csv"), r3 = read_csv(three / "monitors.csv");
+  ASSERT_EQ(w.rows.size(), r3.rows.size());
+  const int stress = column(w, "axial_stress_Pa");
+  for (std::size_t i = 0; i < w.rows.size(); ++i)  // (before and after fracture: the same state)
+    EXPECT_NEAR(r3.rows[i][stress], w.rows[i][stress], 1e-6 * std::fabs(w.rows[i][stress]) + 1) << "row " << i;
   // The resubmitted job: the same script again, which finds the checkpoints.
   const Outcome c = run_cmd(s.env(2) + "bash " + script + " " + quote(scene) + " " + quote(job.string()) + " -q");
   ASSERT_EQ(c.code, 0) << c.text;
   EXPECT_TRUE(has(c.text, "continuing from")) << c.text;
   for (const char* f : {"monitors.csv", "broken_ce6.csv", "fields.xdmf"})
     EXPECT_EQ(slurp(whole / f), slurp(job / f)) << f;
+}
+
+TEST(Slurm, ResubmissionTakesTheRankCountAskedFor) {
+  // fdem stopped at the limit (a stand-in that exits 5 at once): the job submits its
+  // continuation with its own ranks and nodes, or with FDEM_NEXT_NTASKS and FDEM_NEXT_NODES.
+  if (find_mpiexec().empty()) GTEST_SKIP() << "mpiexec not found";
+  FakeSlurm s;
+  const fs::path stub = s.bin / "stopped_fdem";
+  std::ofstream(stub) << "#!/bin/bash\nexit 5\n";
+  fs::permissions(stub, fs::perms::owner_all);
+  const std::string script = quote((kSlurm / "run.sbatch").string()),
+                    args = " scene.yaml " + quote(s.tmp.path.string());
+  const std::string env = s.env(2) + "FDEM=" + quote(stub.string()) + " FDEM_RESUBMIT=1 ";
+  const Outcome same = run_cmd(env + "bash " + script + args);
+  EXPECT_EQ(same.code, 5) << same.text;
+  const Outcome more = run_cmd(env + "FDEM_NEXT_NTASKS=3 FDEM_NEXT_NODES=2 bash " + script + args);
+  EXPECT_EQ(more.code, 5) << more.text;
+  const std::string sub = slurp(s.tmp.path / "sbatch.txt");
+  const std::size_t second = sub.find('\n');
+  ASSERT_NE(second, std::string::npos) << sub;
+  EXPECT_TRUE(has(sub.substr(0, second), "--nodes=1 --ntasks=2")) << sub;
+  EXPECT_TRUE(has(sub.substr(second), "--nodes=2 --ntasks=3")) << sub;
 }
 
 TEST(Slurm, TriaxialArrayTasksAndTheFitJob) {

@@ -8,6 +8,7 @@
 
 #include "core/vec.hpp"
 #include "io/checkpoint.hpp"
+#include "solver/run_folder.hpp"
 
 namespace fs = std::filesystem;
 using namespace fdem;
@@ -132,4 +133,29 @@ TEST(Checkpoint, ReadingPastTheEndOrLeavingBytesIsAnError) {
     EXPECT_THROW(in.finish(), InputError);
   }
   fs::remove(p);
+}
+
+TEST(Checkpoint, SetsOfEveryRankCountAreFoundWholeNewestFirst) {
+  // A restart on another rank count reads every rank file of one step: only whole sets count.
+  const fs::path dir = fs::temp_directory_path() / ("fdem_sets_" + std::to_string(::getpid()));
+  fs::create_directories(dir / "checkpoints");
+  for (const char* name : {"step_000000000100.rank0of2.ckpt", "step_000000000100.rank1of2.ckpt",
+                           "step_000000000200.rank0of3.ckpt", "step_000000000200.rank2of3.ckpt",  // rank 1 missing
+                           "step_000000000300.ckpt", "step_000000000300.rank0of2.ckpt.tmp",
+                           "step_000000000300.rank1of2.ckpt", "step_000000000400.rank4of3.ckpt", "notes.txt"})
+    std::ofstream(dir / "checkpoints" / name) << "x";
+  const std::vector<CheckpointSet> sets = find_checkpoint_sets(dir.string());
+  ASSERT_EQ(sets.size(), 2u);
+  EXPECT_EQ(sets[0].step, 300);
+  EXPECT_EQ(sets[0].ranks, 1);
+  ASSERT_EQ(sets[0].files.size(), 1u);
+  EXPECT_EQ(fs::path(sets[0].files[0]).filename(), "step_000000000300.ckpt");
+  EXPECT_EQ(sets[1].step, 100);
+  EXPECT_EQ(sets[1].ranks, 2);
+  ASSERT_EQ(sets[1].files.size(), 2u);
+  EXPECT_EQ(fs::path(sets[1].files[1]).filename(), "step_000000000100.rank1of2.ckpt");
+  // The same from the checkpoints folder, or a file in it.
+  EXPECT_EQ(find_checkpoint_sets((dir / "checkpoints").string()).size(), 2u);
+  EXPECT_EQ(find_checkpoint_sets((dir / "checkpoints" / "notes.txt").string()).size(), 2u);
+  fs::remove_all(dir);
 }
