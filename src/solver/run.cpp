@@ -129,6 +129,7 @@ class RunSession {
   /// A checkpoint to restart from: this rank's file of a step, or every file of a step saved
   /// on another rank count.
   struct Candidate {
+    long step = -1;                  // rank 0's step, the same on every rank
     std::string file;                // this rank's ("" where it has none of the step)
     std::vector<std::string> saved;  // another rank count's files, in rank order
     std::string name() const { return saved.empty() ? file : saved[0]; }
@@ -137,6 +138,7 @@ class RunSession {
   std::vector<CheckpointSet> other_rank_counts() const;
   std::string load_checkpoint(const std::string& file, FieldWriterState& fields_state);
   std::string load_saved_ranks(const std::vector<std::string>& files, FieldWriterState& fields_state);
+  std::string check_saved_ranks(const std::vector<std::string>& files);
   std::string check_outputs(const std::string& file) const;
   void restart();
   void replace_earlier_run();
@@ -207,33 +209,30 @@ void RunSession::open_folder() {
 /// candidates, and each rank's file of each ("" where it has none). Sets of another rank count
 /// follow, or come first where newer.
 std::vector<RunSession::Candidate> RunSession::restart_candidates() const {
-  std::vector<std::string> found = find_checkpoints(options_.restart, suffix_);
+  const std::vector<std::string> found = find_checkpoints(options_.restart, suffix_);
   auto step_of = [](const std::string& file) {
     const std::string name = std::filesystem::path(file).filename().string();
     return name.rfind("step_", 0) == 0 ? std::atol(name.c_str() + 5) : -1L;
   };
+  std::vector<long> steps;  // rank 0's
+  for (const std::string& f : found) steps.push_back(step_of(f));
   if (r_.dist) {
-    std::vector<long> steps;
-    for (const std::string& f : found) steps.push_back(step_of(f));
     long n = long(steps.size());
     MPI_Bcast(&n, 1, MPI_LONG, 0, r_.solver.comm());
     steps.resize(n);
     MPI_Bcast(steps.data(), int(n), MPI_LONG, 0, r_.solver.comm());
-    std::vector<std::string> mine;
-    for (long st : steps) {
-      std::string file;
-      for (const std::string& f : found)
-        if (step_of(f) == st) file = f;
-      mine.push_back(file);
-    }
-    found.swap(mine);
   }
   std::vector<Candidate> all;
-  for (const std::string& f : found) all.push_back({f, {}});
+  for (long st : steps) {
+    Candidate c{st, "", {}};
+    for (const std::string& f : found)
+      if (step_of(f) == st) c.file = f;
+    all.push_back(c);
+  }
   std::size_t own = 0;  // (a step of this rank count before another's of the same step)
   for (CheckpointSet& set : other_rank_counts()) {
-    while (own < all.size() && step_of(all[own].name()) >= set.step) ++own;
-    all.insert(all.begin() + long(own++), Candidate{"", std::move(set.files)});
+    while (own < all.size() && all[own].step >= set.step) ++own;
+    all.insert(all.begin() + long(own++), Candidate{set.step, "", std::move(set.files)});
   }
   if (all.empty())
     throw InputError("--restart " + options_.restart + ": no checkpoint there (files checkpoints/step_<n>.ckpt or " +
@@ -300,13 +299,8 @@ std::string RunSession::load_checkpoint(const std::string& file, FieldWriterStat
 /// turn; returns why it cannot be used, as load_checkpoint does. Each file is checked whole
 /// before any is taken, so that a damaged one changes nothing.
 std::string RunSession::load_saved_ranks(const std::vector<std::string>& files, FieldWriterState& fields_state) {
-  for (const std::string& file : files) try {
-      read_checkpoint(file);
-    } catch (const CannotOpen& e) {
-      throw InputError("--restart " + options_.restart + ": " + e.what() + "; nothing was changed");
-    } catch (const InputError& e) {
-      return e.what();
-    }
+  if (const std::string why = check_saved_ranks(files); !all_ranks(why.empty()))
+    return why.empty() ? files[0] + ": another rank cannot use a file of this step" : why;
   for (std::size_t k = 0; k < files.size(); ++k) {
     CheckpointIn in = read_checkpoint(files[k]);
     const EntityMap map = r_.solver.read_saved_rank(in);
@@ -323,6 +317,26 @@ std::string RunSession::load_saved_ranks(const std::vector<std::string>& files, 
   }
   r_.solver.finish_saved_ranks();
   r_.peak_frames.finish_saved(r_.solver);
+  return "";
+}
+
+/// Why a set of another rank count cannot be used ("" where it can), before any of it is taken:
+/// a file that is damaged, or the outputs in the folder not those of its saved rank 0.
+std::string RunSession::check_saved_ranks(const std::vector<std::string>& files) {
+  for (std::size_t k = 0; k < files.size(); ++k) try {
+      CheckpointIn in = read_checkpoint(files[k]);
+      if (k > 0) continue;
+      r_.solver.check_saved_rank(in);
+      RunRecord saved(r_.solver, r_.log);
+      FieldWriterState fields;
+      saved.load(in, fields);
+      in.finish();
+      r_.take_saved(saved);  // (the row and monitors.csv's length and hash, for the check)
+    } catch (const CannotOpen& e) {
+      throw InputError("--restart " + options_.restart + ": " + e.what() + "; nothing was changed");
+    } catch (const InputError& e) {
+      return e.what();
+    }
   return check_outputs(files[0]);
 }
 

@@ -116,7 +116,9 @@ std::vector<std::string> find_checkpoints(const std::string& path, const std::st
   namespace fs = std::filesystem;
   std::error_code ec;
   const bool one_rank = suffix == ".ckpt";
-  if (one_rank && fs::is_regular_file(path, ec)) return {path};
+  if (one_rank && fs::is_regular_file(path, ec) &&
+      fs::path(path).filename().string().find(".rank") == std::string::npos)
+    return {path};
   fs::path dir = path;
   if (fs::is_regular_file(dir, ec)) dir = dir.parent_path();  // several ranks: the folder of the file
   if (fs::is_directory(dir / "checkpoints", ec)) dir /= "checkpoints";

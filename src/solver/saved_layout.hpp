@@ -20,6 +20,7 @@ struct SavedLayout {
   std::vector<int> platen_node;          // the local node of each platen entry (Model::platen_nodes)
   std::vector<int> prescribed_node;      // the local node of each prescribed-velocity entry
   std::vector<std::array<int, 3>> face;  // the local nodes of each loaded face (SurfaceLoads::faces)
+  std::vector<int> face_condition;       // and its condition, -1 the confinement's (empty: all -1)
   std::uint64_t faces_kept = 0;          // the faces with a power and work (SurfaceLoads::face_power)
   std::uint64_t model = 0;               // the whole model's fingerprint, the same on every rank count
 

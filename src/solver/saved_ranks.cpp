@@ -15,17 +15,20 @@ namespace fdem {
 void SavedLayout::save(CheckpointOut& out) const {
   out.put(rank), out.put(size), out.put(nodes), out.put(tets), out.put(ce6s);
   out.put(node), out.put(tet), out.put(ce6), out.put(node_owned), out.put(tet_owned), out.put(ce6_owned);
-  out.put(platen_node), out.put(prescribed_node), out.put(face), out.put(faces_kept), out.put(model);
+  out.put(platen_node), out.put(prescribed_node), out.put(face), out.put(face_condition), out.put(faces_kept);
+  out.put(model);
 }
 
 void SavedLayout::load(CheckpointIn& in) {
   in.get(rank), in.get(size), in.get(nodes), in.get(tets), in.get(ce6s);
   in.get(node), in.get(tet), in.get(ce6), in.get(node_owned), in.get(tet_owned), in.get(ce6_owned);
-  in.get(platen_node), in.get(prescribed_node), in.get(face), in.get(faces_kept), in.get(model);
+  in.get(platen_node), in.get(prescribed_node), in.get(face), in.get(face_condition), in.get(faces_kept);
+  in.get(model);
   auto sized = [](const auto& v, long n) { return v.empty() || long(v.size()) == n; };
   bool ok = rank >= 0 && rank < size && nodes >= 0 && tets >= 0 && ce6s >= 0;
   ok = ok && sized(node, nodes) && sized(node_owned, nodes) && sized(tet, tets) && sized(tet_owned, tets);
   ok = ok && sized(ce6, ce6s) && sized(ce6_owned, ce6s) && faces_kept <= face.size();
+  ok = ok && (face_condition.empty() || face_condition.size() == face.size());
   for (int n : platen_node) ok = ok && n >= 0 && n < nodes;
   for (int n : prescribed_node) ok = ok && n >= 0 && n < nodes;
   for (const auto& f : face)
@@ -63,11 +66,21 @@ struct SavedPair {
   std::array<Vec3, 8> force;
 };
 
-/// A loaded face's key: its global nodes, sorted.
-std::array<long, 3> face_key(const std::array<int, 3>& f, const SavedLayout& l) {
-  std::array<long, 3> k{l.global_node(f[0]), l.global_node(f[1]), l.global_node(f[2])};
-  std::sort(k.begin(), k.end());
+/// A loaded face's key: its global nodes, sorted, and its condition (-1: the confinement's). A
+/// face under the confinement and a condition is listed once for each.
+using FaceKey = std::array<long, 4>;
+FaceKey face_key(const SavedLayout& l, std::size_t i) {
+  const std::array<int, 3>& f = l.face[i];
+  FaceKey k{l.global_node(f[0]), l.global_node(f[1]), l.global_node(f[2]),
+            l.face_condition.empty() ? -1L : long(l.face_condition[i])};
+  std::sort(k.begin(), k.begin() + 3);
   return k;
+}
+/// The face's lowest node in global numbering: its owner holds every tet around that node, so
+/// the face, and takes the face's state.
+int lowest_node(const SavedLayout& l, std::size_t i) {
+  const std::array<int, 3>& f = l.face[i];
+  return *std::min_element(f.begin(), f.end(), [&](int a, int b) { return l.global_node(a) < l.global_node(b); });
 }
 
 }  // namespace
@@ -87,14 +100,47 @@ struct SavedRankState {
 struct Solver::SavedRanks {
   int next_rank = 0, size = 0;
   LocalIds node, tet, ce6;
-  std::map<std::array<long, 3>, int> face;                                    // loaded faces here, by key
+  std::map<FaceKey, int> face;  // loaded faces here, by key
+  // Per loaded face here: the saved ranks' powers (W) and works (J) of it added up. Each rank
+  // keeps its own part of a face's (over the nodes it owns); the new owner takes the sum.
+  std::vector<real> face_power, face_work;
   std::vector<int> platen_of;                                                 // per node: its platen entry here, or -1
   long nodes = 0, tets = 0, ce6s = 0, faces = 0, platen = 0, prescribed = 0;  // set so far
   // The last evaluation's powers that each rank keeps of its own (the step's works begin with
   // them and are summed over the ranks): their sums, W, which rank 0 takes here.
   real contact_power = 0, pressure_power = 0, gravity_power = 0;
-  std::map<std::pair<long, long>, SavedPair> pairs;  // by global tets (a < b)
+  std::map<std::pair<long, long>, SavedPair> pairs;  // by global tets (a < b), the builder's order
 };
+
+static void read_saved_rank_state(CheckpointIn& in, const SavedLayout& l, bool contact, int stages,
+                                  SavedRankState& saved) {
+  bool grown = false;
+  in.get(saved.growth);
+  in.get(grown);
+  if (grown) get_rank_model(in, 0);  // (its ids are in the layout)
+  in.get(saved.excavated);
+  in.get(saved.relax_start);
+  in.get(saved.push);
+  std::uint64_t fingerprint = 0, fixed = 0;  // (of that rank's model: the layout's fingerprint stands for them)
+  in.get(fingerprint);
+  in.get(fixed);
+  // Sized as that rank saved them, so each part reads as it does on a restart of its own.
+  saved.state.x.resize(l.nodes), saved.state.v.resize(l.nodes), saved.state.f.resize(l.nodes);
+  saved.state.ce6.assign_intact(l.ce6s);
+  saved.state.ce6_broke.resize(l.ce6s);
+  saved.loads.platens.anchor.resize(l.platen_node.size());
+  saved.loads.prescribed.node.resize(l.prescribed_node.size());
+  saved.loads.surface.face_force.resize(l.face.size());
+  saved.loads.surface.face_power.resize(l.faces_kept);
+  saved.contacts = ContactSet(contact, l.tets, l.size > 1 ? l.nodes : 0);
+  saved.state.load(in);
+  saved.loads.load(in, false);
+  saved.energy.load(in);
+  saved.contacts.load(in);
+  if (saved.excavated < 0 || saved.excavated > stages || (!saved.push.empty() && long(saved.push.size()) != l.nodes))
+    in.mismatch(std::to_string(saved.excavated) + " excavation stages done, with forces on " +
+                std::to_string(saved.push.size()) + " nodes");
+}
 
 SavedLayout Solver::saved_layout() const {
   const Decomposition& dd = layout_.dd;
@@ -108,8 +154,9 @@ SavedLayout Solver::saved_layout() const {
   l.platen_node = model_.platen_nodes;
   l.prescribed_node = loads_.prescribed.node;
   l.face = loads_.surface.faces;
+  l.face_condition = loads_.surface.face_condition;
   l.faces_kept = loads_.surface.face_power.size();
-  l.model = whole_model_fingerprint();
+  l.model = model_fp_;
   return l;
 }
 
@@ -151,6 +198,14 @@ std::uint64_t Solver::whole_model_fingerprint() const {
   return scene_physics_hash(scene_, dt_, fnv1a64(counts, sizeof counts, fnv1a64(&sum, sizeof sum)));
 }
 
+void Solver::check_saved_rank(CheckpointIn& in) const {
+  SavedLayout l;
+  l.load(in);
+  if (l.model != model_fp_) in.mismatch("the mesh, the material, the loading, mass scaling or the time step differ");
+  SavedRankState saved;
+  read_saved_rank_state(in, l, contacts.enabled(), int(scene_.excavation.size()), saved);
+}
+
 EntityMap Solver::read_saved_rank(CheckpointIn& in) {
   if (!saved_) {
     saved_ = std::make_shared<SavedRanks>();
@@ -163,38 +218,13 @@ EntityMap Solver::read_saved_rank(CheckpointIn& in) {
   SavedRanks& g = *saved_;
   SavedLayout l;
   l.load(in);
-  if (l.model != whole_model_fingerprint())
-    in.mismatch("the mesh, the material, the loading, mass scaling or the time step differ");
+  if (l.model != model_fp_) in.mismatch("the mesh, the material, the loading, mass scaling or the time step differ");
   if (l.rank != g.next_rank || (g.size > 0 && l.size != g.size))
     in.mismatch("rank " + std::to_string(l.rank) + " of " + std::to_string(l.size) + " where rank " +
                 std::to_string(g.next_rank) + " was due");
   g.size = l.size;
   SavedRankState saved;
-  in.get(saved.growth);
-  if (saved.growth.count > saved.growth.unchanged) get_rank_model(in, 0);  // (its ids are in the layout)
-  in.get(saved.excavated);
-  in.get(saved.relax_start);
-  in.get(saved.push);
-  std::uint64_t fingerprint = 0, fixed = 0;  // (of that rank's model: the layout's fingerprint stands for them)
-  in.get(fingerprint);
-  in.get(fixed);
-  // Sized as that rank saved them, so each part reads as it does on a restart of its own.
-  saved.state.x.resize(l.nodes), saved.state.v.resize(l.nodes), saved.state.f.resize(l.nodes);
-  saved.state.ce6.assign_intact(l.ce6s);
-  saved.state.ce6_broke.resize(l.ce6s);
-  saved.loads.platens.anchor.resize(l.platen_node.size());
-  saved.loads.prescribed.node.resize(l.prescribed_node.size());
-  saved.loads.surface.face_force.resize(l.face.size());
-  saved.loads.surface.face_power.resize(l.faces_kept);
-  saved.contacts = ContactSet(contacts.enabled(), l.tets, l.size > 1 ? l.nodes : 0);
-  saved.state.load(in);
-  saved.loads.load(in, false);
-  saved.energy.load(in);
-  saved.contacts.load(in);
-  if (saved.excavated < 0 || saved.excavated > int(scene_.excavation.size()) ||
-      (!saved.push.empty() && long(saved.push.size()) != l.nodes))
-    in.mismatch(std::to_string(saved.excavated) + " excavation stages done, with forces on " +
-                std::to_string(saved.push.size()) + " nodes");
+  read_saved_rank_state(in, l, contacts.enabled(), int(scene_.excavation.size()), saved);
   EntityMap map;
   map.node.assign(l.nodes, -1), map.tet.assign(l.tets, -1), map.ce6.assign(l.ce6s, -1);
   for (int n = 0; n < int(l.nodes); ++n)
@@ -255,25 +285,7 @@ void Solver::take_saved_state(const SavedLayout& l, const EntityMap& map, SavedR
     if (const int n = map.node[l.prescribed_node[i]]; n >= 0)
       if (const auto e = pv.slot.find(n); e != pv.slot.end())
         pv.reaction[e->second] = sl.prescribed.reaction[i], pv.work[e->second] = sl.prescribed.work[i], ++g.prescribed;
-  SurfaceLoads& sf = loads_.surface;
-  if (g.face.empty() && !sf.faces.empty()) {
-    SavedLayout here;  // (this rank's numbering, for the faces' keys)
-    if (layout_.distributed()) here.node = layout_.dd.node_global;
-    for (std::size_t i = 0; i < sf.faces.size(); ++i) g.face[face_key(sf.faces[i], here)] = int(i);
-  }
-  for (std::size_t i = 0; i < l.face.size(); ++i) {
-    const std::array<long, 3> key = face_key(l.face[i], l);
-    const int lowest = *std::min_element(l.face[i].begin(), l.face[i].end(),
-                                         [&](int a, int b) { return l.global_node(a) < l.global_node(b); });
-    if (!l.owns_node(lowest)) continue;  // (the owner of a node holds every face around it)
-    const auto here = g.face.find(key);
-    if (here == g.face.end()) continue;
-    const std::size_t j = std::size_t(here->second);
-    sf.face_force[j] = sl.surface.face_force[i];
-    if (i < l.faces_kept && j < sf.face_power.size())
-      sf.face_power[j] = sl.surface.face_power[i], sf.face_work[j] = sl.surface.face_work[i];
-    ++g.faces;
-  }
+  take_saved_faces(l, saved.loads.surface);
   // Contact pairs, kept in global numbering until the contact ghosts are gathered here.
   const ContactSet& sc = saved.contacts;
   for (std::size_t k = 0; k < sc.pairs.size(); ++k) {
@@ -287,6 +299,42 @@ void Solver::take_saved_state(const SavedLayout& l, const EntityMap& map, SavedR
     s.joint = p.joint >= 0 ? l.global_ce6(p.joint) : -1;
     s.from_owner = owner, s.history = sc.history[k], s.eval = sc.eval[k];
     for (int j = 0; j < 8; ++j) s.force[j] = sc.pair_force[8 * k + j];
+  }
+}
+
+void Solver::take_saved_faces(const SavedLayout& l, const SurfaceLoads& saved) {
+  SavedRanks& g = *saved_;
+  SurfaceLoads& sf = loads_.surface;
+  if (g.face.empty() && !sf.faces.empty()) {
+    SavedLayout here;  // (this rank's numbering, for the faces' keys)
+    if (layout_.distributed()) here.node = layout_.dd.node_global;
+    here.face = sf.faces, here.face_condition = sf.face_condition;
+    for (std::size_t i = 0; i < sf.faces.size(); ++i) g.face[face_key(here, i)] = int(i);
+    g.face_power.assign(sf.face_power.size(), 0), g.face_work.assign(sf.face_work.size(), 0);
+  }
+  for (std::size_t i = 0; i < l.face.size(); ++i) {
+    const auto here = g.face.find(face_key(l, i));
+    if (here == g.face.end()) continue;
+    const std::size_t j = std::size_t(here->second);
+    if (i < l.faces_kept && j < g.face_power.size())
+      g.face_power[j] += saved.face_power[i], g.face_work[j] += saved.face_work[i];
+    if (!l.owns_node(lowest_node(l, i))) continue;  // (every holder computes the same force)
+    sf.face_force[j] = saved.face_force[i];
+    ++g.faces;
+  }
+}
+
+void Solver::finish_saved_faces() {
+  // A face's power and work go to the rank that owns its lowest node, zero to the others.
+  SavedRanks& g = *saved_;
+  SurfaceLoads& sf = loads_.surface;
+  SavedLayout here;
+  if (layout_.distributed()) here.node = layout_.dd.node_global, here.node_owned = layout_.own_node;
+  here.face = sf.faces;
+  for (std::size_t j = 0; j < sf.face_power.size(); ++j) {
+    const bool mine = here.owns_node(lowest_node(here, j));
+    sf.face_power[j] = mine ? g.face_power[j] : 0;
+    sf.face_work[j] = mine ? g.face_work[j] : 0;
   }
 }
 
@@ -306,6 +354,7 @@ void Solver::finish_saved_ranks() {
   if (!missing.empty())
     throw InputError("the checkpoint's rank files do not cover the model (" + missing +
                      "). Fix: restart from a whole set of rank files of one step, of this scene");
+  finish_saved_faces();
   const bool first = layout_.dd.rank == 0;
   energy_.p_contact = first ? g.contact_power : 0;
   loads_.surface.power = first ? g.pressure_power : 0;
@@ -332,30 +381,19 @@ void Solver::finish_saved_ranks() {
 }
 
 void Solver::place_saved_pairs() {
-  SavedRanks& g = *saved_;
+  // In the candidate builder's order: by the tets' global ids, the lower one first.
+  const SavedRanks& g = *saved_;
   const Decomposition& dd = layout_.dd;
   const LocalIds tet(dd.distributed() ? dd.tet_global : std::vector<long>{}, model_.tet_nodes.size());
   const LocalIds ce6(dd.distributed() ? dd.ce6_global : std::vector<long>{}, model_.ce6_nodes.size());
-  struct Placed {
-    ContactPair pair;
-    const SavedPair* saved;
-  };
-  std::vector<Placed> placed;
+  ContactSet& c = contacts;
   for (const auto& [ab, s] : g.pairs) {
     const int a = tet.find(ab.first), b = tet.find(ab.second);
-    // (A pair whose order differs here, after a gathering, starts afresh at the first build.)
-    if (a < 0 || b < 0 || a >= b) continue;
-    placed.push_back({{a, b, s.joint >= 0 ? ce6.find(s.joint) : -1}, &s});
-  }
-  std::sort(placed.begin(), placed.end(), [](const Placed& x, const Placed& y) {
-    return x.pair.a != y.pair.a ? x.pair.a < y.pair.a : x.pair.b < y.pair.b;
-  });
-  ContactSet& c = contacts;
-  for (const Placed& p : placed) {
-    c.pairs.push_back(p.pair);
-    c.history.push_back(p.saved->history);
-    c.eval.push_back(p.saved->eval);
-    c.pair_force.insert(c.pair_force.end(), p.saved->force.begin(), p.saved->force.end());
+    if (a < 0 || b < 0) continue;
+    c.pairs.push_back({a, b, s.joint >= 0 ? ce6.find(s.joint) : -1});
+    c.history.push_back(s.history);
+    c.eval.push_back(s.eval);
+    c.pair_force.insert(c.pair_force.end(), s.force.begin(), s.force.end());
   }
 }
 

@@ -26,6 +26,7 @@ Solver::Solver(const Scene& scene, Model model, Decomposition dd, MPI_Comm comm)
     : scene_(scene), model_(std::move(model)) {
   layout_.comm = comm;
   setup(std::move(dd));
+  model_fp_ = whole_model_fingerprint();  // (before an excavation stage changes a tet's stiffness)
   backend_ = scene_.solver.backend;
   dev_ = make_device_loop(backend_, loop_parts());
   compute_forces();
@@ -172,6 +173,7 @@ void Solver::grow_contact_ghosts() {
   in.finish();
   contacts.set_plan(state.x);  // the reach counts from here
   growth_.tets += g.added_total;
+  grown_ = true;
   restart_device();
   growth_.seconds += MPI_Wtime() - t0;
 }
@@ -651,7 +653,8 @@ void Solver::save(CheckpointOut& out) const {
   saved_layout().save(out);  // (read by a restart on another rank count)
   // After the contact ghosts grew, the rank model is no longer the one the run started with.
   out.put(growth_);
-  if (growth_.count > growth_.unchanged) put_rank_model(out, {model_, layout_.dd}, 0);
+  out.put(grown_);
+  if (grown_) put_rank_model(out, {model_, layout_.dd}, 0);
   out.put(excavated_);
   out.put(loads_.gravity.relax_start);
   out.put(loads_.gravity.push);
@@ -673,7 +676,8 @@ void Solver::load(CheckpointIn& in) {
   if (saved.size != layout_.dd.size || saved.rank != layout_.dd.rank)
     in.mismatch("rank " + std::to_string(saved.rank) + " of " + std::to_string(saved.size));
   in.get(growth_);
-  if (growth_.count > growth_.unchanged) {  // the grown rank model replaces the one the run started with
+  in.get(grown_);
+  if (grown_) {  // the grown rank model replaces the one the run started with
     RankModel rm = get_rank_model(in, 0);
     if (!layout_.dd.distributed() || rm.dd.rank != layout_.dd.rank || rm.dd.size != layout_.dd.size)
       in.mismatch("a rank model of rank " + std::to_string(rm.dd.rank) + " of " + std::to_string(rm.dd.size));

@@ -135,6 +135,9 @@ class Solver : private StepBookkeeping {
   /// where the files belong to another model or scene, or do not cover it.
   EntityMap read_saved_rank(CheckpointIn& in);
   void finish_saved_ranks();
+  /// Reads the solver's part of a saved rank's file as read_saved_rank() does, with its checks,
+  /// and changes nothing (a restart looks at a set before it takes any of it).
+  void check_saved_rank(CheckpointIn& in) const;
 
   /// The backend running the time loop (scene solver.backend). The state lives in the loop's
   /// arrays during steps; `state`, the contact set and the loads' state are the host
@@ -204,12 +207,16 @@ class Solver : private StepBookkeeping {
   SavedLayout saved_layout() const;
   /// A fingerprint of the whole model (reference positions, connectivity, each element's
   /// material, law, factors and stage, in global numbering) and the scene's physics: the same
-  /// on every rank count. Collective.
+  /// on every rank count. Collective: the constructor computes it once (model_fp_).
   std::uint64_t whole_model_fingerprint() const;
   /// The saved ranks' scalars and per-entity state into this rank's (read_saved_rank).
   void take_saved_state(const SavedLayout& l, const EntityMap& map, SavedRankState& saved);
   /// The saved contact pairs this rank holds both tets of, in local ids (finish_saved_ranks).
   void place_saved_pairs();
+  /// The loaded faces' forces, powers and works of a saved rank (read_saved_rank), then each
+  /// face's summed power and work given to one rank (finish_saved_ranks).
+  void take_saved_faces(const SavedLayout& l, const SurfaceLoads& saved);
+  void finish_saved_faces();
   void compute_forces();
   /// The host copy to the device loop where code wrote it since (host_changed()).
   void upload_if_changed();
@@ -277,6 +284,8 @@ class Solver : private StepBookkeeping {
   Backend backend_ = Backend::cpu;
   std::unique_ptr<DeviceLoop> dev_;
   GhostGrowths growth_;
+  bool grown_ = false;                    // a gathering added tets: the rank model is no longer the partition's
+  std::uint64_t model_fp_ = 0;            // whole_model_fingerprint() at the start, before any excavation
   struct SavedRanks;                      // a restart on another rank count in progress
   std::shared_ptr<SavedRanks> saved_;     // (solver/saved_ranks.cpp; shared: a deleter for an incomplete type)
   int excavated_ = 0;                     // excavation stages done

@@ -662,12 +662,26 @@ TEST(CliRanks, ACheckpointAfterTheContactGhostsGrewContinuesOnThreeRanks) {
   ASSERT_TRUE(std::regex_search(b.text, m, grew) && std::stol(m[1].str()) < 2900)
       << "no gathering added tets before the checkpoint: the scene no longer reaches the case this test is for\n"
       << b.text;
+  const fs::path one = tmp.path / "one";
+  fs::copy(cut, one, fs::copy_options::recursive);
   const Outcome c = continue_on(3, fine.string(), cut, reach);
   ASSERT_EQ(c.code, 0) << c.text;
   EXPECT_TRUE(has(c.text, "saved on 2 ranks and taken into 3")) << c.text;
   // No CE6 has broken by the end: the uninterrupted run's monitors to round-off.
   EXPECT_EQ(summary_value(whole, "broken_ce6"), 0);
-  EXPECT_LT(monitor_difference(read_csv(whole / "monitors.csv"), read_csv(cut / "monitors.csv")), 1e-9);
+  const Csv w = read_csv(whole / "monitors.csv");
+  EXPECT_LT(monitor_difference(w, read_csv(cut / "monitors.csv")), 1e-9);
+  // On one rank, checkpointed at step 2950 and continued again from there: the rank model of
+  // the partition, not the grown one saved, is what this checkpoint holds.
+  const fs::path again =
+      scene_variant(fine, tmp.path, "again", {{"checkpoint_wall_interval: 0", "checkpoint_interval: 2950"}});
+  const Outcome d = continue_on(1, again.string(), one, " -q --contact-reach 2e-5 -t 1");
+  ASSERT_EQ(d.code, 0) << d.text;
+  ASSERT_TRUE(fs::exists(one / "checkpoints" / "step_000000002950.ckpt"));
+  fs::remove(one / "summary.csv");
+  const Outcome e = continue_on(1, fine.string(), one, " -q");
+  ASSERT_EQ(e.code, 0) << e.text;
+  EXPECT_LT(monitor_difference(w, read_csv(one / "monitors.csv")), 1e-9);
 }
 
 TEST(CliRanks, ARestartOntoMoreRanksThanTheModelFillsIsRefused) {
@@ -693,4 +707,43 @@ TEST(CliRanks, ARestartOntoMoreRanksThanTheModelFillsIsRefused) {
   ASSERT_EQ(six.code, 0) << six.text;
   std::ofstream(tmp.path / "two.csv") << monitors;
   EXPECT_LT(monitor_difference(read_csv(tmp.path / "two.csv"), read_csv(out / "monitors.csv")), 1e-9);
+}
+
+TEST(CliRanks, ConditionsAndAnExcavationContinueOnAnotherRankCount) {
+  // Loaded faces under a pressure and an absorbing condition, whose powers and works each rank
+  // keeps in part; and an excavation stage done before the checkpoint, whose forces and removed
+  // rock the new ranks take over. From 2 ranks to 3, and to 1 from one named file of the set.
+  if (mpiexec(3).empty()) GTEST_SKIP() << "mpiexec not found";
+  TempDir tmp("rerank_loads");
+  struct Case {
+    std::string name, end, cut, checkpoint, step;
+  };
+  const fs::path cli = kData / "cli";
+  for (const Case& k : {Case{"conditions_box", "end: {time: 1e-4}", "end: {steps: 2500}", "2000", "2000"},
+                        Case{"excavation_box", "end: {time: 4e-5}", "end: {steps: 4100}", "4000", "4000"}}) {
+    SCOPED_TRACE(k.name);
+    std::vector<std::pair<std::string, std::string>> edits = {
+        {k.end, k.cut},
+        {"checkpoint_wall_interval: 0", "checkpoint_wall_interval: 0, checkpoint_interval: " + k.checkpoint}};
+    if (k.name == "excavation_box")  // (its mesh file is named relative to the scene)
+      edits.push_back({"file: layered_box.geo", "file: " + (cli / "layered_box.geo").string()});
+    const std::string base = (cli / (k.name + ".yaml")).string();
+    const fs::path cut_scene = scene_variant(base, tmp.path, k.name + "_cut", edits);
+    const fs::path whole = tmp.path / (k.name + "_whole"), cut = tmp.path / (k.name + "_cut");
+    const std::string run = mpiexec(2) + quote(kExe) + " run ";
+    ASSERT_EQ(run_cmd(run + quote(base) + " -q -o " + quote(whole.string())).code, 0);
+    ASSERT_EQ(run_cmd(run + quote(cut_scene.string()) + " -q -o " + quote(cut.string())).code, 0);
+    const fs::path one = tmp.path / (k.name + "_one");
+    fs::copy(cut, one, fs::copy_options::recursive);
+    const Outcome c = continue_on(3, base, cut);
+    ASSERT_EQ(c.code, 0) << c.text;
+    EXPECT_TRUE(has(c.text, "step_00000000" + k.step + ".rank0of2.ckpt") && has(c.text, "taken into 3")) << c.text;
+    const Csv w = read_csv(whole / "monitors.csv");
+    EXPECT_LT(monitor_difference(w, read_csv(cut / "monitors.csv")), 1e-9);
+    // One rank, given one file of the set.
+    const std::string file = (one / "checkpoints" / ("step_00000000" + k.step + ".rank1of2.ckpt")).string();
+    const Outcome o = run_fdem("run " + quote(base) + " -q -o " + quote(one.string()) + " --restart " + quote(file));
+    ASSERT_EQ(o.code, 0) << o.text;
+    EXPECT_LT(monitor_difference(w, read_csv(one / "monitors.csv")), 1e-9);
+  }
 }

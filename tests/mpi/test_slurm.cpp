@@ -6,6 +6,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <sstream>
 #include <thread>
 
 #include "cli_support.hpp"
@@ -85,7 +86,8 @@ TEST(Slurm, RunScriptStopsAtTheLimitResubmitsAndContinues) {
 
 TEST(Slurm, ResubmissionTakesTheRankCountAskedFor) {
   // fdem stopped at the limit (a stand-in that exits 5 at once): the job submits its
-  // continuation with its own ranks and nodes, or with FDEM_NEXT_NTASKS and FDEM_NEXT_NODES.
+  // continuation with its own ranks and nodes, or with FDEM_NEXT_NTASKS and FDEM_NEXT_NODES
+  // (not with --partitioned rank files, made for one count).
   if (find_mpiexec().empty()) GTEST_SKIP() << "mpiexec not found";
   FakeSlurm s;
   const fs::path stub = s.bin / "stopped_fdem";
@@ -98,11 +100,17 @@ TEST(Slurm, ResubmissionTakesTheRankCountAskedFor) {
   EXPECT_EQ(same.code, 5) << same.text;
   const Outcome more = run_cmd(env + "FDEM_NEXT_NTASKS=3 FDEM_NEXT_NODES=2 bash " + script + args);
   EXPECT_EQ(more.code, 5) << more.text;
-  const std::string sub = slurp(s.tmp.path / "sbatch.txt");
-  const std::size_t second = sub.find('\n');
-  ASSERT_NE(second, std::string::npos) << sub;
-  EXPECT_TRUE(has(sub.substr(0, second), "--nodes=1 --ntasks=2")) << sub;
-  EXPECT_TRUE(has(sub.substr(second), "--nodes=2 --ntasks=3")) << sub;
+  // With rank files made for 2 ranks, the continuation keeps 2.
+  const Outcome kept = run_cmd(env + "FDEM_NEXT_NTASKS=3 bash " + script + args + " --partitioned parts");
+  EXPECT_EQ(kept.code, 5) << kept.text;
+  EXPECT_TRUE(has(kept.text, "FDEM_NEXT_NTASKS ignored")) << kept.text;
+  std::vector<std::string> jobs;
+  std::istringstream lines(slurp(s.tmp.path / "sbatch.txt"));
+  for (std::string line; std::getline(lines, line);) jobs.push_back(line);
+  ASSERT_EQ(jobs.size(), 3u);
+  EXPECT_TRUE(has(jobs[0], "--nodes=1 --ntasks=2 --ntasks-per-node=2")) << jobs[0];
+  EXPECT_TRUE(has(jobs[1], "--nodes=2 --ntasks=3 --ntasks-per-node=2")) << jobs[1];
+  EXPECT_TRUE(has(jobs[2], "--nodes=1 --ntasks=2 ") && has(jobs[2], "--partitioned parts")) << jobs[2];
 }
 
 TEST(Slurm, TriaxialArrayTasksAndTheFitJob) {
