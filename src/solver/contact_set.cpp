@@ -129,20 +129,7 @@ void ContactSet::save(CheckpointOut& out) const {
   out.put(touching);
   if (!enabled_) return;
   out.put(tet_flags);
-  out.put(active_count_);
-  out.put(rebuild_due);
-  out.put(pairs);
-  out.put(last_build);
-  out.put(watch_nodes);
-  out.put(watch_x);
-  out.put(eval);
-  out.put(pair_force);
-  out.put(gather_node);
-  out.put(gather_ptr);
-  out.put(gather_slot);
-  out.put(history);
-  out.put(times);
-  out.put(plan_x_);
+  each_evolving([&](const auto& v) { out.put(v); }, *this);
 }
 
 void ContactSet::load(CheckpointIn& in, const std::vector<std::uint8_t>* appended) {
@@ -156,20 +143,7 @@ void ContactSet::load(CheckpointIn& in, const std::vector<std::uint8_t>* appende
   if (appended) tet_flags.insert(tet_flags.end(), appended->begin(), appended->end());
   if (tet_flags.size() != nt)
     in.mismatch("tet count " + std::to_string(tet_flags.size()) + ", the model has " + std::to_string(nt));
-  in.get(active_count_);
-  in.get(rebuild_due);
-  in.get(pairs);
-  in.get(last_build);
-  in.get(watch_nodes);
-  in.get(watch_x);
-  in.get(eval);
-  in.get(pair_force);
-  in.get(gather_node);
-  in.get(gather_ptr);
-  in.get(gather_slot);
-  in.get(history);
-  in.get(times);
-  in.get(plan_x_);
+  each_evolving([&](auto& v) { in.get(v); }, *this);
   if (history.size() != pairs.size() || eval.size() != pairs.size()) in.mismatch("inconsistent contact pair arrays");
   if (appended) {
     // The new tets are candidates only after a build; the caller sets the new plan positions.
@@ -179,6 +153,20 @@ void ContactSet::load(CheckpointIn& in, const std::vector<std::uint8_t>* appende
     in.mismatch("node count " + std::to_string(plan_x_.size()) + " of the contact reach, the model has " +
                 std::to_string(nn));
   }
+}
+
+void ContactSet::carry_from(ContactSet&& old, const std::vector<std::uint8_t>& appended) {
+  touching = old.touching;
+  if (!enabled_) return;
+  const std::size_t nt = tet_flags.size();
+  tet_flags = std::move(old.tet_flags);
+  tet_flags.insert(tet_flags.end(), appended.begin(), appended.end());
+  if (tet_flags.size() != nt || !old.enabled_)
+    throw RunError("contact ghosts: the grown model has " + std::to_string(nt) + " tets, the contact state " +
+                   std::to_string(tet_flags.size()));
+  each_evolving([](auto& mine, auto& theirs) { mine = std::move(theirs); }, *this, old);
+  recount_active();
+  rebuild_due = true;  // (the new tets are candidates only after a build; the caller sets the plan)
 }
 
 }  // namespace fdem

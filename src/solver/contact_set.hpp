@@ -95,6 +95,9 @@ class ContactSet {
   /// next evaluation.
   void save(CheckpointOut& out) const;
   void load(CheckpointIn& in, const std::vector<std::uint8_t>* appended = nullptr);
+  /// The same as load() with `appended`, from the set itself: the state of `old` moves into
+  /// this set, made for the grown model, without a copy of its pairs.
+  void carry_from(ContactSet&& old, const std::vector<std::uint8_t>& appended);
 
   // The state the time loop builds and evaluates (solver/device_loop_impl.hpp); here its host
   // copy, for checkpoints, outputs and tests.
@@ -117,6 +120,15 @@ class ContactSet {
   const std::vector<std::uint8_t>* tet_owned_ = nullptr;
   real reach_ = 0;
   std::vector<Vec3> plan_x_;
+
+  /// f(member of each set) for the state after the flags, in checkpoint order (save, load and
+  /// carry_from list it once).
+  template <class F, class... Sets>
+  static void each_evolving(F&& f, Sets&... s) {
+    f(s.active_count_...), f(s.rebuild_due...), f(s.pairs...), f(s.last_build...), f(s.watch_nodes...);
+    f(s.watch_x...), f(s.eval...), f(s.pair_force...), f(s.gather_node...), f(s.gather_ptr...);
+    f(s.gather_slot...), f(s.history...), f(s.times...), f(s.plan_x_...);
+  }
 
   bool enabled_ = false;
   real penalty_ = 0, mu_ = 0, buffer_ = 0;

@@ -164,13 +164,17 @@ void Solver::grow_contact_ghosts() {
     growth_.seconds += MPI_Wtime() - t0;
     return;
   }
+  // The grown layout, then the state, extended by the ghosts'. The contact pairs and their
+  // state, the bulk of it, move over; the rest goes through a checkpoint's payload.
   CheckpointOut kept;
-  save_state(kept);
-  // The grown layout, then the state, extended by the ghosts'.
+  save_state(kept, false);
+  dev_.reset();
+  ContactSet moved = std::move(contacts);
   adopt_layout(std::move(g.rm));
   CheckpointIn in(kept.payload(), "the state before the contact ghosts grew");
-  load_state(in, &g.added);
+  load_state(in, &g.added, false);
   in.finish();
+  contacts.carry_from(std::move(moved), g.added.active);
   contacts.set_plan(state.x);  // the reach counts from here
   growth_.tets += g.added_total;
   grown_ = true;
@@ -663,11 +667,11 @@ void Solver::save(CheckpointOut& out) const {
   save_state(out);
 }
 
-void Solver::save_state(CheckpointOut& out) const {
+void Solver::save_state(CheckpointOut& out, bool contact) const {
   state.save(out);
   loads_.save(out);
   energy_.save(out);
-  contacts.save(out);
+  if (contact) contacts.save(out);
 }
 
 void Solver::load(CheckpointIn& in) {
@@ -707,11 +711,11 @@ void Solver::load(CheckpointIn& in) {
   host_changed();
 }
 
-void Solver::load_state(CheckpointIn& in, const GhostState* appended) {
+void Solver::load_state(CheckpointIn& in, const GhostState* appended, bool contact) {
   state.load(in, appended);
   loads_.load(in, appended != nullptr);
   energy_.load(in);
-  contacts.load(in, appended ? &appended->active : nullptr);
+  if (contact) contacts.load(in, appended ? &appended->active : nullptr);
 }
 
 }  // namespace fdem

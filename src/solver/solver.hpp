@@ -200,9 +200,10 @@ class Solver : private StepBookkeeping {
   /// A new loop for the layout, with the host state uploaded.
   void restart_device();
   /// The evolving state in checkpoint order; load_state with `appended` reads a state saved
-  /// before the contact ghosts grew and appends the ghosts' state.
-  void save_state(CheckpointOut& out) const;
-  void load_state(CheckpointIn& in, const GhostState* appended = nullptr);
+  /// before the contact ghosts grew and appends the ghosts' state. Without `contact`, all but
+  /// the contact set's (which a growth moves over: ContactSet::carry_from).
+  void save_state(CheckpointOut& out, bool contact = true) const;
+  void load_state(CheckpointIn& in, const GhostState* appended = nullptr, bool contact = true);
   /// Where this rank's arrays sit in the whole model (the head of its checkpoint).
   SavedLayout saved_layout() const;
   /// A fingerprint of the whole model (reference positions, connectivity, each element's
