@@ -134,18 +134,17 @@ FDEM_HD real ce6_max_damage(const Ce6Damage& s) {
 
 namespace ce6_detail {
 
-/// Pre-peak curve: strength (2x - x^2) for x = a/peak < 1, strength beyond (a >= 0).
-FDEM_HD real prepeak(real a, real peak, real strength) {
-  if (a >= peak) return strength;
-  const real x = a / peak;  // peak > a >= 0 here
-  return strength * x * (2 - x);
-}
-
-/// Its integral from 0 to a: strength peak (x^2 - x^3/3), strength (a - peak/3) beyond.
-FDEM_HD real prepeak_energy(real a, real peak, real strength) {
-  if (a >= peak) return strength * (a - peak / 3);
-  const real x = a / peak;
-  return strength * peak * x * x * (1 - x / 3);
+/// The pre-peak curve at a >= 0 for peak p and strength f: the value f (2x - x^2) for x = a/p < 1
+/// and f beyond, its integral from 0 (f p (x^2 - x^3/3), f (a - p/3) beyond), and the value
+/// over a (0 at a = 0), which shear puts on its slip vector. One division either way.
+struct PrepeakPoint {
+  real value, energy, per_a;
+};
+FDEM_HD PrepeakPoint prepeak(real a, real peak, real strength) {
+  if (a >= peak) return {strength, strength * (a - peak / 3), a > 0 ? strength / a : real(0)};
+  const real ip = 1 / peak;  // peak > a >= 0 here
+  const real x = a * ip;
+  return {strength * x * (2 - x), strength * peak * x * x * (1 - x / 3), strength * (2 - x) * ip};
 }
 
 /// Softening width (r - p) for strength f, peak p and fracture energy G; <= 0 means none.
@@ -222,13 +221,14 @@ FDEM_HD Ce6Eval cohesive6_forces(const Ce6Params& p, const Vec3 (&x)[6], const V
   const real n2 = norm(nn);  // 2 A
   if (!(n2 > 0) || !(h > 0)) return out;
   const Vec3 n = (real(1) / n2) * nn;
-  const real w = n2 / 6;  // A/3, weight of one integration point
+  const real w = n2 * (real(1) / 6);  // A/3, weight of one integration point
 
+  // Divisions and square roots are most of an intact CE6's cost: each is taken once per CE6
+  // where it can be, and only where its result is used.
   const real k_ov = p.P_overlap / h;  // overlap stiffness per unit area
-  const real k_t = p.P_tan / h;       // tangential (friction spring) stiffness per unit area
   const real ft = strength * p.ft, cohesion = strength * p.cohesion;
   const real o_p = p.P_open > 0 ? 2 * h * ft / p.P_open : real(0);
-  const real w_n = softening_width(p.GI, ft, o_p, p.Z);
+  const real sp_per_fs = p.P_tan > 0 ? 2 * h / p.P_tan : real(0);  // shear peak slip per unit strength
 
   Vec3 e1{0, 0, 0}, e2{0, 0, 0};  // the face's own frame, for the in-situ offsets
   if (pre) {
@@ -257,10 +257,12 @@ FDEM_HD Ce6Eval cohesive6_forces(const Ce6Params& p, const Vec3 (&x)[6], const V
     sl[k] = norm(sv[k]);
     const real sig_ov = o[k] < 0 ? k_ov * o[k] : real(0);
     fs[k] = cohesion + (-sig_ov) * p.tan_phi;
-    sp[k] = p.P_tan > 0 ? 2 * h * fs[k] / p.P_tan : real(0);
-    Dn[k] = past_peak(o[k], o_p, w_n);
-    Ds[k] = past_peak(sl[k], sp[k], softening_width(p.GII, fs[k], sp[k], p.Z));
-    if (!was_broken) {
+    sp[k] = sp_per_fs * fs[k];
+    // Below both peaks (most CE6s on most steps) no softening width, square root or damage is
+    // needed: Dn = Ds = 0 there, so the damage stays as it is.
+    Dn[k] = o[k] > o_p ? past_peak(o[k], o_p, softening_width(p.GI, ft, o_p, p.Z)) : real(0);
+    Ds[k] = sl[k] > sp[k] ? past_peak(sl[k], sp[k], softening_width(p.GII, fs[k], sp[k], p.Z)) : real(0);
+    if (!was_broken && (Dn[k] > 0 || Ds[k] > 0)) {
       real Dc = std::sqrt(Dn[k] * Dn[k] + Ds[k] * Ds[k]);
       if (Dc > 1) Dc = 1;
       if (Dc > s.D[k]) s.D[k] = Dc;
@@ -282,6 +284,7 @@ FDEM_HD Ce6Eval cohesive6_forces(const Ce6Params& p, const Vec3 (&x)[6], const V
     if (broken) {
       if (o[k] < 0) {
         const real tmax = p.mu_rock * (-k_ov * o[k]);
+        const real k_t = p.P_tan / h;  // the friction spring's stiffness per unit area
         ce6_friction(tmax, k_t, n, sv[k], was_broken || had_damage, anchors[k], t, e);
       } else {
         anchors[k] = sv[k];
@@ -290,12 +293,14 @@ FDEM_HD Ce6Eval cohesive6_forces(const Ce6Params& p, const Vec3 (&x)[6], const V
       const real z = softening_z(s.D[k], p.softening);
       if (damaged) anchors[k] = sv[k];  // the anchor follows until the break
       if (o[k] >= 0) {
-        t = (z * prepeak(o[k], o_p, ft)) * n;
-        e = z * prepeak_energy(o[k], o_p, ft);
+        const PrepeakPoint c = prepeak(o[k], o_p, ft);
+        t = (z * c.value) * n;
+        e = z * c.energy;
       }
       if (sl[k] > 0) {
-        t += (z * prepeak(sl[k], sp[k], fs[k]) / sl[k]) * sv[k];
-        e += z * prepeak_energy(sl[k], sp[k], fs[k]);
+        const PrepeakPoint c = prepeak(sl[k], sp[k], fs[k]);
+        t += (z * c.per_a) * sv[k];
+        e += z * c.energy;
       }
     }
     out.power += w * dot(t, dkdot[k]);

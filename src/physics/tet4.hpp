@@ -57,8 +57,8 @@ struct Tet4Eval {
 };
 
 /// `S0`: the tet's in-situ stress (Pa), or null for none.
-FDEM_HD Tet4Eval tet4_forces(const Vec3 (&x)[4], const Vec3 (&v)[4], const Mat3& Xinv, real V0, real lambda, real mu,
-                             real eta, Vec3 (&f)[4], const Sym3* S0 = nullptr) {
+FDEM_HD_INLINE Tet4Eval tet4_forces(const Vec3 (&x)[4], const Vec3 (&v)[4], const Mat3& Xinv, real V0, real lambda,
+                                    real mu, real eta, Vec3 (&f)[4], const Sym3* S0 = nullptr) {
   Tet4Eval r{};
   const Mat3 Xc = tet4_edges(x);
   const Mat3 F = Xc * Xinv;
