@@ -56,7 +56,8 @@ struct Tet4Eval {
   Sym3 stress;         // Cauchy stress including the viscous part, Pa
 };
 
-/// `S0`: the tet's in-situ stress (Pa), or null for none.
+/// `S0`: the tet's in-situ stress (Pa), or null for none. Always inlined: a pass that reads only J
+/// and the viscous power then skips the stress and the strain energy.
 FDEM_HD_INLINE Tet4Eval tet4_forces(const Vec3 (&x)[4], const Vec3 (&v)[4], const Mat3& Xinv, real V0, real lambda,
                                     real mu, real eta, Vec3 (&f)[4], const Sym3* S0 = nullptr) {
   Tet4Eval r{};
