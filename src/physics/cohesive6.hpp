@@ -153,9 +153,12 @@ FDEM_HD real softening_width(real G, real f, real p, real Z) {
   return den > 0 ? (G - real(2) / 3 * f * p) / den : real(0);
 }
 
-/// Damage measure past the peak: (a - p)/w, or 1 at once where there is no softening width.
-FDEM_HD real past_peak(real a, real p, real w) {
+/// Damage measure past the peak p of strength f and fracture energy G: 0 up to p, then (a - p)/w
+/// for the softening width w, or 1 at once where there is none. The width is taken only past the
+/// peak: below it (most CE6s on most steps) its division is not needed.
+FDEM_HD real past_peak(real a, real p, real G, real f, real Z) {
   if (!(a > p)) return 0;
+  const real w = softening_width(G, f, p, Z);
   return w > 0 ? (a - p) / w : real(1);
 }
 
@@ -258,11 +261,9 @@ FDEM_HD Ce6Eval cohesive6_forces(const Ce6Params& p, const Vec3 (&x)[6], const V
     const real sig_ov = o[k] < 0 ? k_ov * o[k] : real(0);
     fs[k] = cohesion + (-sig_ov) * p.tan_phi;
     sp[k] = sp_per_fs * fs[k];
-    // Below both peaks (most CE6s on most steps) no softening width, square root or damage is
-    // needed: Dn = Ds = 0 there, so the damage stays as it is.
-    Dn[k] = o[k] > o_p ? past_peak(o[k], o_p, softening_width(p.GI, ft, o_p, p.Z)) : real(0);
-    Ds[k] = sl[k] > sp[k] ? past_peak(sl[k], sp[k], softening_width(p.GII, fs[k], sp[k], p.Z)) : real(0);
-    if (!was_broken && (Dn[k] > 0 || Ds[k] > 0)) {
+    Dn[k] = past_peak(o[k], o_p, p.GI, ft, p.Z);
+    Ds[k] = past_peak(sl[k], sp[k], p.GII, fs[k], p.Z);
+    if (!was_broken && (Dn[k] > 0 || Ds[k] > 0)) {  // below both peaks the damage stays
       real Dc = std::sqrt(Dn[k] * Dn[k] + Ds[k] * Ds[k]);
       if (Dc > 1) Dc = 1;
       if (Dc > s.D[k]) s.D[k] = Dc;
