@@ -1,6 +1,7 @@
 #include "partition/grow.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cstring>
 #include <limits>
 #include <map>
@@ -338,45 +339,57 @@ Arrivals read_answers(const std::vector<std::string>& got) {
   return a;
 }
 
+/// A position's exact bits, as a hash key (two nodes share a mesh vertex only at the same double).
+struct PositionKey {
+  std::array<std::uint64_t, 3> bits{};
+  explicit PositionKey(const Vec3& p) { std::memcpy(bits.data(), &p, sizeof(bits)); }
+  bool operator==(const PositionKey& o) const { return bits == o.bits; }
+  struct Hash {
+    std::size_t operator()(const PositionKey& k) const {
+      std::uint64_t h = 0x9e3779b97f4a7c15ull;
+      for (std::uint64_t b : k.bits) h = (h ^ b) * 0x100000001b3ull, h ^= h >> 29;
+      return std::size_t(h);
+    }
+  };
+};
+static_assert(sizeof(Vec3) == sizeof(std::array<std::uint64_t, 3>), "a position is three doubles");
+
 /// Appends the arrived nodes not held yet, in global order; returns global -> local node id.
-std::unordered_map<long, int> append_ghost_nodes(const Model& m, const Decomposition& dd,
-                                                 const std::map<long, NodeRec>& nodes, GrownRank& out) {
-  Model& gm = out.rm.model;
-  Decomposition& gd = out.rm.dd;
+/// (m and dd are the ones growing: only their first nn nodes are read.)
+std::unordered_map<long, int> append_ghost_nodes(Model& m, Decomposition& dd, const std::map<long, NodeRec>& nodes,
+                                                 GhostState& added) {
   const int nn = int(m.X.size());
   std::unordered_map<long, int> node_local;
   for (int n = 0; n < nn; ++n) node_local[dd.node_global[n]] = n;
   // Mesh vertices: a new node at the position of a held one shares its vertex (split nodes
-  // keep their vertex's reference position).
-  auto key_of = [](const Vec3& p) {
-    std::string k(sizeof(Vec3), '\0');
-    std::memcpy(k.data(), &p, sizeof(Vec3));
-    return k;
-  };
-  std::unordered_map<std::string, int> vertex_at;
+  // keep their vertex's reference position). Only the new nodes' positions are looked up.
+  std::unordered_map<PositionKey, int, PositionKey::Hash> vertex_at;  // -1: no node there yet
+  for (const auto& [g, nr] : nodes)
+    if (!node_local.count(g)) vertex_at.emplace(PositionKey(nr.X), -1);
   int vertices = 0;
   for (int n = 0; n < nn; ++n) {
-    vertex_at.emplace(key_of(m.X[n]), m.node_vertex[n]);
     vertices = std::max(vertices, m.node_vertex[n] + 1);
+    if (auto it = vertex_at.find(PositionKey(m.X[n])); it != vertex_at.end() && it->second < 0)
+      it->second = m.node_vertex[n];
   }
   for (const auto& [g, nr] : nodes) {
     if (node_local.count(g)) continue;
-    const int n = int(gm.X.size());
+    const int n = int(m.X.size());
     node_local[g] = n;
-    gm.X.push_back(nr.X);
-    gm.mass.push_back(nr.mass);
-    if (!gm.node_conditions.empty()) gm.node_conditions.push_back(0);  // (moved by its owner's halo)
-    if (!gm.node_history.empty()) gm.node_history.push_back(0);        // (its owner counts it)
-    auto vit = vertex_at.emplace(key_of(nr.X), vertices).first;
-    if (vit->second == vertices) ++vertices;
-    gm.node_vertex.push_back(vit->second);
-    if (nr.groups & 1) gm.top_nodes.push_back(n);
-    if (nr.groups & 2) gm.bottom_nodes.push_back(n);
-    if (nr.groups & 4) gm.lateral_nodes.push_back(n);
-    gd.node_global.push_back(g);
-    gd.node_owned.push_back(0);
-    out.added.x.push_back(nr.x);
-    out.added.v.push_back(nr.v);
+    m.X.push_back(nr.X);
+    m.mass.push_back(nr.mass);
+    if (!m.node_conditions.empty()) m.node_conditions.push_back(0);  // (moved by its owner's halo)
+    if (!m.node_history.empty()) m.node_history.push_back(0);        // (its owner counts it)
+    int& vertex = vertex_at.at(PositionKey(nr.X));
+    if (vertex < 0) vertex = vertices++;
+    m.node_vertex.push_back(vertex);
+    if (nr.groups & 1) m.top_nodes.push_back(n);
+    if (nr.groups & 2) m.bottom_nodes.push_back(n);
+    if (nr.groups & 4) m.lateral_nodes.push_back(n);
+    dd.node_global.push_back(g);
+    dd.node_owned.push_back(0);
+    added.x.push_back(nr.x);
+    added.v.push_back(nr.v);
   }
   return node_local;
 }
@@ -404,10 +417,8 @@ std::vector<std::vector<int>> holders_of_held(const Decomposition& dd, int nt,
 
 /// Appends the arrived tets (in global order) with their faces, and their holders to `holders`.
 void append_ghost_tets(std::vector<TetRec>& tets, const std::unordered_map<long, int>& node_local,
-                       std::unordered_map<long, int>& tet_local, std::vector<std::vector<int>>& holders,
-                       GrownRank& out) {
-  Model& gm = out.rm.model;
-  Decomposition& gd = out.rm.dd;
+                       std::unordered_map<long, int>& tet_local, std::vector<std::vector<int>>& holders, Model& gm,
+                       Decomposition& gd, GhostState& added) {
   for (TetRec& t : tets) {
     const int i = int(gm.tet_nodes.size());
     tet_local[t.id] = i;
@@ -417,7 +428,7 @@ void append_ghost_tets(std::vector<TetRec>& tets, const std::unordered_map<long,
     gd.tet_global.push_back(t.id);
     gd.tet_owned.push_back(0);
     holders.push_back(std::move(t.holders));
-    out.added.active.push_back(t.active);
+    added.active.push_back(t.active);
     for (const auto& f : t.faces) {
       gm.surface_faces.push_back({node_local.at(f[0]), node_local.at(f[1]), node_local.at(f[2])});
       gm.surface_tet.push_back(i);
@@ -428,13 +439,11 @@ void append_ghost_tets(std::vector<TetRec>& tets, const std::unordered_map<long,
 }
 
 /// Appends the arrived CE6s not held yet whose two tets are both held now, in global order.
-void append_ghost_ce6s(const std::map<long, Ce6Rec>& ce6s, const Model& m, const Decomposition& dd,
-                       const std::unordered_map<long, int>& node_local, const std::unordered_map<long, int>& tet_local,
-                       GrownRank& out) {
-  Model& gm = out.rm.model;
-  Decomposition& gd = out.rm.dd;
+void append_ghost_ce6s(const std::map<long, Ce6Rec>& ce6s, const std::unordered_map<long, int>& node_local,
+                       const std::unordered_map<long, int>& tet_local, Model& gm, Decomposition& gd,
+                       GhostState& added) {
   std::unordered_map<long, int> ce6_local;
-  for (std::size_t c = 0; c < m.ce6_nodes.size(); ++c) ce6_local[dd.ce6_global[c]] = int(c);
+  for (std::size_t c = 0; c < gm.ce6_nodes.size(); ++c) ce6_local[gd.ce6_global[c]] = int(c);
   for (const auto& [g, c] : ce6s) {  // a CE6 whose two tets are both held now
     if (ce6_local.count(g) || !tet_local.count(c.a) || !tet_local.count(c.b)) continue;
     std::array<int, 6> q;
@@ -446,14 +455,13 @@ void append_ghost_ce6s(const std::map<long, Ce6Rec>& ce6s, const Model& m, const
     if (!gm.ce6_strength.empty()) gm.ce6_strength.push_back(c.strength);
     gd.ce6_global.push_back(g);
     gd.ce6_owned.push_back(0);
-    out.added.ce6.push_back(c.state);
+    added.ce6.push_back(c.state);
   }
 }
 
 /// The neighbours: node lists as before (the new ghosts are never computed here), shared
-/// tets from the holders, in global order.
-std::vector<Neighbour> grown_neighbours(const Decomposition& dd, const RankModel& grown,
-                                        const std::vector<std::vector<int>>& holders) {
+/// tets from the holders (one list per tet held, appended ones included), in global order.
+std::vector<Neighbour> grown_neighbours(const Decomposition& dd, const std::vector<std::vector<int>>& holders) {
   const int rank = dd.rank, size = dd.size;
   std::vector<Neighbour> nb(size);
   for (int r = 0; r < size; ++r) nb[r].rank = r;
@@ -461,11 +469,10 @@ std::vector<Neighbour> grown_neighbours(const Decomposition& dd, const RankModel
     nb[old.rank].send_nodes = old.send_nodes;
     nb[old.rank].recv_nodes = old.recv_nodes;
   }
-  const int gt = int(grown.model.tet_nodes.size());
-  const Decomposition& gd = grown.dd;
+  const int gt = int(holders.size());
   std::vector<int> by_global(gt);
   for (int t = 0; t < gt; ++t) by_global[t] = t;
-  std::sort(by_global.begin(), by_global.end(), [&](int a, int b) { return gd.tet_global[a] < gd.tet_global[b]; });
+  std::sort(by_global.begin(), by_global.end(), [&](int a, int b) { return dd.tet_global[a] < dd.tet_global[b]; });
   for (int t : by_global)
     for (int r : holders[t])
       if (r != rank) nb[r].shared_tets.push_back(t);
@@ -478,7 +485,7 @@ std::vector<Neighbour> grown_neighbours(const Decomposition& dd, const RankModel
 
 }  // namespace
 
-GrownRank grow_contact_ghosts(MPI_Comm comm, const Model& m, const Decomposition& dd, const GhostState& now) {
+GhostGrowth grow_contact_ghosts(MPI_Comm comm, Model& m, Decomposition& dd, const GhostState& now) {
   const int size = dd.size;
   const int nt = int(m.tet_nodes.size()), nn = int(m.X.size()), nc = int(m.ce6_nodes.size());
   if (size_of(comm) != size || int(now.x.size()) != nn || int(now.v.size()) != nn || int(now.ce6.size()) != nc)
@@ -505,7 +512,7 @@ GrownRank grow_contact_ghosts(MPI_Comm comm, const Model& m, const Decomposition
   // 4. The owner's answer: each requested tet's record for the rank that asked, and to every
   // other rank holding it already, who holds it now.
   const std::map<long, std::vector<int>> new_holders = read_requests(asked, dd, tet_local);
-  GrownRank out;
+  GhostGrowth out;
   if (sum_over_ranks(comm, double(new_holders.size())) == 0) return out;  // no rank lacks a tet: rm empty
   std::unordered_map<long, std::vector<int>> own_holders = holders_before(new_holders, dd);
   const std::vector<std::string> got =
@@ -514,15 +521,13 @@ GrownRank grow_contact_ghosts(MPI_Comm comm, const Model& m, const Decomposition
   // 5. The records and the holder updates that arrived.
   Arrivals arrived = read_answers(got);
 
-  // 6. The grown rank model: the old one, then the new nodes, tets, CE6s and faces, each in
-  // global order.
-  out.rm.model = m;
-  out.rm.dd = dd;
-  const std::unordered_map<long, int> node_local = append_ghost_nodes(m, dd, arrived.nodes, out);
+  // 6. The rank model grows in place: the new nodes, tets, CE6s and faces appended, each in
+  // global order. Nothing held is copied or moved.
   std::vector<std::vector<int>> holders = holders_of_held(dd, nt, arrived.updates, own_holders, tet_local);
-  append_ghost_tets(arrived.tets, node_local, tet_local, holders, out);
-  append_ghost_ce6s(arrived.ce6s, m, dd, node_local, tet_local, out);
-  out.rm.dd.neighbours = grown_neighbours(dd, out.rm, holders);
+  const std::unordered_map<long, int> node_local = append_ghost_nodes(m, dd, arrived.nodes, out.added);
+  append_ghost_tets(arrived.tets, node_local, tet_local, holders, m, dd, out.added);
+  append_ghost_ce6s(arrived.ce6s, node_local, tet_local, m, dd, out.added);
+  dd.neighbours = grown_neighbours(dd, holders);
   out.added_tets = long(arrived.tets.size());
   out.added_total = long(sum_over_ranks(comm, double(out.added_tets)));
   return out;

@@ -21,10 +21,8 @@ struct GhostState {
   std::vector<std::uint8_t> active;  // per tet: contact candidate (empty without contact)
 };
 
-/// A rank model after growth: the old one with the new ghosts appended (every old local id keeps
-/// its meaning), and the state of what was appended.
-struct GrownRank {
-  RankModel rm;
+/// What a gathering appended to a rank model.
+struct GhostGrowth {
   GhostState added;      // x, v of the appended nodes, state of the appended CE6s, flags of the tets
   long added_tets = 0;   // appended here
   long added_total = 0;  // appended on all ranks together
@@ -32,13 +30,15 @@ struct GrownRank {
 
 /// Collective on comm. Every rank finds, with the positions in `now`, the tets of other ranks
 /// whose boxes come within dd.reach of the box of one of its own tets (as plan_partition does in
-/// the reference configuration), asks their owners for those it does not hold, and appends them:
-/// the tet, its nodes (owner, groups, position and velocity), its CE6s to tets it holds (with
-/// their damage and slip), its surface faces and its activation flag. Every rank holding a tet
+/// the reference configuration), asks their owners for those it does not hold, and appends them
+/// to m and dd in place: the tet, its nodes (owner, groups, position and velocity), its CE6s to
+/// tets it holds (with their damage and slip), its surface faces and its activation flag.
+/// Nothing held is copied, and every old local id keeps its meaning. Every rank holding a tet
 /// learns who else holds it, so the lists of shared tets stay the same on both sides of every
 /// pair (in global order). Ghosts are never dropped: a rank model only grows. The appended
 /// elements are in no colouring (they act on no owned node, so this rank never computes them).
-/// Where no rank lacks a tet, added_total is 0 and rm is left empty: the rank model stays.
-GrownRank grow_contact_ghosts(MPI_Comm comm, const Model& m, const Decomposition& dd, const GhostState& now);
+/// Where no rank lacks a tet, added_total is 0 and m and dd are unchanged. A RunError thrown
+/// while appending leaves them part grown; the run ends with it.
+GhostGrowth grow_contact_ghosts(MPI_Comm comm, Model& m, Decomposition& dd, const GhostState& now);
 
 }  // namespace fdem

@@ -132,7 +132,7 @@ void ContactSet::save(CheckpointOut& out) const {
   each_evolving([&](const auto& v) { out.put(v); }, *this);
 }
 
-void ContactSet::load(CheckpointIn& in, const std::vector<std::uint8_t>* appended) {
+void ContactSet::load(CheckpointIn& in) {
   bool enabled = false;
   in.get(enabled);
   if (enabled != enabled_) in.mismatch("contact.activation differs: 'none' in one of them");
@@ -140,19 +140,13 @@ void ContactSet::load(CheckpointIn& in, const std::vector<std::uint8_t>* appende
   if (!enabled_) return;
   const std::size_t nt = tet_flags.size(), nn = plan_x_.size();
   in.get(tet_flags);
-  if (appended) tet_flags.insert(tet_flags.end(), appended->begin(), appended->end());
   if (tet_flags.size() != nt)
     in.mismatch("tet count " + std::to_string(tet_flags.size()) + ", the model has " + std::to_string(nt));
   each_evolving([&](auto& v) { in.get(v); }, *this);
   if (history.size() != pairs.size() || eval.size() != pairs.size()) in.mismatch("inconsistent contact pair arrays");
-  if (appended) {
-    // The new tets are candidates only after a build; the caller sets the new plan positions.
-    recount_active();
-    rebuild_due = true;
-  } else if (plan_x_.size() != nn) {
+  if (plan_x_.size() != nn)
     in.mismatch("node count " + std::to_string(plan_x_.size()) + " of the contact reach, the model has " +
                 std::to_string(nn));
-  }
 }
 
 void ContactSet::carry_from(ContactSet&& old, const std::vector<std::uint8_t>& appended) {

@@ -90,13 +90,11 @@ class ContactSet {
 
   /// Everything that changes during a run (flags, pairs, their histories, the last forces and the
   /// broad phase's watch list), so a restarted run continues bit for bit.
-  /// With `appended`, the state of a set whose model has these tets' flags appended (the
-  /// contact ghosts grew): the saved flags are extended with them and the pairs rebuilt at the
-  /// next evaluation.
   void save(CheckpointOut& out) const;
-  void load(CheckpointIn& in, const std::vector<std::uint8_t>* appended = nullptr);
-  /// The same as load() with `appended`, from the set itself: the state of `old` moves into
-  /// this set, made for the grown model, without a copy of its pairs.
+  void load(CheckpointIn& in);
+  /// The contact ghosts grew: the state of `old` moves into this set, made for the grown model,
+  /// without a copy of its pairs; the appended tets' flags follow the old ones, and the pairs
+  /// are rebuilt at the next evaluation.
   void carry_from(ContactSet&& old, const std::vector<std::uint8_t>& appended);
 
   // The state the time loop builds and evaluates (solver/device_loop_impl.hpp); here its host

@@ -42,6 +42,27 @@ LoopParts Solver::loop_parts() {
 }
 
 void Solver::setup(Decomposition dd) {
+  set_up_layout(std::move(dd));
+  const SolverSettings& sol = scene_.solver;
+  stable_ = stable_step_bound(model_, scene_, laws_, loads_.platens.k, layout_);
+  stable_.dt = sol.time_step_safety * stable_.dt;
+  dt_ = sol.time_step > 0 ? sol.time_step : stable_.dt;
+  check_step_count();
+
+  real volume = 0;
+  for (std::size_t t = 0; t < model_.tet_V0.size(); ++t) volume += layout_.own_tet[t] * model_.tet_V0[t];
+  layout_.sum(&volume, 1);
+  // The noise floor: a thousandth of the elastic energy at the tensile strength, the least of
+  // the materials'.
+  real energy_density = 1e300;  // J/m^3
+  for (const Material& mat : scene_.materials)
+    energy_density = std::min(energy_density, mat.tensile_strength * mat.tensile_strength / (2 * mat.youngs_modulus));
+  energy_.floor = 1e-3 * energy_density * volume;
+  energy_.in_situ = in_situ_energy();
+  energy_.cohesive_start = in_situ_cohesive_energy();
+}
+
+void Solver::set_up_layout(Decomposition dd) {
   const SolverSettings& sol = scene_.solver;
   if (sol.threads > 0) omp_set_num_threads(sol.threads);
   laws_ = make_element_laws(scene_);
@@ -59,22 +80,6 @@ void Solver::setup(Decomposition dd) {
   for (const Tet4Law& l : laws_.tet4) wave_speed = std::min(wave_speed, std::sqrt((l.lambda + 2 * l.mu) / l.density));
   loads_ = make_loads(scene_, model_, wave_speed);
   remove_excavated();  // (after a growth: the stages done so far)
-  stable_ = stable_step_bound(model_, scene_, laws_, loads_.platens.k, layout_);
-  stable_.dt = sol.time_step_safety * stable_.dt;
-  dt_ = sol.time_step > 0 ? sol.time_step : stable_.dt;
-  check_step_count();
-
-  real volume = 0;
-  for (std::size_t t = 0; t < model_.tet_V0.size(); ++t) volume += layout_.own_tet[t] * model_.tet_V0[t];
-  layout_.sum(&volume, 1);
-  // The noise floor: a thousandth of the elastic energy at the tensile strength, the least of
-  // the materials'.
-  real energy_density = 1e300;  // J/m^3
-  for (const Material& mat : scene_.materials)
-    energy_density = std::min(energy_density, mat.tensile_strength * mat.tensile_strength / (2 * mat.youngs_modulus));
-  energy_.floor = 1e-3 * energy_density * volume;
-  energy_.in_situ = in_situ_energy();
-  energy_.cohesive_start = in_situ_cohesive_energy();
 }
 
 real Solver::in_situ_cohesive_energy() const {
@@ -154,46 +159,46 @@ void Solver::grow_contact_ghosts() {
   sync_host();
   GhostState now;
   now.x = state.x, now.v = state.v, now.ce6 = state.ce6.states(), now.active = contacts.tet_flags;
-  GrownRank g = fdem::grow_contact_ghosts(layout_.comm, model_, layout_.dd, now);
+  dev_.reset();  // (the loop reads the model's arrays, which grow in place)
+  const GhostGrowth g = fdem::grow_contact_ghosts(layout_.comm, model_, layout_.dd, now);
   ++growth_.count;
   growth_.step = state.step;
-  if (g.added_total == 0) {  // no rank lacked a tet: the layout stays, the reach counts from here
-    contacts.set_plan(state.x);
-    restart_device();  // (a loop of its own: the step's deferred sums start afresh on every rank)
-    ++growth_.unchanged;
-    growth_.seconds += MPI_Wtime() - t0;
-    return;
+  if (g.added_total == 0) {
+    ++growth_.unchanged;  // no rank lacked a tet: the layout stays
+  } else {
+    // The layout is set up for the grown model. The state of the nodes, the CE6s and the
+    // contact pairs, the bulk of it, moves over and takes the ghosts' appended. The loads'
+    // state, a few arrays, goes through a checkpoint's payload.
+    SolverState kept = std::move(state);
+    ContactSet moved = std::move(contacts);
+    CheckpointOut kept_loads;
+    loads_.save(kept_loads);
+    relayout(std::move(layout_.dd));
+    state = std::move(kept);
+    state.append(g.added);
+    CheckpointIn in(kept_loads.payload(), "the loads' state before the contact ghosts grew");
+    loads_.load(in, true);
+    in.finish();
+    contacts.carry_from(std::move(moved), g.added.active);
+    growth_.tets += g.added_total;
+    grown_ = true;
   }
-  // The grown layout, then the state, extended by the ghosts'. The contact pairs and their
-  // state, the bulk of it, move over; the rest goes through a checkpoint's payload.
-  CheckpointOut kept;
-  save_state(kept, false);
-  dev_.reset();
-  ContactSet moved = std::move(contacts);
-  adopt_layout(std::move(g.rm));
-  CheckpointIn in(kept.payload(), "the state before the contact ghosts grew");
-  load_state(in, &g.added, false);
-  in.finish();
-  contacts.carry_from(std::move(moved), g.added.active);
   contacts.set_plan(state.x);  // the reach counts from here
-  growth_.tets += g.added_total;
-  grown_ = true;
-  restart_device();
+  restart_device();            // (a loop of its own: the step's deferred sums start afresh on every rank)
   growth_.seconds += MPI_Wtime() - t0;
 }
 
 void Solver::adopt_layout(RankModel rm) {
-  dev_.reset();
-  layout_.halo.reset();  // (it refers to the model's connectivity)
   model_ = std::move(rm.model);
-  const real dt = dt_;  // the run's time step stays
-  const StableStep stable = stable_;
+  relayout(std::move(rm.dd));
+}
+
+void Solver::relayout(Decomposition dd) {
+  dev_.reset();
+  layout_.halo.reset();                                         // (it refers to the model's connectivity)
   std::vector<NodePush> push = std::move(loads_.gravity.push);  // (the ghosts' nodes appended: none)
   const real relax_start = loads_.gravity.relax_start, relax_time = loads_.gravity.relax_time;
-  const EnergyLedger energy = energy_;  // (the in-situ energies of the rock before the stages)
-  setup(std::move(rm.dd));
-  dt_ = dt, stable_ = stable;
-  energy_.in_situ = energy.in_situ, energy_.cohesive_start = energy.cohesive_start;
+  set_up_layout(std::move(dd));
   loads_.gravity.relax_start = relax_start, loads_.gravity.relax_time = relax_time;
   if (!push.empty()) push.resize(model_.X.size()), loads_.gravity.push = std::move(push);
 }
@@ -667,11 +672,11 @@ void Solver::save(CheckpointOut& out) const {
   save_state(out);
 }
 
-void Solver::save_state(CheckpointOut& out, bool contact) const {
+void Solver::save_state(CheckpointOut& out) const {
   state.save(out);
   loads_.save(out);
   energy_.save(out);
-  if (contact) contacts.save(out);
+  contacts.save(out);
 }
 
 void Solver::load(CheckpointIn& in) {
@@ -711,11 +716,11 @@ void Solver::load(CheckpointIn& in) {
   host_changed();
 }
 
-void Solver::load_state(CheckpointIn& in, const GhostState* appended, bool contact) {
-  state.load(in, appended);
-  loads_.load(in, appended != nullptr);
+void Solver::load_state(CheckpointIn& in) {
+  state.load(in);
+  loads_.load(in, false);
   energy_.load(in);
-  if (contact) contacts.load(in, appended ? &appended->active : nullptr);
+  contacts.load(in);
 }
 
 }  // namespace fdem

@@ -41,7 +41,6 @@ struct TimeStepBeyondBound : InputError {
 
 class CheckpointOut;
 class CheckpointIn;
-struct GhostState;
 struct SavedRankState;
 
 /// Growths of the contact ghosts so far (several ranks, partition/grow.hpp).
@@ -188,22 +187,27 @@ class Solver : private StepBookkeeping {
   [[noreturn]] void report_inverted() const override;
   bool finish_step(const AdvanceSums& a) override;
   /// The constructor's work on model_ and the decomposition: the initial state and every
-  /// derived part (the layout with its halo, the contact set, the loads, the stable step); not
-  /// the forces and not the device loop.
+  /// derived part (set_up_layout's, then the stable step and the energies' reference values);
+  /// not the forces and not the device loop.
   void setup(Decomposition dd);
-  /// Every rank together: the contact ghosts gathered again (partition/grow.hpp) and the layout
-  /// set up for the grown rank model, the state carried over.
+  /// The initial state and the parts derived from the model's layout: the layout with its halo,
+  /// the contact set, the loads.
+  void set_up_layout(Decomposition dd);
+  /// Every rank together: the contact ghosts gathered again (partition/grow.hpp). Where tets
+  /// were added, the model grew in place and the layout is set up for it, the state moved over.
   void grow_contact_ghosts();
-  /// A rank model replaces the one running (grown contact ghosts): the derived parts set up
-  /// afresh, halo and contact set included, the device loop dropped; the time step kept.
+  /// A rank model replaces the one running (a checkpoint of grown contact ghosts): relayout().
   void adopt_layout(RankModel rm);
+  /// The layout set up afresh for model_ (grown) and dd, halo and contact set included, the
+  /// device loop dropped. The time step, the stable bound and the energies' reference values
+  /// stay: they are the partition's, and a rank never computes its contact ghosts.
+  void relayout(Decomposition dd);
   /// A new loop for the layout, with the host state uploaded.
   void restart_device();
-  /// The evolving state in checkpoint order; load_state with `appended` reads a state saved
-  /// before the contact ghosts grew and appends the ghosts' state. Without `contact`, all but
-  /// the contact set's (which a growth moves over: ContactSet::carry_from).
-  void save_state(CheckpointOut& out, bool contact = true) const;
-  void load_state(CheckpointIn& in, const GhostState* appended = nullptr, bool contact = true);
+  /// The evolving state in checkpoint order: the nodes' and CE6s', the loads', the energies'
+  /// and the contact set's.
+  void save_state(CheckpointOut& out) const;
+  void load_state(CheckpointIn& in);
   /// Where this rank's arrays sit in the whole model (the head of its checkpoint).
   SavedLayout saved_layout() const;
   /// A fingerprint of the whole model (reference positions, connectivity, each element's

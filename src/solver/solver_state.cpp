@@ -25,7 +25,7 @@ void SolverState::save(CheckpointOut& out) const {
   out.put(ce6_broke);
 }
 
-void SolverState::load(CheckpointIn& in, const GhostState* appended) {
+void SolverState::load(CheckpointIn& in) {
   const std::size_t nn = x.size(), nc = ce6.size();
   in.get(step);
   in.get(time);
@@ -37,15 +37,16 @@ void SolverState::load(CheckpointIn& in, const GhostState* appended) {
   ce6 = Ce6States{};
   ce6.append(ce6_saved);
   in.get(ce6_broke);
-  if (appended) {
-    x.insert(x.end(), appended->x.begin(), appended->x.end());
-    v.insert(v.end(), appended->v.begin(), appended->v.end());
-    f.resize(nn, Vec3{0, 0, 0});
-    ce6.append(appended->ce6);
-    ce6_broke.resize(nc, 0);
-  }
   if (x.size() != nn || v.size() != nn || f.size() != nn || ce6.size() != nc || ce6_broke.size() != nc)
     in.mismatch("node or CE6 counts differ");
+}
+
+void SolverState::append(const GhostState& added) {
+  x.insert(x.end(), added.x.begin(), added.x.end());
+  v.insert(v.end(), added.v.begin(), added.v.end());
+  f.resize(x.size(), Vec3{0, 0, 0});
+  ce6.append(added.ce6);
+  ce6_broke.resize(ce6.size(), 0);
 }
 
 }  // namespace fdem

@@ -24,10 +24,12 @@ struct SolverState {
   /// At rest in the reference configuration X, nc CE6s intact, the clock at 0.
   void start(const std::vector<Vec3>& X, std::size_t nc);
   void save(CheckpointOut& out) const;
-  /// A state save() wrote for the node and CE6 counts held now; or, with `appended`, one saved
-  /// before the contact ghosts grew, the ghosts' part appended (their forces zero until the next
-  /// evaluation). A count that differs is the checkpoint's mismatch.
-  void load(CheckpointIn& in, const GhostState* appended = nullptr);
+  /// A state save() wrote for the node and CE6 counts held now. A count that differs is the
+  /// checkpoint's mismatch.
+  void load(CheckpointIn& in);
+  /// The contact ghosts grew (partition/grow.hpp): their nodes' and CE6s' state appended, their
+  /// forces zero until the next evaluation.
+  void append(const GhostState& added);
 };
 
 }  // namespace fdem
