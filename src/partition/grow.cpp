@@ -513,7 +513,7 @@ GhostGrowth grow_contact_ghosts(MPI_Comm comm, Model& m, Decomposition& dd, cons
   // other rank holding it already, who holds it now.
   const std::map<long, std::vector<int>> new_holders = read_requests(asked, dd, tet_local);
   GhostGrowth out;
-  if (sum_over_ranks(comm, double(new_holders.size())) == 0) return out;  // no rank lacks a tet: rm empty
+  if (sum_over_ranks(comm, double(new_holders.size())) == 0) return out;  // no rank lacks a tet: m and dd unchanged
   std::unordered_map<long, std::vector<int>> own_holders = holders_before(new_holders, dd);
   const std::vector<std::string> got =
       exchange_all(comm, answer_requests(m, dd, now, new_holders, tet_local, own_holders));
@@ -522,7 +522,7 @@ GhostGrowth grow_contact_ghosts(MPI_Comm comm, Model& m, Decomposition& dd, cons
   Arrivals arrived = read_answers(got);
 
   // 6. The rank model grows in place: the new nodes, tets, CE6s and faces appended, each in
-  // global order. Nothing held is copied or moved.
+  // global order. The model is not copied.
   std::vector<std::vector<int>> holders = holders_of_held(dd, nt, arrived.updates, own_holders, tet_local);
   const std::unordered_map<long, int> node_local = append_ghost_nodes(m, dd, arrived.nodes, out.added);
   append_ghost_tets(arrived.tets, node_local, tet_local, holders, m, dd, out.added);

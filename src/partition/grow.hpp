@@ -33,12 +33,12 @@ struct GhostGrowth {
 /// the reference configuration), asks their owners for those it does not hold, and appends them
 /// to m and dd in place: the tet, its nodes (owner, groups, position and velocity), its CE6s to
 /// tets it holds (with their damage and slip), its surface faces and its activation flag.
-/// Nothing held is copied, and every old local id keeps its meaning. Every rank holding a tet
+/// The model is not copied, and every old local id keeps its meaning. Every rank holding a tet
 /// learns who else holds it, so the lists of shared tets stay the same on both sides of every
 /// pair (in global order). Ghosts are never dropped: a rank model only grows. The appended
 /// elements are in no colouring (they act on no owned node, so this rank never computes them).
-/// Where no rank lacks a tet, added_total is 0 and m and dd are unchanged. A RunError thrown
-/// while appending leaves them part grown; the run ends with it.
+/// Where no rank lacks a tet, added_total is 0 and m and dd are unchanged. The RunErrors of a
+/// bad request or holder list are thrown before anything is appended.
 GhostGrowth grow_contact_ghosts(MPI_Comm comm, Model& m, Decomposition& dd, const GhostState& now);
 
 }  // namespace fdem

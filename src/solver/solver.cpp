@@ -159,7 +159,8 @@ void Solver::grow_contact_ghosts() {
   sync_host();
   GhostState now;
   now.x = state.x, now.v = state.v, now.ce6 = state.ce6.states(), now.active = contacts.tet_flags;
-  dev_.reset();  // (the loop reads the model's arrays, which grow in place)
+  // The model grows in place; the loop, which reads its arrays, is not used again before
+  // relayout() or restart_device() replaces it.
   const GhostGrowth g = fdem::grow_contact_ghosts(layout_.comm, model_, layout_.dd, now);
   ++growth_.count;
   growth_.step = state.step;
@@ -176,6 +177,10 @@ void Solver::grow_contact_ghosts() {
     relayout(std::move(layout_.dd));
     state = std::move(kept);
     state.append(g.added);
+    if (state.x.size() != model_.X.size() || state.ce6.size() != model_.ce6_nodes.size())
+      throw RunError("contact ghosts: the grown model has " + std::to_string(model_.X.size()) + " nodes and " +
+                     std::to_string(model_.ce6_nodes.size()) + " CE6s, the state " + std::to_string(state.x.size()) +
+                     " and " + std::to_string(state.ce6.size()));
     CheckpointIn in(kept_loads.payload(), "the loads' state before the contact ghosts grew");
     loads_.load(in, true);
     in.finish();
@@ -213,6 +218,7 @@ void Solver::restart_device() {
 void Solver::sync_host() const {
   // The scalars of the last force evaluation come with the state: completing the bookkeeping
   // of the step already taken does not change the solver's state either.
+  if (!dev_) return;  // (between two layouts, a failed growth: the host copy is the state)
   dev_->settle();
   if (host_current_) return;
   // The host copy is a cache of the device state: bringing it up to date does not change the
