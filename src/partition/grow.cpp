@@ -345,11 +345,7 @@ struct PositionKey {
   explicit PositionKey(const Vec3& p) { std::memcpy(bits.data(), &p, sizeof(bits)); }
   bool operator==(const PositionKey& o) const { return bits == o.bits; }
   struct Hash {
-    std::size_t operator()(const PositionKey& k) const {
-      std::uint64_t h = 0x9e3779b97f4a7c15ull;
-      for (std::uint64_t b : k.bits) h = (h ^ b) * 0x100000001b3ull, h ^= h >> 29;
-      return std::size_t(h);
-    }
+    std::size_t operator()(const PositionKey& k) const { return std::size_t(fnv1a64(k.bits.data(), sizeof(k.bits))); }
   };
 };
 static_assert(sizeof(Vec3) == sizeof(std::array<std::uint64_t, 3>), "a position is three doubles");
