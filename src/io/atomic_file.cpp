@@ -30,11 +30,16 @@ std::string write_failure(const std::string& path, int err) {
 }
 
 void write_file_atomically(const std::string& path, const std::string& text) {
+  write_file_atomically(path, std::vector<std::string_view>{text});
+}
+
+void write_file_atomically(const std::string& path, const std::vector<std::string_view>& pieces) {
   const std::string tmp = path + ".tmp";
   std::FILE* fp = std::fopen(tmp.c_str(), "w");
   if (!fp) throw OutputError("cannot write " + tmp + ": " + write_failure(tmp, errno));
-  const bool ok =
-      std::fwrite(text.data(), 1, text.size(), fp) == text.size() && std::fflush(fp) == 0 && ::fsync(fileno(fp)) == 0;
+  bool ok = true;
+  for (std::string_view piece : pieces) ok = ok && std::fwrite(piece.data(), 1, piece.size(), fp) == piece.size();
+  ok = ok && std::fflush(fp) == 0 && ::fsync(fileno(fp)) == 0;
   const int err = errno;
   if (std::fclose(fp) != 0 || !ok) {
     const int e = ok ? errno : err;

@@ -1,10 +1,11 @@
 #include "io/checkpoint.hpp"
 
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
-#include <iterator>
+#include <string_view>
 
 #include "io/atomic_file.hpp"
 
@@ -21,17 +22,52 @@ std::uint64_t fnv1a64(const void* data, std::size_t size, std::uint64_t h) {
   return h;
 }
 
+void CheckpointOut::append(const void* data, std::size_t bytes) {
+  if (bytes == 0) return;
+  const char* p = static_cast<const char*>(data);
+  size_ += bytes;
+  if (bytes >= kOwnPiece) {  // an array of its own, at its size
+    pieces_.emplace_back(p, bytes);
+    last_open_ = false;
+    return;
+  }
+  // Small values fill a piece until it holds kOwnPiece bytes; the next starts a new one. A
+  // piece grows as a string does while it is small (an array's length alone between two
+  // arrays), and to its full size at once from 64 kB on, so that none doubles past it.
+  if (!last_open_ || pieces_.back().size() >= kOwnPiece) pieces_.emplace_back(), last_open_ = true;
+  std::string& piece = pieces_.back();
+  constexpr std::size_t kGrown = kOwnPiece / 16;
+  if (piece.size() + bytes > piece.capacity() && piece.size() + bytes > kGrown)
+    piece.reserve(std::max(piece.size() + bytes, kOwnPiece + kOwnPiece / 8));
+  piece.append(p, bytes);
+}
+
+std::string CheckpointOut::payload() const {
+  std::string all;
+  all.reserve(size_);
+  for (const std::string& piece : pieces_) all += piece;
+  return all;
+}
+
+std::size_t CheckpointOut::capacity() const {
+  std::size_t bytes = 0;
+  for (const std::string& piece : pieces_) bytes += piece.capacity();
+  return bytes;
+}
+
 void write_checkpoint(const std::string& path, const CheckpointOut& out, CheckpointKind kind) {
-  const std::string& payload = out.payload();
-  std::string text(kHeader, '\0');
+  std::string header(kHeader, '\0');
   const std::uint32_t version = kind == CheckpointKind::rank_file ? kRankFileVersion : kCheckpointVersion;
-  const std::uint64_t size = payload.size(), sum = fnv1a64(payload.data(), payload.size());
-  std::memcpy(&text[0], kMagic, 8);
-  std::memcpy(&text[8], &version, 4);
-  std::memcpy(&text[12], &size, 8);
-  std::memcpy(&text[20], &sum, 8);
-  text += payload;
-  write_file_atomically(path, text);
+  const std::uint64_t size = out.size();
+  std::uint64_t sum = kFnvSeed;
+  for (const std::string& piece : out.pieces()) sum = fnv1a64(piece.data(), piece.size(), sum);
+  std::memcpy(&header[0], kMagic, 8);
+  std::memcpy(&header[8], &version, 4);
+  std::memcpy(&header[12], &size, 8);
+  std::memcpy(&header[20], &sum, 8);
+  std::vector<std::string_view> pieces{header};
+  pieces.insert(pieces.end(), out.pieces().begin(), out.pieces().end());
+  write_file_atomically(path, pieces);  // (no copy of the payload)
 }
 
 CheckpointIn read_checkpoint(const std::string& path, CheckpointKind kind) {
@@ -52,27 +88,34 @@ CheckpointIn read_checkpoint(const std::string& path, CheckpointKind kind) {
                        "). Fix: make it readable (chmod u+r) for the user who runs fdem");
     throw InputError(path + ": cannot open the " + name + " (" + std::strerror(err) + "). Fix: " + where);
   }
-  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   auto bad = [&](const std::string& what) {
     throw InputError(path + ": not a usable fdem " + name + " (" + what + "). Fix: " +
                      (rank_file ? again : "restart from the other checkpoint in its folder (fdem keeps two)"));
   };
-  if (text.size() < kHeader || std::memcmp(text.data(), kMagic, 8) != 0) bad("no FDEMCKPT header");
+  // The header, then the payload straight into a string of its size: the file is held once.
+  char header[kHeader];
+  in.seekg(0, std::ios::end);
+  const std::streamoff file_size = in.tellg();
+  in.seekg(0, std::ios::beg);
+  if (!in || file_size < std::streamoff(kHeader) || !in.read(header, kHeader) || std::memcmp(header, kMagic, 8) != 0)
+    bad("no FDEMCKPT header");
   std::uint32_t version = 0;
   std::uint64_t size = 0, sum = 0;
-  std::memcpy(&version, &text[8], 4);
-  std::memcpy(&size, &text[12], 8);
-  std::memcpy(&sum, &text[20], 8);
+  std::memcpy(&version, &header[8], 4);
+  std::memcpy(&size, &header[12], 8);
+  std::memcpy(&sum, &header[20], 8);
   const std::uint32_t expected = rank_file ? kRankFileVersion : kCheckpointVersion;
   if (version != expected)
     throw InputError(path + ": " + name + " format version " + std::to_string(version) + ", this fdem reads version " +
                      std::to_string(expected) +
                      ". Fix: " + (rank_file ? again + " (this version's)" : "continue with the fdem that wrote it"));
-  if (size != text.size() - kHeader)
-    bad("payload of " + std::to_string(text.size() - kHeader) + " bytes, the header says " + std::to_string(size) +
-        ": truncated?");
-  if (fnv1a64(text.data() + kHeader, size) != sum) bad("checksum mismatch: the file was altered or damaged");
-  return CheckpointIn(text.substr(kHeader), path);
+  const std::uint64_t held = std::uint64_t(file_size) - kHeader;
+  if (size != held)
+    bad("payload of " + std::to_string(held) + " bytes, the header says " + std::to_string(size) + ": truncated?");
+  std::string payload(held, '\0');
+  if (!in.read(payload.data(), std::streamsize(held))) bad("the payload could not be read whole");
+  if (fnv1a64(payload.data(), held) != sum) bad("checksum mismatch: the file was altered or damaged");
+  return CheckpointIn(std::move(payload), path);
 }
 
 }  // namespace fdem

@@ -38,32 +38,47 @@ namespace fdem {
 constexpr std::uint32_t kCheckpointVersion = 16;
 constexpr std::uint32_t kRankFileVersion = 11;
 
-/// Collects values for a checkpoint payload.
+/// Collects values for a checkpoint payload. It holds the payload in pieces: an array of
+/// kOwnPiece bytes or more is a piece of its own, at its exact size, and the small values between
+/// fill pieces of about that size. A run's checkpoint then takes its size in memory, not the
+/// up to three times that one growing string would take while it doubles.
 class CheckpointOut {
  public:
+  static constexpr std::size_t kOwnPiece = std::size_t(1) << 20;  // bytes
+
   template <class T>
   void put(const T& value) {
     static_assert(std::is_trivially_copyable_v<T>, "only plain values go into a checkpoint");
-    buf_.append(reinterpret_cast<const char*>(&value), sizeof(T));
+    append(&value, sizeof(T));
   }
   template <class T>
   void put(const std::vector<T>& values) {
     static_assert(std::is_trivially_copyable_v<T>, "only plain values go into a checkpoint");
     put(std::uint64_t(values.size()));
-    buf_.append(reinterpret_cast<const char*>(values.data()), values.size() * sizeof(T));
+    append(values.data(), values.size() * sizeof(T));
   }
   void put(const std::string& s) {
     put(std::uint64_t(s.size()));
-    buf_.append(s);
+    append(s.data(), s.size());
   }
   void put(const std::vector<std::string>& v) {
     put(std::uint64_t(v.size()));
     for (const std::string& s : v) put(s);
   }
-  const std::string& payload() const { return buf_; }
+  /// Bytes put so far.
+  std::size_t size() const { return size_; }
+  /// The payload as one string, joined (for a payload sent or read back in memory).
+  std::string payload() const;
+  /// The payload's pieces, in order (for a file, written piece by piece).
+  const std::vector<std::string>& pieces() const { return pieces_; }
+  /// Bytes the pieces hold reserved: the size plus the slack of the last piece of small values.
+  std::size_t capacity() const;
 
  private:
-  std::string buf_;
+  void append(const void* data, std::size_t bytes);
+  std::vector<std::string> pieces_;
+  bool last_open_ = false;  // the last piece takes small values (it is not an array's own)
+  std::size_t size_ = 0;
 };
 
 /// Reads values back in the order they were put; a short or inconsistent payload throws

@@ -337,6 +337,7 @@ FrameData frame_data(const FieldFrame& f, const FrameRows& rows) {
   if (f.u) add("u", f.u->data(), 3, kNodeRows);
   if (f.v) add("v", f.v->data(), 3, kNodeRows);
   if (f.stress) {
+    d.stress.reserve(6 * f.stress->size());
     for (const Sym3& q : *f.stress) d.stress.insert(d.stress.end(), {q.xx, q.yy, q.zz, q.xy, q.yz, q.xz});
     add("stress", d.stress.data(), 6, kTetRows);
   }

@@ -36,6 +36,7 @@ struct Ce6States {
   }
   /// The states `more` after those held.
   void append(const std::vector<Ce6State>& more) {
+    if (damage.empty()) damage.reserve(more.size()), anchors.reserve(more.size());  // (a restart's whole state)
     for (const Ce6State& s : more) {
       damage.push_back(s);
       Ce6Anchors a;

@@ -24,30 +24,34 @@ void frame_state_fields(F&& f, S& s) {
 void write_own_tets(FieldWriter& w, const Solver& s, FieldFrame& fr) {
   std::vector<std::uint8_t> own = s.owned_tets();
   own.resize(s.model().tet_nodes.size(), 1);  // (one rank: every tet its own)
+  for (std::size_t t = 0; t < own.size(); ++t) own[t] = own[t] && !s.removed_tet(t);
+  // Every array is sized before it is filled: a frame is the largest thing a rank builds
+  // between checkpoints, and arrays that double as they grow would take up to twice it.
+  const std::size_t kept = std::size_t(std::count(own.begin(), own.end(), 1));
   std::vector<std::array<int, 4>> tets;
   std::vector<Sym3> stress;
-  std::vector<real> von_mises, rank;
+  std::vector<real> von_mises, rank(kept, real(s.rank()));
   std::vector<std::vector<real>> extra(fr.extra.size());
+  tets.reserve(kept), stress.reserve(kept), von_mises.reserve(kept);
+  for (auto& e : extra) e.reserve(kept);
   for (std::size_t t = 0; t < own.size(); ++t) {
-    if (!own[t] || s.removed_tet(t)) continue;
+    if (!own[t]) continue;
     tets.push_back(s.model().tet_nodes[t]);
     stress.push_back((*fr.stress)[t]);
     von_mises.push_back((*fr.von_mises)[t]);
     for (std::size_t k = 0; k < extra.size(); ++k) extra[k].push_back((*fr.extra[k].values)[t]);
   }
   std::vector<std::array<int, 3>> faces = *fr.crack_faces;
+  // The slab's nodes: those of its tets and crack faces, numbered in the order first met.
   std::vector<int> slot(fr.x->size(), -1);
-  std::vector<Vec3> x, u, v;
-  auto renumber = [&](int& n) {
-    if (slot[n] < 0) {
-      slot[n] = int(x.size());
-      x.push_back((*fr.x)[n]), u.push_back((*fr.u)[n]), v.push_back((*fr.v)[n]);
-    }
-    n = slot[n];
-  };
+  int nodes = 0;
+  auto renumber = [&](int& n) { n = slot[n] < 0 ? (slot[n] = nodes++) : slot[n]; };
   for (auto& q : tets) std::for_each(q.begin(), q.end(), renumber);
   for (auto& q : faces) std::for_each(q.begin(), q.end(), renumber);
-  rank.assign(tets.size(), real(s.rank()));
+  std::vector<Vec3> x(nodes), u(nodes), v(nodes);
+  const std::vector<Vec3>& X = s.model().X;
+  for (std::size_t n = 0; n < slot.size(); ++n)
+    if (slot[n] >= 0) x[slot[n]] = (*fr.x)[n], u[slot[n]] = (*fr.x)[n] - X[n], v[slot[n]] = (*fr.v)[n];
   fr.x = &x, fr.u = &u, fr.v = &v, fr.tets = &tets, fr.crack_faces = &faces;
   fr.stress = &stress;
   fr.von_mises = &von_mises;
@@ -62,8 +66,6 @@ void write_own_tets(FieldWriter& w, const Solver& s, FieldFrame& fr) {
 void write_frame(FieldWriter& w, const Solver& s, real time, long step, const std::vector<Vec3>& x,
                  const std::vector<Vec3>& v, const std::vector<Ce6State>& ce6, const std::vector<std::uint8_t>* flags,
                  const std::string& label, const std::vector<TetField>& more = {}, bool diagnostic = false) {
-  std::vector<Vec3> u(x.size());
-  for (std::size_t n = 0; n < u.size(); ++n) u[n] = x[n] - s.model().X[n];
   std::vector<Sym3> stress;
   std::vector<real> vm;
   s.tet_stress(x, v, stress, vm);
@@ -79,8 +81,7 @@ void write_frame(FieldWriter& w, const Solver& s, real time, long step, const st
   fr.step = step;
   fr.label = label;
   fr.x = &x;
-  fr.u = &u;
-  fr.v = &v;
+  fr.v = &v;  // (u with the nodes written: x - X)
   fr.tets = &s.model().tet_nodes;
   fr.stress = &stress;
   fr.von_mises = &vm;
@@ -89,6 +90,7 @@ void write_frame(FieldWriter& w, const Solver& s, real time, long step, const st
   fr.crack_mode = &mode;
   std::vector<real> active;
   if (flags) {
+    active.reserve(flags->size());
     for (std::uint8_t f : *flags) active.push_back((f & TetFlag::kCandidate) ? 1 : 0);
     fr.extra.push_back({"active", &active});
   }
@@ -120,6 +122,7 @@ void write_frame(FieldWriter& w, const Solver& s, real time, long step, const st
   if (s.scene().initial_stress.given) {  // (every rank, also one that holds no tets)
     static const char* const kNames[6] = {"initial_stress_xx", "initial_stress_yy", "initial_stress_zz",
                                           "initial_stress_yz", "initial_stress_xz", "initial_stress_xy"};
+    for (auto& c : in_situ) c.reserve(s.model().tet_initial_stress.size());
     for (const Sym3& t : s.model().tet_initial_stress) {
       const real c[6] = {t.xx, t.yy, t.zz, t.yz, t.xz, t.xy};
       for (int k = 0; k < 6; ++k) in_situ[k].push_back(c[k]);
@@ -127,10 +130,14 @@ void write_frame(FieldWriter& w, const Solver& s, real time, long step, const st
     for (int k = 0; k < 6; ++k) fr.extra.push_back({kNames[k], &in_situ[k]});
   }
   fr.extra.insert(fr.extra.end(), more.begin(), more.end());
-  if (!s.distributed() && s.excavation_stages_done() == 0)
+  if (!s.distributed() && s.excavation_stages_done() == 0) {
+    std::vector<Vec3> u(x.size());
+    for (std::size_t n = 0; n < u.size(); ++n) u[n] = x[n] - s.model().X[n];
+    fr.u = &u;
     w.write(fr);
-  else
+  } else {
     write_own_tets(w, s, fr);
+  }
 }
 
 }  // namespace

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 
@@ -69,6 +70,51 @@ TEST(Checkpoint, ValuesComeBackBitForBit) {
   EXPECT_EQ(s, "peak");
   EXPECT_EQ(labels, (std::vector<std::string>{"", "pre-peak", "post-peak"}));
   EXPECT_TRUE(flag);
+  fs::remove(p);
+}
+
+// A large payload is held in pieces: its bytes and the file are those of the values put one after
+// the other, with the header's size and FNV-1a sum, and it reserves little beyond its size (one
+// growing string would double up to twice it, and a copy for the file took it once more).
+TEST(Checkpoint, ALargePayloadIsHeldInPiecesAtAboutItsSize) {
+  const fs::path p = temp_file("pieces");
+  CheckpointOut out;
+  std::string expected;
+  auto put_long = [&](long v) {
+    out.put(v);
+    expected.append(reinterpret_cast<const char*>(&v), sizeof v);
+  };
+  std::vector<double> big(3 * CheckpointOut::kOwnPiece / sizeof(double) + 5);
+  for (std::size_t i = 0; i < big.size(); ++i) big[i] = 0.5 * double(i) - 7;
+  for (long k = 0; k < 300000; ++k) put_long(k * 7919);  // 2.4 MB of small values, more than a piece
+  out.put(big);
+  const std::uint64_t n = big.size();
+  expected.append(reinterpret_cast<const char*>(&n), sizeof n);
+  expected.append(reinterpret_cast<const char*>(big.data()), big.size() * sizeof(double));
+  put_long(-1);
+  ASSERT_EQ(out.size(), expected.size());
+  EXPECT_EQ(out.payload(), expected);
+  EXPECT_GE(out.pieces().size(), 4u);  // small, small, small, the array, small
+  EXPECT_LE(out.capacity(), out.size() + 2 * CheckpointOut::kOwnPiece);
+  CheckpointOut arrays;  // many arrays, each length between two of them a small piece
+  for (int k = 0; k < 24; ++k) arrays.put(std::vector<char>(CheckpointOut::kOwnPiece + k, char(k)));
+  EXPECT_EQ(arrays.pieces().size(), 48u);
+  EXPECT_LE(arrays.capacity(), arrays.size() + 24 * 64);
+  write_checkpoint(p.string(), out);
+  const std::string file = bytes_of(p);
+  ASSERT_EQ(file.size(), 28 + expected.size());
+  EXPECT_EQ(file.substr(0, 8), "FDEMCKPT");
+  std::uint64_t size = 0, sum = 0;
+  std::memcpy(&size, &file[12], 8);
+  std::memcpy(&sum, &file[20], 8);
+  EXPECT_EQ(size, expected.size());
+  EXPECT_EQ(sum, fnv1a64(expected.data(), expected.size()));
+  EXPECT_EQ(file.substr(28), expected);
+  CheckpointIn in = read_checkpoint(p.string());
+  long first = -5;
+  in.get(first);
+  EXPECT_EQ(first, 0);
+  EXPECT_EQ(in.remaining(), expected.size() - sizeof(long));
   fs::remove(p);
 }
 
