@@ -30,27 +30,48 @@ std::string write_failure(const std::string& path, int err) {
 }
 
 void write_file_atomically(const std::string& path, const std::string& text) {
-  write_file_atomically(path, std::vector<std::string_view>{text});
+  AtomicFile file(path);
+  file.write(text);
+  file.commit();
 }
 
-void write_file_atomically(const std::string& path, const std::vector<std::string_view>& pieces) {
-  const std::string tmp = path + ".tmp";
-  std::FILE* fp = std::fopen(tmp.c_str(), "w");
-  if (!fp) throw OutputError("cannot write " + tmp + ": " + write_failure(tmp, errno));
-  bool ok = true;
-  for (std::string_view piece : pieces) ok = ok && std::fwrite(piece.data(), 1, piece.size(), fp) == piece.size();
-  ok = ok && std::fflush(fp) == 0 && ::fsync(fileno(fp)) == 0;
-  const int err = errno;
-  if (std::fclose(fp) != 0 || !ok) {
-    const int e = ok ? errno : err;
-    std::remove(tmp.c_str());
-    throw OutputError("cannot write " + tmp + ": " + write_failure(tmp, e));
+AtomicFile::AtomicFile(std::string path) : path_(std::move(path)), tmp_(path_ + ".tmp") {
+  fp_ = std::fopen(tmp_.c_str(), "w");
+  if (!fp_) error_ = errno ? errno : EIO;
+}
+
+AtomicFile::~AtomicFile() {
+  if (committed_) return;
+  if (fp_) std::fclose(fp_);
+  std::remove(tmp_.c_str());
+}
+
+void AtomicFile::write(std::string_view bytes) {
+  if (!error_ && std::fwrite(bytes.data(), 1, bytes.size(), fp_) != bytes.size()) error_ = errno ? errno : EIO;
+}
+
+void AtomicFile::overwrite(long at, std::string_view bytes) {
+  if (!error_ && std::fseek(fp_, at, SEEK_SET) != 0) error_ = errno ? errno : EIO;
+  write(bytes);
+  if (!error_ && std::fseek(fp_, 0, SEEK_END) != 0) error_ = errno ? errno : EIO;
+}
+
+void AtomicFile::commit() {
+  if (fp_) {
+    if (!error_ && (std::fflush(fp_) != 0 || ::fsync(fileno(fp_)) != 0)) error_ = errno ? errno : EIO;
+    if (std::fclose(fp_) != 0 && !error_) error_ = errno ? errno : EIO;
+    fp_ = nullptr;
   }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+  if (error_) {
+    std::remove(tmp_.c_str());
+    throw OutputError("cannot write " + tmp_ + ": " + write_failure(tmp_, error_));
+  }
+  if (std::rename(tmp_.c_str(), path_.c_str()) != 0) {
     const int e = errno;
-    std::remove(tmp.c_str());
-    throw OutputError("cannot rename " + tmp + " to " + path + ": " + std::strerror(e));
+    std::remove(tmp_.c_str());
+    throw OutputError("cannot rename " + tmp_ + " to " + path_ + ": " + std::strerror(e));
   }
+  committed_ = true;
 }
 
 }  // namespace fdem

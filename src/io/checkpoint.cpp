@@ -27,6 +27,11 @@ void CheckpointOut::append(const void* data, std::size_t bytes) {
   const char* p = static_cast<const char*>(data);
   size_ += bytes;
   if (bytes >= kOwnPiece) {  // an array of its own, at its size
+    if (sink_) {
+      spill();
+      sink_(std::string_view(p, bytes));  // (not copied at all)
+      return;
+    }
     pieces_.emplace_back(p, bytes);
     last_open_ = false;
     return;
@@ -34,7 +39,10 @@ void CheckpointOut::append(const void* data, std::size_t bytes) {
   // Small values fill a piece until it holds kOwnPiece bytes; the next starts a new one. A
   // piece grows as a string does while it is small (an array's length alone between two
   // arrays), and to its full size at once from 64 kB on, so that none doubles past it.
-  if (!last_open_ || pieces_.back().size() >= kOwnPiece) pieces_.emplace_back(), last_open_ = true;
+  if (!last_open_ || pieces_.back().size() >= kOwnPiece) {
+    if (sink_) spill();
+    pieces_.emplace_back(), last_open_ = true;
+  }
   std::string& piece = pieces_.back();
   constexpr std::size_t kGrown = kOwnPiece / 16;
   if (piece.size() + bytes > piece.capacity() && piece.size() + bytes > kGrown)
@@ -55,19 +63,41 @@ std::size_t CheckpointOut::capacity() const {
   return bytes;
 }
 
-void write_checkpoint(const std::string& path, const CheckpointOut& out, CheckpointKind kind) {
+void CheckpointOut::spill() {
+  for (const std::string& piece : pieces_) sink_(piece);
+  pieces_.clear();
+  last_open_ = false;
+}
+
+CheckpointFile::CheckpointFile(const std::string& path, CheckpointKind kind)
+    : file_(path),
+      version_(kind == CheckpointKind::rank_file ? kRankFileVersion : kCheckpointVersion),
+      sum_(kFnvSeed),
+      out_([this](std::string_view bytes) { write(bytes); }) {
+  file_.write(std::string(kHeader, '\0'));  // (its size and sum once the payload is written)
+}
+
+void CheckpointFile::write(std::string_view bytes) {
+  sum_ = fnv1a64(bytes.data(), bytes.size(), sum_);
+  file_.write(bytes);
+}
+
+void CheckpointFile::commit() {
+  out_.spill();
   std::string header(kHeader, '\0');
-  const std::uint32_t version = kind == CheckpointKind::rank_file ? kRankFileVersion : kCheckpointVersion;
-  const std::uint64_t size = out.size();
-  std::uint64_t sum = kFnvSeed;
-  for (const std::string& piece : out.pieces()) sum = fnv1a64(piece.data(), piece.size(), sum);
+  const std::uint64_t size = out_.size();
   std::memcpy(&header[0], kMagic, 8);
-  std::memcpy(&header[8], &version, 4);
+  std::memcpy(&header[8], &version_, 4);
   std::memcpy(&header[12], &size, 8);
-  std::memcpy(&header[20], &sum, 8);
-  std::vector<std::string_view> pieces{header};
-  pieces.insert(pieces.end(), out.pieces().begin(), out.pieces().end());
-  write_file_atomically(path, pieces);  // (no copy of the payload)
+  std::memcpy(&header[20], &sum_, 8);
+  file_.overwrite(0, header);
+  file_.commit();
+}
+
+void write_checkpoint(const std::string& path, const CheckpointOut& out, CheckpointKind kind) {
+  CheckpointFile file(path, kind);
+  for (const std::string& piece : out.pieces()) file.out().put_bytes(piece);
+  file.commit();
 }
 
 CheckpointIn read_checkpoint(const std::string& path, CheckpointKind kind) {

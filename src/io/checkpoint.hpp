@@ -12,11 +12,14 @@
 // while writing leaves the earlier checkpoints untouched.
 #include <cstdint>
 #include <cstring>
+#include <functional>
 #include <string>
+#include <string_view>
 #include <type_traits>
 #include <vector>
 
 #include "core/error.hpp"
+#include "io/atomic_file.hpp"
 
 namespace fdem {
 
@@ -45,6 +48,11 @@ constexpr std::uint32_t kRankFileVersion = 11;
 class CheckpointOut {
  public:
   static constexpr std::size_t kOwnPiece = std::size_t(1) << 20;  // bytes
+  /// Where finished pieces go at once, instead of being held (CheckpointFile's).
+  using Sink = std::function<void(std::string_view)>;
+
+  CheckpointOut() = default;
+  explicit CheckpointOut(Sink sink) : sink_(std::move(sink)) {}
 
   template <class T>
   void put(const T& value) {
@@ -65,17 +73,23 @@ class CheckpointOut {
     put(std::uint64_t(v.size()));
     for (const std::string& s : v) put(s);
   }
+  /// Bytes as they are, without a length (another payload's, put whole).
+  void put_bytes(std::string_view bytes) { append(bytes.data(), bytes.size()); }
   /// Bytes put so far.
   std::size_t size() const { return size_; }
-  /// The payload as one string, joined (for a payload sent or read back in memory).
+  /// The payload as one string, joined (for a payload sent or read back in memory; with a
+  /// sink, what it has not been given yet).
   std::string payload() const;
-  /// The payload's pieces, in order (for a file, written piece by piece).
+  /// The payload's pieces held, in order.
   const std::vector<std::string>& pieces() const { return pieces_; }
   /// Bytes the pieces hold reserved: the size plus the slack of the last piece of small values.
   std::size_t capacity() const;
+  /// Gives the sink every piece held (a file about to be finished).
+  void spill();
 
  private:
   void append(const void* data, std::size_t bytes);
+  Sink sink_;
   std::vector<std::string> pieces_;
   bool last_open_ = false;  // the last piece takes small values (it is not an array's own)
   std::size_t size_ = 0;
@@ -157,6 +171,27 @@ enum class CheckpointKind { checkpoint, rank_file };
 /// Writes header and payload to path atomically; throws OutputError.
 void write_checkpoint(const std::string& path, const CheckpointOut& out,
                       CheckpointKind kind = CheckpointKind::checkpoint);
+
+/// A checkpoint file written while its values are put (out()): each finished piece of the
+/// payload goes to the file at once, and an array of kOwnPiece bytes or more straight from
+/// the caller's memory, so that the writer holds about one piece, not the whole payload.
+/// commit() writes the header and renames the file over path atomically (io/atomic_file),
+/// throwing OutputError for any failure since the start; a file not committed is removed.
+class CheckpointFile {
+ public:
+  explicit CheckpointFile(const std::string& path, CheckpointKind kind = CheckpointKind::checkpoint);
+  CheckpointFile(const CheckpointFile&) = delete;
+  CheckpointFile& operator=(const CheckpointFile&) = delete;
+  CheckpointOut& out() { return out_; }
+  void commit();
+
+ private:
+  void write(std::string_view bytes);
+  AtomicFile file_;
+  std::uint32_t version_;
+  std::uint64_t sum_;  // FNV-1a of the payload so far
+  CheckpointOut out_;
+};
 
 /// Reads and verifies a checkpoint file; throws InputError naming the file, what is wrong with
 /// it and the fix.

@@ -677,9 +677,9 @@ void put_rank_model(CheckpointOut& o, const RankModel& rm, std::uint64_t key) {
 }
 
 void write_rank_file(const std::string& path, const RankModel& rm, std::uint64_t key) {
-  CheckpointOut o;
-  put_rank_model(o, rm, key);
-  write_checkpoint(path, o, CheckpointKind::rank_file);
+  CheckpointFile file(path, CheckpointKind::rank_file);
+  put_rank_model(file.out(), rm, key);
+  file.commit();
 }
 
 RankModel read_rank_file(const std::string& path, std::uint64_t key) {

@@ -227,13 +227,13 @@ std::string Checkpoints::write(const std::string& why) {
   sync_path(r_.fields->h5_path());
   std::error_code ec;
   fs::create_directories(folder_, ec);
-  CheckpointOut o;
-  r_.solver.save(o);
-  r_.save(o);
   char name[48];
   std::snprintf(name, sizeof name, "step_%012ld", r_.solver.step_count());
   const std::string path = (fs::path(folder_) / (name + suffix_)).string();
-  write_checkpoint(path, o);
+  CheckpointFile file(path);  // (written as it is put: the rank holds no copy of its state)
+  r_.solver.save(file.out());
+  r_.save(file.out());
+  file.commit();
   sync_path(folder_);
   prune_checkpoints(folder_, 2, suffix_);
   last_wall_ = r_.elapsed();

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -116,6 +117,52 @@ TEST(Checkpoint, ALargePayloadIsHeldInPiecesAtAboutItsSize) {
   EXPECT_EQ(first, 0);
   EXPECT_EQ(in.remaining(), expected.size() - sizeof(long));
   fs::remove(p);
+}
+
+// A checkpoint written as its values are put (a run's, a rank file) is the file write_checkpoint
+// makes of the same values, while its writer holds at most about a piece of it; a file that
+// cannot be written throws at commit, naming it, and leaves nothing behind.
+TEST(Checkpoint, AFileWrittenAsItIsPutIsTheSameFileAndHoldsAPieceAtMost) {
+  const fs::path whole = temp_file("whole"), streamed = temp_file("streamed");
+  std::vector<Vec3> big(CheckpointOut::kOwnPiece / sizeof(Vec3) * 3 + 1);
+  for (std::size_t i = 0; i < big.size(); ++i) big[i] = {double(i), -0.25 * double(i), 1e-9 * double(i)};
+  auto put_all = [&](CheckpointOut& o, std::size_t* most_held) {
+    for (long k = 0; k < 200000; ++k) {
+      o.put(k * 31);
+      if (most_held) *most_held = std::max(*most_held, o.capacity());
+    }
+    o.put(big);
+    o.put(std::string("label"));
+    if (most_held) *most_held = std::max(*most_held, o.capacity());
+  };
+  CheckpointOut out;
+  put_all(out, nullptr);
+  write_checkpoint(whole.string(), out);
+  std::size_t most_held = 0;
+  {
+    CheckpointFile file(streamed.string());
+    put_all(file.out(), &most_held);
+    EXPECT_TRUE(fs::exists(streamed.string() + ".tmp"));
+    EXPECT_FALSE(fs::exists(streamed));
+    file.commit();
+  }
+  EXPECT_FALSE(fs::exists(streamed.string() + ".tmp"));
+  EXPECT_EQ(bytes_of(streamed), bytes_of(whole));
+  EXPECT_GT(out.size(), 4 * CheckpointOut::kOwnPiece);
+  EXPECT_LE(most_held, 2 * CheckpointOut::kOwnPiece);
+  fs::remove(whole);
+  fs::remove(streamed);
+
+  const fs::path nowhere = fs::temp_directory_path() / "fdem_no_such_folder" / "step_1.ckpt";
+  CheckpointFile lost(nowhere.string());
+  lost.out().put(big);
+  try {
+    lost.commit();
+    ADD_FAILURE() << "a checkpoint in a missing folder was written";
+  } catch (const OutputError& e) {
+    EXPECT_NE(std::string(e.what()).find("cannot write " + nowhere.string() + ".tmp"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(fs::exists(nowhere.parent_path()));
 }
 
 TEST(Checkpoint, DamagedOrForeignFilesAreRefusedNamingTheFile) {
