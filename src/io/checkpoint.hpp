@@ -34,11 +34,12 @@ namespace fdem {
 // 13: and each tet's volume group. 14: the excavation's stages done and forces, and each tet's
 // excavation stage. 15: the count of contact ghost gatherings that added no tet. 16: each rank's
 // file starts with its layout in global numbering (solver/saved_layout.hpp), so that a run on
-// another rank count can read it; a flag says whether the rank model grown is saved.
+// another rank count can read it; a flag says whether the rank model grown is saved. 17: a kept
+// frame's CE6s hold their damage only.
 // Rank files: 4 boundary conditions, 5 materials, 6 CE6 strength factors, 7 tet factors on E,
 // 8 tets' joints, 9 the nodes and tets that history entries follow, 10 tets' volume groups,
 // 11 tets' excavation stages.
-constexpr std::uint32_t kCheckpointVersion = 16;
+constexpr std::uint32_t kCheckpointVersion = 17;
 constexpr std::uint32_t kRankFileVersion = 11;
 
 /// Collects values for a checkpoint payload. It holds the payload in pieces: an array of

@@ -64,7 +64,7 @@ void write_own_tets(FieldWriter& w, const Solver& s, FieldFrame& fr) {
 /// diagnostic frame shows a stress that is not finite (an inverted tet) as zero instead of
 /// refusing the frame.
 void write_frame(FieldWriter& w, const Solver& s, real time, long step, const std::vector<Vec3>& x,
-                 const std::vector<Vec3>& v, const std::vector<Ce6State>& ce6, const std::vector<std::uint8_t>* flags,
+                 const std::vector<Vec3>& v, const std::vector<Ce6Damage>& ce6, const std::vector<std::uint8_t>* flags,
                  const std::string& label, const std::vector<TetField>& more = {}, bool diagnostic = false) {
   std::vector<Sym3> stress;
   std::vector<real> vm;
@@ -150,7 +150,7 @@ FrameState frame_state_now(const Solver& s, real stress) {
   f.stress = stress;
   f.x = s.state.x;
   f.v = s.state.v;
-  f.ce6 = s.state.ce6.states();
+  f.ce6 = s.state.ce6.damage;
   if (s.contacts.enabled()) f.active = s.contacts.tet_flags;
   return f;
 }
@@ -164,7 +164,7 @@ void load_frame_state(CheckpointIn& in, FrameState& f) {
 
 void write_frame(FieldWriter& w, const Solver& s, const std::string& label) {
   s.sync_host();
-  write_frame(w, s, s.time(), s.step_count(), s.state.x, s.state.v, s.state.ce6.states(),
+  write_frame(w, s, s.time(), s.step_count(), s.state.x, s.state.v, s.state.ce6.damage,
               s.contacts.enabled() ? &s.contacts.tet_flags : nullptr, label);
 }
 
@@ -177,7 +177,7 @@ void write_frame(FieldWriter& w, const Solver& s, const FrameState& f, const std
     FrameState g = f;
     g.x.insert(g.x.end(), s.state.x.begin() + f.x.size(), s.state.x.end());
     g.v.insert(g.v.end(), s.state.v.begin() + f.v.size(), s.state.v.end());
-    for (std::size_t c = f.ce6.size(); c < s.state.ce6.size(); ++c) g.ce6.push_back(s.state.ce6[c]);
+    g.ce6.insert(g.ce6.end(), s.state.ce6.damage.begin() + f.ce6.size(), s.state.ce6.damage.end());
     if (!g.active.empty())
       g.active.insert(g.active.end(), s.contacts.tet_flags.begin() + f.active.size(), s.contacts.tet_flags.end());
     write_frame(w, s, g, label);
@@ -206,7 +206,7 @@ void write_diagnostic(FieldWriter& w, const Solver& s) {
       const real vol = dot(cross(x[q[1]] - x[q[0]], x[q[2]] - x[q[0]]), x[q[3]] - x[q[0]]) / 6;
       inverted[t] = non_finite[t] == 0 && !(vol / m.tet_V0[t] > 0);
     }
-    write_frame(w, s, s.time(), s.step_count(), x, v, s.state.ce6.states(),
+    write_frame(w, s, s.time(), s.step_count(), x, v, s.state.ce6.damage,
                 s.contacts.enabled() ? &s.contacts.tet_flags : nullptr, "diagnostic",
                 {{"non_finite", &non_finite}, {"inverted", &inverted}}, true);
   } catch (const std::exception&) {
@@ -269,7 +269,7 @@ FrameState unset_like(const FrameState& saved, const Solver& s) {
   if (saved.x.empty()) return f;  // (no state kept)
   const Vec3 nan{NAN, NAN, NAN};
   f.x.assign(s.state.x.size(), nan), f.v.assign(s.state.x.size(), nan);
-  Ce6State c{};
+  Ce6Damage c{};
   c.D[0] = NAN;
   f.ce6.assign(s.state.ce6.size(), c);
   if (!saved.active.empty()) f.active.assign(s.contacts.tet_flags.size(), kUnsetFlags);
@@ -285,11 +285,10 @@ void take_saved_state(const FrameState& saved, const EntityMap& map, FrameState&
 }
 
 void finish_saved_state(FrameState& f, const Solver& s) {
-  const std::vector<Ce6State> now = f.x.empty() ? std::vector<Ce6State>{} : s.state.ce6.states();
   for (std::size_t n = 0; n < f.x.size(); ++n)
     if (unset(f.x[n])) f.x[n] = s.state.x[n], f.v[n] = s.state.v[n];
   for (std::size_t c = 0; c < f.ce6.size(); ++c)
-    if (std::isnan(f.ce6[c].D[0])) f.ce6[c] = now[c];
+    if (std::isnan(f.ce6[c].D[0])) f.ce6[c] = s.state.ce6.damage[c];
   for (std::size_t t = 0; t < f.active.size(); ++t)
     if (f.active[t] == kUnsetFlags) f.active[t] = s.contacts.tet_flags[t];
 }

@@ -15,12 +15,13 @@ class CheckpointOut;
 class CheckpointIn;
 
 /// The state a ParaView frame shows. Frames before and at the peak are written from saved
-/// copies once the peak is known (the stress has fallen 5 % below it).
+/// copies once the peak is known (the stress has fallen 5 % below it). A frame needs each
+/// CE6's damage, not its friction anchors: up to nine copies are kept (PeakFrames).
 struct FrameState {
   real time = 0, stress = 0;
   long step = 0;
   std::vector<Vec3> x, v;
-  std::vector<Ce6State> ce6;
+  std::vector<Ce6Damage> ce6;
   std::vector<std::uint8_t> active;
 };
 

@@ -512,7 +512,7 @@ void Solver::tet_stress(const std::vector<Vec3>& xs, const std::vector<Vec3>& vs
   }
 }
 
-void Solver::crack_faces(const std::vector<Ce6State>& cs, std::vector<std::array<int, 3>>& faces,
+void Solver::crack_faces(const std::vector<Ce6Damage>& cs, std::vector<std::array<int, 3>>& faces,
                          std::vector<real>& damage, std::vector<int>& mode) const {
   faces.clear();
   damage.clear();

@@ -169,8 +169,8 @@ class Solver : private StepBookkeeping {
   /// output; the current state or a saved one).
   void tet_stress(const std::vector<Vec3>& xs, const std::vector<Vec3>& vs, std::vector<Sym3>& stress,
                   std::vector<real>& von_mises) const;
-  /// Damaged or broken faces (A side) of CE6 states cs, their damage and break mode (for output).
-  void crack_faces(const std::vector<Ce6State>& cs, std::vector<std::array<int, 3>>& faces, std::vector<real>& damage,
+  /// Damaged or broken faces (A side) of CE6 damage states cs, their damage and break mode (for output).
+  void crack_faces(const std::vector<Ce6Damage>& cs, std::vector<std::array<int, 3>>& faces, std::vector<real>& damage,
                    std::vector<int>& mode) const;
   /// Reference-configuration corners and break mode of every broken CE6 of the rock, not of a joint
   /// (for fracture statistics).
