@@ -2,10 +2,10 @@
 # Here, on the Debian machine (called by `gpu_check.sh --prepare`): build the GPU check's
 # programs with nvcc (sm_90 and PTX) into build-gpu/, and gather into deps/bundle/ what they need
 # to run on the GPU machine without building there or using any of its packages:
-#   bin/    fdem, test_cuda_backend, test_ranks, bench_device, bench_contact, and for the dry run
-#           test_backends (stripped); bench_device_fmad, the same built with FDEM_CUDA_FMAD=ON in
-#           build-gpu-fmad/; kernels.txt, the mangled names of bench_device's kernels (the
-#           profile selects kernels by them, and stripping drops them from the program);
+#   bin/    fdem, test_cuda_backend, test_ranks, bench_device, bench_contact, bench_fields, and
+#           for the dry run test_backends (stripped); bench_device_fmad, the same built with
+#           FDEM_CUDA_FMAD=ON in build-gpu-fmad/; kernels.txt, the mangled names of bench_device's
+#           kernels (the profile selects kernels by them, and stripping drops them from the program);
 #   lib/    every shared library they load that is not the C library's own (glibc, libstdc++ and
 #           libgcc_s come with nvcc's host compiler there);
 #   mpi/    Debian's Open MPI (mpiexec, its libraries and plugins, PMIx), relocated there with
@@ -80,7 +80,7 @@ configure() {  # configure DIR [CMAKE ARGS...]: one CUDA runtime (the shared one
 }
 configure build-gpu
 cmake --build build-gpu -j "$(nproc)" --target fdem test_cuda_backend test_ranks test_backends bench_device \
-  bench_contact > /dev/null
+  bench_contact bench_fields > /dev/null
 configure build-gpu-fmad -DFDEM_CUDA_FMAD=ON -DFDEM_BUILD_TESTS=OFF
 cmake --build build-gpu-fmad -j "$(nproc)" --target bench_device > /dev/null
 rm -rf "$B"
@@ -88,7 +88,7 @@ mkdir -p "$B/bin" "$B/lib" "$B/mpi"
 bash scripts/gpu_check.sh --kernels build-gpu/bench/bench_device > "$B/bin/kernels.txt"
 cp build-gpu-fmad/bench/bench_device "$B/bin/bench_device_fmad"
 progs=(build-gpu/fdem build-gpu/tests/test_cuda_backend build-gpu/tests/test_ranks build-gpu/tests/test_backends
-  build-gpu/bench/bench_device build-gpu/bench/bench_contact)
+  build-gpu/bench/bench_device build-gpu/bench/bench_contact build-gpu/bench/bench_fields)
 for p in "${progs[@]}"; do cp "$p" "$B/bin/"; done
 for p in "$B"/bin/*; do [[ $p == *.txt ]] || strip --strip-unneeded "$p"; done
 

@@ -25,13 +25,16 @@
 #   ranks     the 1-rank and 2-rank CUDA tests.
 # The second call's phases (`second`):
 #   contact   bench_contact on the GPU, adaptive against full contact activation;
-#   fmad      bench_device built with nvcc's fused multiply-adds: what the CPU's bits cost.
+#   fmad      bench_device built with nvcc's fused multiply-adds: what the CPU's bits cost;
+#   fields    bench_fields at 2 and 8 ranks on the machine's cores: one shared fields.h5 against
+#             a file per rank.
 # On request: build (build there, when the bundle cannot run; it needs that machine's packages).
 #
 # What comes back, under $OUT, at most 6 files (the tool brings back 8): summary.txt (a line for
 # each step, then the verdict), machine.txt, logs.tar.gz (every log, the tests' XML; packed
 # again after each step, so a call cut short still brings back the logs so far), and the tables
-# bench_device.md, bench_blocks.md, profile.csv (first call) or bench_contact.md, bench_fmad.md.
+# bench_device.md, bench_blocks.md, profile.csv (first call) or bench_contact.md, bench_fmad.md,
+# bench_fields.md.
 #
 # Each step has its own time limit, cut to what is left of FDEM_GPU_BUDGET seconds (default
 # 520); a step with under 20 s left is not started. A step ends passed, FAILED (its exit code,
@@ -49,7 +52,7 @@ set -uo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 DEPS=$PWD/deps
 FIRST=(facts tests bench profile paper ucs memcheck ranks)
-SECOND=(contact fmad)
+SECOND=(contact fmad fields)
 CONTACT_SIZES=0.003,0.002,0.0015  # m: bench_contact's cylinders there (2,474 to 17,809 tets)
 source scripts/gpu_check_steps.sh
 if [[ "${1:-}" == "--kernels" ]]; then  # (gpu_bundle.sh) the mangled names of BIN's kernels
@@ -114,13 +117,13 @@ BUDGET=$((10#$BUDGET))  # 0600 is 600 s, not octal
 # What the GPU call runs, and the dry run's small stand-ins on the debug backend.
 if ((DRY)); then
   BACKEND=debug BENCH_TETS=2000,4000 BENCH_STEPS=4 BLOCK_TETS=4000 PROFILE_TETS=2000 PAPER_STEPS=20,60
-  UCS_STEPS=300 CONTACT_SIZES=0.012 CONTACT_ARGS=(--max-steps 200) FMAD_TETS=2000
+  UCS_STEPS=300 CONTACT_SIZES=0.012 CONTACT_ARGS=(--max-steps 200) FMAD_TETS=2000 FIELDS_RANKS=2 FIELDS_TETS=2000
   GPU_TESTS=test_backends TESTS_FILTER='Schedule/DebugSchedule.ElasticBox*:DebugBackend.GravityHydrostatic*'
   MEMCHECK_FILTER='Schedule/DebugSchedule.FracturingBox*/0' RANKS_FILTER='Backend/RanksDevice.*/debug'
 else
   BACKEND=cuda BENCH_TETS=10000,100000,700000,2000000 BENCH_STEPS=200 BLOCK_TETS=700000 PROFILE_TETS=700000
   PAPER_STEPS=${FDEM_PAPER_STEPS:-400,10400} UCS_STEPS=0 CONTACT_ARGS=()
-  FMAD_TETS=$BENCH_TETS
+  FMAD_TETS=$BENCH_TETS FIELDS_RANKS="2 8" FIELDS_TETS=40000
   GPU_TESTS=test_cuda_backend TESTS_FILTER='*'
   MEMCHECK_FILTER='Schedule/CudaSchedule.FracturingBox*/0' RANKS_FILTER='Backend/RanksDevice.*/cuda*:Ranks.Fragments*'
 fi
