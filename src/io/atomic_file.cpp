@@ -37,38 +37,43 @@ void write_file_atomically(const std::string& path, const std::string& text) {
 
 AtomicFile::AtomicFile(std::string path) : path_(std::move(path)), tmp_(path_ + ".tmp") {
   fp_ = std::fopen(tmp_.c_str(), "w");
+  opened_ = fp_ != nullptr;
   if (!fp_) error_ = errno ? errno : EIO;
 }
 
 AtomicFile::~AtomicFile() {
-  if (committed_) return;
   if (fp_) std::fclose(fp_);
-  std::remove(tmp_.c_str());
+  if (opened_ && !committed_) std::remove(tmp_.c_str());  // (only a file this one made)
+}
+
+bool AtomicFile::writable() {
+  if (!fp_ && !error_) error_ = EBADF;  // (committed already)
+  return !error_;
 }
 
 void AtomicFile::write(std::string_view bytes) {
-  if (!error_ && std::fwrite(bytes.data(), 1, bytes.size(), fp_) != bytes.size()) error_ = errno ? errno : EIO;
+  if (writable() && std::fwrite(bytes.data(), 1, bytes.size(), fp_) != bytes.size()) error_ = errno ? errno : EIO;
 }
 
 void AtomicFile::overwrite(long at, std::string_view bytes) {
-  if (!error_ && std::fseek(fp_, at, SEEK_SET) != 0) error_ = errno ? errno : EIO;
+  if (writable() && std::fseek(fp_, at, SEEK_SET) != 0) error_ = errno ? errno : EIO;
   write(bytes);
-  if (!error_ && std::fseek(fp_, 0, SEEK_END) != 0) error_ = errno ? errno : EIO;
+  if (writable() && std::fseek(fp_, 0, SEEK_END) != 0) error_ = errno ? errno : EIO;
 }
 
 void AtomicFile::commit() {
-  if (fp_) {
-    if (!error_ && (std::fflush(fp_) != 0 || ::fsync(fileno(fp_)) != 0)) error_ = errno ? errno : EIO;
-    if (std::fclose(fp_) != 0 && !error_) error_ = errno ? errno : EIO;
-    fp_ = nullptr;
-  }
+  if (writable() && (std::fflush(fp_) != 0 || ::fsync(fileno(fp_)) != 0)) error_ = errno ? errno : EIO;
+  if (fp_ && std::fclose(fp_) != 0 && !error_) error_ = errno ? errno : EIO;
+  fp_ = nullptr;
   if (error_) {
-    std::remove(tmp_.c_str());
+    if (opened_) std::remove(tmp_.c_str());
+    opened_ = false;
     throw OutputError("cannot write " + tmp_ + ": " + write_failure(tmp_, error_));
   }
   if (std::rename(tmp_.c_str(), path_.c_str()) != 0) {
     const int e = errno;
     std::remove(tmp_.c_str());
+    opened_ = false;
     throw OutputError("cannot rename " + tmp_ + " to " + path_ + ": " + std::strerror(e));
   }
   committed_ = true;

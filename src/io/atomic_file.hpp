@@ -28,9 +28,12 @@ class AtomicFile {
   void commit();
 
  private:
+  /// Whether the file is still open and nothing failed (a write after commit is EBADF).
+  bool writable();
   std::string path_, tmp_;
   std::FILE* fp_ = nullptr;
-  int error_ = 0;  // errno of the first failure
+  int error_ = 0;        // errno of the first failure
+  bool opened_ = false;  // this object made <path>.tmp
   bool committed_ = false;
 };
 

@@ -52,7 +52,9 @@ void CheckpointOut::append(const void* data, std::size_t bytes) {
 
 std::string CheckpointOut::payload() const {
   std::string all;
-  all.reserve(size_);
+  std::size_t held = 0;
+  for (const std::string& piece : pieces_) held += piece.size();
+  all.reserve(held);
   for (const std::string& piece : pieces_) all += piece;
   return all;
 }

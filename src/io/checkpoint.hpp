@@ -54,6 +54,11 @@ class CheckpointOut {
 
   CheckpointOut() = default;
   explicit CheckpointOut(Sink sink) : sink_(std::move(sink)) {}
+  // Not copied: a copy would give the same file bytes its own count.
+  CheckpointOut(const CheckpointOut&) = delete;
+  CheckpointOut& operator=(const CheckpointOut&) = delete;
+  CheckpointOut(CheckpointOut&&) = default;
+  CheckpointOut& operator=(CheckpointOut&&) = default;
 
   template <class T>
   void put(const T& value) {

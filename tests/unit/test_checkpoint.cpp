@@ -95,7 +95,7 @@ TEST(Checkpoint, ALargePayloadIsHeldInPiecesAtAboutItsSize) {
   put_long(-1);
   ASSERT_EQ(out.size(), expected.size());
   EXPECT_EQ(out.payload(), expected);
-  EXPECT_GE(out.pieces().size(), 4u);  // small, small, small, the array, small
+  EXPECT_EQ(out.pieces().size(), 5u);  // small, small, small, the array, small
   EXPECT_LE(out.capacity(), out.size() + 2 * CheckpointOut::kOwnPiece);
   CheckpointOut arrays;  // many arrays, each length between two of them a small piece
   for (int k = 0; k < 24; ++k) arrays.put(std::vector<char>(CheckpointOut::kOwnPiece + k, char(k)));
@@ -162,7 +162,29 @@ TEST(Checkpoint, AFileWrittenAsItIsPutIsTheSameFileAndHoldsAPieceAtMost) {
   } catch (const OutputError& e) {
     EXPECT_NE(std::string(e.what()).find("cannot write " + nowhere.string() + ".tmp"), std::string::npos) << e.what();
   }
-  EXPECT_FALSE(fs::exists(nowhere.parent_path()));
+
+  // A file given up (its save threw) leaves no .tmp; one that cannot take its place (a folder
+  // of that name is there) says so and leaves none either.
+  const fs::path dropped = temp_file("dropped");
+  {
+    CheckpointFile file(dropped.string());
+    file.out().put(big);
+    EXPECT_TRUE(fs::exists(dropped.string() + ".tmp"));
+  }
+  EXPECT_FALSE(fs::exists(dropped.string() + ".tmp"));
+  EXPECT_FALSE(fs::exists(dropped));
+  fs::create_directories(dropped / "inside");
+  CheckpointFile blocked(dropped.string());
+  blocked.out().put(big);
+  try {
+    blocked.commit();
+    ADD_FAILURE() << "a checkpoint was renamed over a folder";
+  } catch (const OutputError& e) {
+    EXPECT_NE(std::string(e.what()).find("cannot rename " + dropped.string() + ".tmp"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(fs::exists(dropped.string() + ".tmp"));
+  EXPECT_TRUE(fs::is_directory(dropped / "inside"));
+  fs::remove_all(dropped);
 }
 
 TEST(Checkpoint, DamagedOrForeignFilesAreRefusedNamingTheFile) {
