@@ -44,8 +44,9 @@ constexpr std::uint32_t kRankFileVersion = 11;
 
 /// Collects values for a checkpoint payload. It holds the payload in pieces: an array of
 /// kOwnPiece bytes or more is a piece of its own, at its exact size, and the small values between
-/// fill pieces of about that size. A run's checkpoint then takes its size in memory, not the
-/// up to three times that one growing string would take while it doubles.
+/// fill pieces of about that size. A payload held then takes about its size in memory, not
+/// the up to three times one doubling string took; with a sink (CheckpointFile) it holds
+/// about one piece.
 class CheckpointOut {
  public:
   static constexpr std::size_t kOwnPiece = std::size_t(1) << 20;  // bytes
