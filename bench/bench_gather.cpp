@@ -1,10 +1,10 @@
 // bench_gather (MPI, 2 ranks): the time of the gatherings of contact ghosts that add tets.
 // Two blocks of n x n x n cells (6 n^3 tets each, 0.01 m, CE6s inside): the lower one on rank
-// 0, the upper one on rank 1, starting 0.5 mm apart and closing at 20 m/s, with a contact reach
-// of 0.3 mm. At the start neither rank holds a tet of the other block; as they close, each
-// gathering brings the other block's tets that came within the reach.
+// 0, the upper one on rank 1, starting 0.5 mm apart and closing at 20 m/s (--speed), with a
+// contact reach of 0.3 mm. At the start neither rank holds a tet of the other block; as they
+// close, each gathering brings the other block's tets that came within the reach.
 //
-//   mpiexec -n 2 build/bench/bench_gather [--cells 12] [--steps 1600] [--threads 1]
+//   mpiexec -n 2 build/bench/bench_gather [--cells 12] [--steps 1600] [--threads 1] [--speed 20]
 //
 // Per gathering: the step, the tets it added (both ranks), and its wall time (the slowest
 // rank's, from the Solver's own count), beside the mean step time of the run.
@@ -27,7 +27,7 @@ using namespace fdem;
 
 namespace {
 
-constexpr real kGap = 5e-4, kReach = 3e-4, kSpeed = 20;  // m, m, m/s
+constexpr real kGap = 5e-4, kReach = 3e-4;  // m, m
 
 Mesh two_blocks(int cells) {
   Mesh a = structured_box_mesh({0.01, 0.01, 0.01}, cells, cells, cells);
@@ -58,12 +58,14 @@ int main(int argc, char** argv) {
   MPI_Comm_rank(MPI_COMM_WORLD, &rank);
   MPI_Comm_size(MPI_COMM_WORLD, &size);
   int cells = 12, threads = 1;
+  real speed = 20;  // m/s: faster for a large block, which takes many steps to close the gap
   long steps = 1600;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string a = argv[i];
     if (a == "--cells") cells = std::atoi(argv[i + 1]);
     if (a == "--steps") steps = std::atol(argv[i + 1]);
     if (a == "--threads") threads = std::atoi(argv[i + 1]);
+    if (a == "--speed") speed = std::atof(argv[i + 1]);
   }
   if (size != 2) {
     if (rank == 0) std::fprintf(stderr, "bench_gather: run it on 2 ranks (mpiexec -n 2)\n");
@@ -84,11 +86,11 @@ int main(int argc, char** argv) {
   s.sync_host();
   for (std::size_t t = 0; t < s.model().tet_nodes.size(); ++t)
     if (upper(s.model(), int(t)))
-      for (int n : s.model().tet_nodes[t]) s.state.v[n] = {0, 0, -kSpeed};
+      for (int n : s.model().tet_nodes[t]) s.state.v[n] = {0, 0, -speed};
   s.host_changed();
   if (rank == 0)
-    std::printf("two blocks of %d^3 cells, %zu tets; reach %g m, dt %.3g s\n\n", cells, global.tet_nodes.size(), kReach,
-                s.dt());
+    std::printf("two blocks of %d^3 cells, %zu tets, closing at %g m/s; reach %g m, dt %.3g s\n\n", cells,
+                global.tet_nodes.size(), speed, kReach, s.dt());
   if (rank == 0) std::printf("| step | tets added | gathering, s | steps' worth |\n|---|---|---|---|\n");
   GhostGrowths seen = s.ghost_growths();
   double stepping = 0;

@@ -3,15 +3,18 @@
 #include <algorithm>
 #include <array>
 #include <cstring>
+#include <iterator>
 #include <limits>
 #include <map>
 #include <string>
 #include <unordered_map>
+#include <unordered_set>
 
 #include "contact/broad_phase.hpp"
 #include "core/error.hpp"
 #include "io/checkpoint.hpp"
 #include "partition/halo.hpp"
+#include "partition/local_ids.hpp"
 
 namespace fdem {
 namespace {
@@ -82,7 +85,7 @@ struct OwnBoxes {
   Aabb bounds;
 };
 
-OwnBoxes box_own_tets(const Model& m, const Decomposition& dd, const GhostState& now, real half) {
+OwnBoxes box_own_tets(const Model& m, const Decomposition& dd, const GhostStateNow& now, real half) {
   const int nt = int(m.tet_nodes.size());
   constexpr real kBig = std::numeric_limits<real>::max();
   OwnBoxes own{std::vector<Aabb>(nt), Aabb{{kBig, kBig, kBig}, {-kBig, -kBig, -kBig}}};
@@ -148,8 +151,7 @@ Candidates gather_candidate_boxes(const std::vector<std::string>& in, const std:
 
 /// Per owner rank: the sorted, unique ids of the received tets whose boxes overlap a shell box
 /// and that this rank does not hold yet.
-std::vector<std::string> request_ghosts(const Candidates& cand, int shell_size,
-                                        const std::unordered_map<long, int>& tet_local, int size) {
+std::vector<std::string> request_ghosts(const Candidates& cand, int shell_size, const LocalIds& tets, int size) {
   std::vector<int> ids(cand.boxes.size());
   for (std::size_t i = 0; i < ids.size(); ++i) ids[i] = int(i);
   std::vector<int> received(cand.boxes.size(), 0);  // 0: own shell box, 1: received
@@ -159,7 +161,7 @@ std::vector<std::string> request_ghosts(const Candidates& cand, int shell_size,
   std::vector<std::vector<long>> want(size);
   const int ns = shell_size;
   for (const auto& p : pairs)  // (min, max): an own box and a received one
-    if (!tet_local.count(cand.id[p[1] - ns])) want[cand.from[p[1] - ns]].push_back(cand.id[p[1] - ns]);
+    if (tets.find(cand.id[p[1] - ns]) < 0) want[cand.from[p[1] - ns]].push_back(cand.id[p[1] - ns]);
   std::vector<std::string> ask(size);
   for (int r = 0; r < size; ++r) {
     std::sort(want[r].begin(), want[r].end());
@@ -173,15 +175,15 @@ std::vector<std::string> request_ghosts(const Candidates& cand, int shell_size,
 
 /// Own tet -> the ranks asking for it; a request for a tet this rank does not own is an error.
 std::map<long, std::vector<int>> read_requests(const std::vector<std::string>& asked, const Decomposition& dd,
-                                               const std::unordered_map<long, int>& tet_local) {
+                                               const LocalIds& tets) {
   std::map<long, std::vector<int>> new_holders;
   for (int r = 0; r < int(asked.size()); ++r) {
     CheckpointIn rd(asked[r], "the contact-ghost requests of rank " + std::to_string(r));
     std::vector<long> asked_ids;
     rd.get(asked_ids);
     for (long g : asked_ids) {
-      auto it = tet_local.find(g);
-      if (it == tet_local.end() || !dd.tet_owned[it->second])
+      const int t = tets.find(g);
+      if (t < 0 || !dd.tet_owned[t])
         throw RunError("contact ghosts: rank " + std::to_string(r) + " asked rank " + std::to_string(dd.rank) +
                        " for tet " + std::to_string(g) + ", which it does not own");
       new_holders[g].push_back(r);
@@ -190,31 +192,35 @@ std::map<long, std::vector<int>> read_requests(const std::vector<std::string>& a
   return new_holders;
 }
 
-/// What the owner writes into the records of the requested tets: each node's groups, and the
-/// CE6s and surface faces of each requested tet.
+/// What the owner writes into the records of the requested tets: the groups of their nodes,
+/// and the CE6s and surface faces of each. The maps hold the requested tets only; their CE6s
+/// and faces are found by one pass over the model's arrays, without a lookup in a map.
 struct RecordIndex {
-  std::vector<std::uint8_t> groups;                            // per node: 1 top, 2 bottom, 4 lateral
-  std::unordered_map<int, std::vector<int>> ce6_of, faces_of;  // only the requested tets'
+  std::unordered_map<int, std::uint8_t> groups;                // the requested tets' nodes: 1 top, 2 bottom, 4 lateral
+  std::unordered_map<int, std::vector<int>> ce6_of, faces_of;  // the requested tets'
 };
 
-RecordIndex index_requested(const Model& m, const std::map<long, std::vector<int>>& new_holders,
-                            const std::unordered_map<long, int>& tet_local) {
+RecordIndex index_requested(const Model& m, const std::map<long, std::vector<int>>& new_holders, const LocalIds& tets) {
   RecordIndex ix;
-  ix.groups.assign(m.X.size(), 0);
-  for (int n : m.top_nodes) ix.groups[n] |= 1;
-  for (int n : m.bottom_nodes) ix.groups[n] |= 2;
-  for (int n : m.lateral_nodes) ix.groups[n] |= 4;
-  for (const auto& [g, rs] : new_holders) ix.ce6_of[tet_local.at(g)], ix.faces_of[tet_local.at(g)];
+  std::vector<char> asked(m.tet_nodes.size(), 0);
+  for (const auto& [g, rs] : new_holders) {
+    const int t = tets.at(g, "requested tet");
+    asked[t] = 1, ix.ce6_of[t], ix.faces_of[t];
+    for (int n : m.tet_nodes[t]) ix.groups[n];
+  }
+  for (auto [list, bit] : {std::pair{&m.top_nodes, 1}, {&m.bottom_nodes, 2}, {&m.lateral_nodes, 4}})
+    for (int n : *list)
+      if (auto it = ix.groups.find(n); it != ix.groups.end()) it->second |= std::uint8_t(bit);
   for (std::size_t c = 0; c < m.ce6_nodes.size(); ++c)
     for (int t : m.ce6_tets[c])
-      if (auto it = ix.ce6_of.find(t); it != ix.ce6_of.end()) it->second.push_back(int(c));
+      if (asked[t]) ix.ce6_of[t].push_back(int(c));
   for (std::size_t i = 0; i < m.surface_tet.size(); ++i)
-    if (auto it = ix.faces_of.find(m.surface_tet[i]); it != ix.faces_of.end()) it->second.push_back(int(i));
+    if (asked[m.surface_tet[i]]) ix.faces_of[m.surface_tet[i]].push_back(int(i));
   return ix;
 }
 
 /// One requested tet's record: the tet with its holders, its nodes, its CE6s and its surface faces.
-void put_ghost_record(CheckpointOut& o, const Model& m, const Decomposition& dd, const GhostState& now,
+void put_ghost_record(CheckpointOut& o, const Model& m, const Decomposition& dd, const GhostStateNow& now,
                       const RecordIndex& ix, long g, int t, const std::vector<int>& h) {
   const bool flags = !now.active.empty();
   o.put(g), o.put(m.tet_input[t]), o.put(m.tet_Xinv[t]), o.put(m.tet_V0[t]), o.put(m.tet_eta[t]);
@@ -223,7 +229,7 @@ void put_ghost_record(CheckpointOut& o, const Model& m, const Decomposition& dd,
   o.put(std::uint8_t(flags ? now.active[t] : 0)), o.put(h);
   for (int n : m.tet_nodes[t]) {
     o.put(dd.node_global[n]), o.put(m.X[n]), o.put(m.mass[n]), o.put(now.x[n]);
-    o.put(now.v[n]), o.put(ix.groups[n]);
+    o.put(now.v[n]), o.put(ix.groups.at(n));
   }
   const std::vector<int>& ce6s = ix.ce6_of.at(t);
   o.put(std::uint64_t(ce6s.size()));
@@ -231,7 +237,7 @@ void put_ghost_record(CheckpointOut& o, const Model& m, const Decomposition& dd,
     o.put(dd.ce6_global[c]), o.put(dd.tet_global[m.ce6_tets[c][0]]), o.put(dd.tet_global[m.ce6_tets[c][1]]);
     for (int n : m.ce6_nodes[c]) o.put(dd.node_global[n]);
     o.put(m.ce6_h[c]), o.put(m.ce6_law[c]), o.put(m.ce6_strength.empty() ? real(1) : m.ce6_strength[c]);
-    o.put(now.ce6[c]);
+    o.put(now.ce6_state(c));
   }
   const std::vector<int>& faces = ix.faces_of.at(t);
   o.put(std::uint64_t(faces.size()));
@@ -252,12 +258,11 @@ std::unordered_map<long, std::vector<int>> holders_before(const std::map<long, s
 
 /// Per rank: the records of the tets it asked for, then who holds each own tet it held already.
 /// Adds the asking ranks to own_holders (sorted), which then lists the holders after growth.
-std::vector<std::string> answer_requests(const Model& m, const Decomposition& dd, const GhostState& now,
-                                         const std::map<long, std::vector<int>>& new_holders,
-                                         const std::unordered_map<long, int>& tet_local,
+std::vector<std::string> answer_requests(const Model& m, const Decomposition& dd, const GhostStateNow& now,
+                                         const std::map<long, std::vector<int>>& new_holders, const LocalIds& tets,
                                          std::unordered_map<long, std::vector<int>>& own_holders) {
   const int rank = dd.rank, size = dd.size;
-  const RecordIndex ix = index_requested(m, new_holders, tet_local);
+  const RecordIndex ix = index_requested(m, new_holders, tets);
   std::vector<CheckpointOut> rec(size), upd(size);
   std::vector<long> n_rec(size, 0), n_upd(size, 0);
   for (const auto& [g, asking] : new_holders) {
@@ -267,7 +272,7 @@ std::vector<std::string> answer_requests(const Model& m, const Decomposition& dd
     std::sort(h.begin(), h.end());
     for (int r : before)
       if (r != rank) upd[r].put(g), upd[r].put(h), ++n_upd[r];
-    const int t = tet_local.at(g);
+    const int t = tets.at(g, "requested tet");
     for (int r : asking) {
       ++n_rec[r];
       put_ghost_record(rec[r], m, dd, now, ix, g, t, h);
@@ -350,28 +355,32 @@ struct PositionKey {
 };
 static_assert(sizeof(Vec3) == sizeof(std::array<std::uint64_t, 3>), "a position is three doubles");
 
-/// Appends the arrived nodes not held yet, in global order; returns global -> local node id.
-/// (m and dd are the ones growing: only their first nn nodes are read.)
-std::unordered_map<long, int> append_ghost_nodes(Model& m, Decomposition& dd, const std::map<long, NodeRec>& nodes,
-                                                 GhostState& added) {
+/// Appends the arrived nodes not held yet, in global order, and takes them into `nodes`.
+void append_ghost_nodes(Model& m, Decomposition& dd, const std::map<long, NodeRec>& arrived, LocalIds& nodes,
+                        GhostState& added) {
   const int nn = int(m.X.size());
-  std::unordered_map<long, int> node_local;
-  for (int n = 0; n < nn; ++n) node_local[dd.node_global[n]] = n;
   // Mesh vertices: a new node at the position of a held one shares its vertex (split nodes
-  // keep their vertex's reference position). Only the new nodes' positions are looked up.
+  // keep their vertex's reference position). Only held nodes within the new ones' bounds are
+  // looked up.
   std::unordered_map<PositionKey, int, PositionKey::Hash> vertex_at;  // -1: no node there yet
-  for (const auto& [g, nr] : nodes)
-    if (!node_local.count(g)) vertex_at.emplace(PositionKey(nr.X), -1);
+  constexpr real kBig = std::numeric_limits<real>::max();
+  Aabb span{{kBig, kBig, kBig}, {-kBig, -kBig, -kBig}};
+  for (const auto& [g, nr] : arrived)
+    if (nodes.find(g) < 0) {
+      vertex_at.emplace(PositionKey(nr.X), -1);
+      for (int d = 0; d < 3; ++d)
+        span.lo[d] = std::min(span.lo[d], nr.X[d]), span.hi[d] = std::max(span.hi[d], nr.X[d]);
+    }
   int vertices = 0;
   for (int n = 0; n < nn; ++n) {
     vertices = std::max(vertices, m.node_vertex[n] + 1);
+    if (!overlap(span, Aabb{m.X[n], m.X[n]})) continue;
     if (auto it = vertex_at.find(PositionKey(m.X[n])); it != vertex_at.end() && it->second < 0)
       it->second = m.node_vertex[n];
   }
-  for (const auto& [g, nr] : nodes) {
-    if (node_local.count(g)) continue;
+  for (const auto& [g, nr] : arrived) {
+    if (nodes.find(g) >= 0) continue;
     const int n = int(m.X.size());
-    node_local[g] = n;
     m.X.push_back(nr.X);
     m.mass.push_back(nr.mass);
     if (!m.node_conditions.empty()) m.node_conditions.push_back(0);  // (moved by its owner's halo)
@@ -387,65 +396,65 @@ std::unordered_map<long, int> append_ghost_nodes(Model& m, Decomposition& dd, co
     added.x.push_back(nr.x);
     added.v.push_back(nr.v);
   }
-  return node_local;
+  nodes.extend();
 }
 
-/// Holders of every tet held: the old ones from the shared lists, then the updates, then the
-/// new tets' records. Here the first two (with this rank's own answers); append_ghost_tets adds the rest.
-std::vector<std::vector<int>> holders_of_held(const Decomposition& dd, int nt,
-                                              const std::unordered_map<long, std::vector<int>>& updates,
-                                              const std::unordered_map<long, std::vector<int>>& own_holders,
-                                              const std::unordered_map<long, int>& tet_local) {
-  std::vector<std::vector<int>> holders(nt);
-  for (int t = 0; t < nt; ++t) holders[t] = {dd.rank};
-  for (const Neighbour& nb : dd.neighbours)
-    for (int t : nb.shared_tets) holders[t].push_back(nb.rank);
-  for (const auto* given : {&updates, &own_holders})
-    for (const auto& [g, h] : *given) {
-      auto it = tet_local.find(g);
-      if (it == tet_local.end())
+/// A held tet whose holders changed (local id, every rank holding it now, ascending).
+struct NewHolders {
+  int tet;
+  std::vector<int> ranks;
+};
+
+/// The held tets whose holders the owners told (`updates`) or this rank answered for
+/// (`own_holders`), in local ids. RunError for a tet this rank does not hold.
+std::vector<NewHolders> held_with_new_holders(const Decomposition& dd, const LocalIds& tets,
+                                              std::unordered_map<long, std::vector<int>>& updates,
+                                              std::unordered_map<long, std::vector<int>>& own_holders) {
+  std::vector<NewHolders> changed;
+  for (auto* given : {&updates, &own_holders})
+    for (auto& [g, h] : *given) {
+      const int t = tets.find(g);
+      if (t < 0)
         throw RunError("contact ghosts: rank " + std::to_string(dd.rank) + " was told who holds tet " +
                        std::to_string(g) + ", which it does not hold");
-      holders[it->second] = h;
+      changed.push_back({t, std::move(h)});
     }
-  return holders;
+  return changed;
 }
 
-/// Appends the arrived tets (in global order) with their faces, and their holders to `holders`.
-void append_ghost_tets(std::vector<TetRec>& tets, const std::unordered_map<long, int>& node_local,
-                       std::unordered_map<long, int>& tet_local, std::vector<std::vector<int>>& holders, Model& gm,
-                       Decomposition& gd, GhostState& added) {
-  for (TetRec& t : tets) {
+/// Appends the arrived tets (in global order) with their faces, takes them into `tets`, and
+/// their holders into `changed`.
+void append_ghost_tets(std::vector<TetRec>& arrived, const LocalIds& nodes, LocalIds& tets,
+                       std::vector<NewHolders>& changed, Model& gm, Decomposition& gd, GhostState& added) {
+  for (TetRec& t : arrived) {
     const int i = int(gm.tet_nodes.size());
-    tet_local[t.id] = i;
     std::array<int, 4> q;
-    for (int k = 0; k < 4; ++k) q[k] = node_local.at(t.nodes[k]);
+    for (int k = 0; k < 4; ++k) q[k] = nodes.at(t.nodes[k], "node");
     append_tet(gm, q, t.input, t.Xinv, t.V0, t.eta, t.props);
     gd.tet_global.push_back(t.id);
     gd.tet_owned.push_back(0);
-    holders.push_back(std::move(t.holders));
+    changed.push_back({i, std::move(t.holders)});
     added.active.push_back(t.active);
     for (const auto& f : t.faces) {
-      gm.surface_faces.push_back({node_local.at(f[0]), node_local.at(f[1]), node_local.at(f[2])});
+      gm.surface_faces.push_back({nodes.at(f[0], "node"), nodes.at(f[1], "node"), nodes.at(f[2], "node")});
       gm.surface_tet.push_back(i);
       // A contact ghost's nodes move with their owner's halo: its faces need no condition.
       if (!gm.surface_conditions.empty()) gm.surface_conditions.push_back(0);
     }
   }
+  tets.extend();
 }
 
 /// Appends the arrived CE6s not held yet whose two tets are both held now, in global order.
-void append_ghost_ce6s(const std::map<long, Ce6Rec>& ce6s, const std::unordered_map<long, int>& node_local,
-                       const std::unordered_map<long, int>& tet_local, Model& gm, Decomposition& gd,
-                       GhostState& added) {
-  std::unordered_map<long, int> ce6_local;
-  for (std::size_t c = 0; c < gm.ce6_nodes.size(); ++c) ce6_local[gd.ce6_global[c]] = int(c);
-  for (const auto& [g, c] : ce6s) {  // a CE6 whose two tets are both held now
-    if (ce6_local.count(g) || !tet_local.count(c.a) || !tet_local.count(c.b)) continue;
+void append_ghost_ce6s(const std::map<long, Ce6Rec>& arrived, const LocalIds& nodes, const LocalIds& tets, Model& gm,
+                       Decomposition& gd, GhostState& added) {
+  const LocalIds ce6s(gd.ce6_global);
+  for (const auto& [g, c] : arrived) {  // a CE6 whose two tets are both held now
+    if (ce6s.find(g) >= 0 || tets.find(c.a) < 0 || tets.find(c.b) < 0) continue;
     std::array<int, 6> q;
-    for (int k = 0; k < 6; ++k) q[k] = node_local.at(c.nodes[k]);
+    for (int k = 0; k < 6; ++k) q[k] = nodes.at(c.nodes[k], "node");
     gm.ce6_nodes.push_back(q);
-    gm.ce6_tets.push_back({tet_local.at(c.a), tet_local.at(c.b)});
+    gm.ce6_tets.push_back({tets.find(c.a), tets.find(c.b)});
     gm.ce6_h.push_back(c.h);
     gm.ce6_law.push_back(c.law);
     if (!gm.ce6_strength.empty()) gm.ce6_strength.push_back(c.strength);
@@ -455,23 +464,38 @@ void append_ghost_ce6s(const std::map<long, Ce6Rec>& ce6s, const std::unordered_
   }
 }
 
-/// The neighbours: node lists as before (the new ghosts are never computed here), shared
-/// tets from the holders (one list per tet held, appended ones included), in global order.
-std::vector<Neighbour> grown_neighbours(const Decomposition& dd, const std::vector<std::vector<int>>& holders) {
+/// The neighbours after growth: node lists as before (the new ghosts are never computed here);
+/// shared tets as before, but for the tets in `changed`, listed with the ranks holding them now.
+/// The old lists are in global order (as every rank model and every growth makes them), so the
+/// changes merge into them in order. Costs the shared lists and the changes, not the model.
+std::vector<Neighbour> grown_neighbours(const Decomposition& dd, const std::vector<NewHolders>& changed) {
   const int rank = dd.rank, size = dd.size;
+  auto by_global = [&](int a, int b) { return dd.tet_global[a] < dd.tet_global[b]; };
+  std::unordered_set<int> moved;  // the changed tets: out of the old lists, into `more`
+  std::vector<std::vector<int>> more(size);
+  for (const NewHolders& c : changed) {
+    moved.insert(c.tet);
+    for (int r : c.ranks)
+      if (r != rank) more[r].push_back(c.tet);
+  }
   std::vector<Neighbour> nb(size);
   for (int r = 0; r < size; ++r) nb[r].rank = r;
   for (const Neighbour& old : dd.neighbours) {
-    nb[old.rank].send_nodes = old.send_nodes;
-    nb[old.rank].recv_nodes = old.recv_nodes;
+    Neighbour& n = nb[old.rank];
+    n.send_nodes = old.send_nodes;
+    n.recv_nodes = old.recv_nodes;
+    for (int t : old.shared_tets)
+      if (!moved.count(t)) n.shared_tets.push_back(t);
   }
-  const int gt = int(holders.size());
-  std::vector<int> by_global(gt);
-  for (int t = 0; t < gt; ++t) by_global[t] = t;
-  std::sort(by_global.begin(), by_global.end(), [&](int a, int b) { return dd.tet_global[a] < dd.tet_global[b]; });
-  for (int t : by_global)
-    for (int r : holders[t])
-      if (r != rank) nb[r].shared_tets.push_back(t);
+  for (int r = 0; r < size; ++r) {
+    if (more[r].empty()) continue;
+    std::sort(more[r].begin(), more[r].end(), by_global);
+    std::vector<int> merged;
+    merged.reserve(nb[r].shared_tets.size() + more[r].size());
+    std::merge(nb[r].shared_tets.begin(), nb[r].shared_tets.end(), more[r].begin(), more[r].end(),
+               std::back_inserter(merged), by_global);
+    nb[r].shared_tets = std::move(merged);
+  }
   std::vector<Neighbour> out;
   for (int r = 0; r < size; ++r)
     if (r != rank && (!nb[r].send_nodes.empty() || !nb[r].recv_nodes.empty() || !nb[r].shared_tets.empty()))
@@ -481,10 +505,11 @@ std::vector<Neighbour> grown_neighbours(const Decomposition& dd, const std::vect
 
 }  // namespace
 
-GhostGrowth grow_contact_ghosts(MPI_Comm comm, Model& m, Decomposition& dd, const GhostState& now) {
+GhostGrowth grow_contact_ghosts(MPI_Comm comm, Model& m, Decomposition& dd, const GhostStateNow& now) {
   const int size = dd.size;
-  const int nt = int(m.tet_nodes.size()), nn = int(m.X.size()), nc = int(m.ce6_nodes.size());
-  if (size_of(comm) != size || int(now.x.size()) != nn || int(now.v.size()) != nn || int(now.ce6.size()) != nc)
+  const int nn = int(m.X.size()), nc = int(m.ce6_nodes.size());
+  if (size_of(comm) != size || int(now.x.size()) != nn || int(now.v.size()) != nn || int(now.ce6_damage.size()) != nc ||
+      int(now.ce6_anchors.size()) != nc)
     throw RunError("contact ghosts: the state does not match the rank model");
 
   // 1. This rank's tets, boxed at the current positions and grown by half the reach (two boxes
@@ -498,32 +523,30 @@ GhostGrowth grow_contact_ghosts(MPI_Comm comm, Model& m, Decomposition& dd, cons
   const std::vector<std::string> in = exchange_all(comm, offer.out);
 
   // 3. The received tets whose boxes overlap one of this rank's: the contact ghosts it needs.
-  std::unordered_map<long, int> tet_local;
-  for (int t = 0; t < nt; ++t) tet_local[dd.tet_global[t]] = t;
+  LocalIds tets(dd.tet_global);
   const Candidates cand = gather_candidate_boxes(in, own.box, offer.shell);
   // Requests, every rank's to every rank (requests for tets a rank does not own are errors).
-  const std::vector<std::string> asked =
-      exchange_all(comm, request_ghosts(cand, int(offer.shell.size()), tet_local, size));
+  const std::vector<std::string> asked = exchange_all(comm, request_ghosts(cand, int(offer.shell.size()), tets, size));
 
   // 4. The owner's answer: each requested tet's record for the rank that asked, and to every
   // other rank holding it already, who holds it now.
-  const std::map<long, std::vector<int>> new_holders = read_requests(asked, dd, tet_local);
+  const std::map<long, std::vector<int>> new_holders = read_requests(asked, dd, tets);
   GhostGrowth out;
   if (sum_over_ranks(comm, double(new_holders.size())) == 0) return out;  // no rank lacks a tet: m and dd unchanged
   std::unordered_map<long, std::vector<int>> own_holders = holders_before(new_holders, dd);
-  const std::vector<std::string> got =
-      exchange_all(comm, answer_requests(m, dd, now, new_holders, tet_local, own_holders));
+  const std::vector<std::string> got = exchange_all(comm, answer_requests(m, dd, now, new_holders, tets, own_holders));
 
   // 5. The records and the holder updates that arrived.
   Arrivals arrived = read_answers(got);
 
   // 6. The rank model grows in place: the new nodes, tets, CE6s and faces appended, each in
-  // global order. The model is not copied.
-  std::vector<std::vector<int>> holders = holders_of_held(dd, nt, arrived.updates, own_holders, tet_local);
-  const std::unordered_map<long, int> node_local = append_ghost_nodes(m, dd, arrived.nodes, out.added);
-  append_ghost_tets(arrived.tets, node_local, tet_local, holders, m, dd, out.added);
-  append_ghost_ce6s(arrived.ce6s, node_local, tet_local, m, dd, out.added);
-  dd.neighbours = grown_neighbours(dd, holders);
+  // global order. The model is not copied, and nothing is looked up in a map of all of it.
+  std::vector<NewHolders> changed = held_with_new_holders(dd, tets, arrived.updates, own_holders);
+  LocalIds nodes(dd.node_global);
+  append_ghost_nodes(m, dd, arrived.nodes, nodes, out.added);
+  append_ghost_tets(arrived.tets, nodes, tets, changed, m, dd, out.added);
+  append_ghost_ce6s(arrived.ce6s, nodes, tets, m, dd, out.added);
+  dd.neighbours = grown_neighbours(dd, changed);
   out.added_tets = long(arrived.tets.size());
   out.added_total = long(sum_over_ranks(comm, double(out.added_tets)));
   return out;

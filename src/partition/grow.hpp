@@ -14,11 +14,23 @@
 
 namespace fdem {
 
-/// The evolving state of a rank model's nodes, CE6s and tets (what travels with a ghost).
+/// The evolving state of a rank model's nodes, CE6s and tets, as a growth appends it.
 struct GhostState {
   std::vector<Vec3> x, v;            // per node: position (m) and velocity (m/s)
   std::vector<Ce6State> ce6;         // per CE6
   std::vector<std::uint8_t> active;  // per tet: contact candidate (empty without contact)
+};
+
+/// The state a gathering reads, where it lies (nothing is copied): per node x and v, per CE6
+/// its damage and friction anchors, per tet its activation flag (empty without contact).
+struct GhostStateNow {
+  const std::vector<Vec3>& x;
+  const std::vector<Vec3>& v;
+  const std::vector<Ce6Damage>& ce6_damage;
+  const std::vector<Ce6Anchors>& ce6_anchors;
+  const std::vector<std::uint8_t>& active;
+  /// CE6 c's state as one value, as a ghost's record carries it.
+  Ce6State ce6_state(int c) const { return ce6_state_of(ce6_damage[c], ce6_anchors[c]); }
 };
 
 /// What a gathering appended to a rank model.
@@ -39,6 +51,6 @@ struct GhostGrowth {
 /// elements are in no colouring (they act on no owned node, so this rank never computes them).
 /// Where no rank lacks a tet, added_total is 0 and m and dd are unchanged. The RunErrors of a
 /// bad request or holder list are thrown before anything is appended.
-GhostGrowth grow_contact_ghosts(MPI_Comm comm, Model& m, Decomposition& dd, const GhostState& now);
+GhostGrowth grow_contact_ghosts(MPI_Comm comm, Model& m, Decomposition& dd, const GhostStateNow& now);
 
 }  // namespace fdem

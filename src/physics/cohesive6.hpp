@@ -74,6 +74,14 @@ struct Ce6Anchors {
   Vec3 a[3];
 };
 
+/// One CE6's state as one value, from its damage and its anchors kept apart.
+inline Ce6State ce6_state_of(const Ce6Damage& d, const Ce6Anchors& a) {
+  Ce6State s;
+  static_cast<Ce6Damage&>(s) = d;
+  for (int j = 0; j < 3; ++j) s.slip[j] = a.a[j];
+  return s;
+}
+
 /// Per CE6 the opening offsets of its three points in the face's own frame (m): x along n, y
 /// along e1, z along e2 (see above). Only where the scene has an in-situ stress.
 struct Ce6Prestress {

@@ -22,21 +22,10 @@ struct Ce6States {
     anchors.assign(n, Ce6Anchors{});
   }
   /// CE6 c's state as one value (outputs, tests).
-  Ce6State operator[](std::size_t c) const {
-    Ce6State s;
-    static_cast<Ce6Damage&>(s) = damage[c];
-    for (int j = 0; j < 3; ++j) s.slip[j] = anchors[c].a[j];
-    return s;
-  }
-  /// Every CE6's state as values, in id order (frames, checkpoints, ghosts that change rank).
-  std::vector<Ce6State> states() const {
-    std::vector<Ce6State> out(size());
-    for (std::size_t c = 0; c < out.size(); ++c) out[c] = (*this)[c];
-    return out;
-  }
+  Ce6State operator[](std::size_t c) const { return ce6_state_of(damage[c], anchors[c]); }
   /// The states `more` after those held.
   void append(const std::vector<Ce6State>& more) {
-    if (damage.empty()) damage.reserve(more.size()), anchors.reserve(more.size());  // (a restart's whole state)
+    damage.reserve(damage.size() + more.size()), anchors.reserve(anchors.size() + more.size());
     for (const Ce6State& s : more) {
       damage.push_back(s);
       Ce6Anchors a;

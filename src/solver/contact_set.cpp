@@ -64,11 +64,9 @@ void ContactSet::recount_active() {
       std::count_if(tet_flags.begin(), tet_flags.end(), [](std::uint8_t f) { return TetFlag::candidate(f); });
 }
 
-void ContactSet::set_ownership(const std::vector<std::uint8_t>* tet_owned, real reach,
-                               const std::vector<Vec3>& plan_x) {
+void ContactSet::set_ownership(const std::vector<std::uint8_t>* tet_owned, real reach) {
   tet_owned_ = tet_owned;
   reach_ = reach;
-  plan_x_ = plan_x;
 }
 
 long ContactSet::activate_ce6(const Model& m, int c) {

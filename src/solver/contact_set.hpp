@@ -54,10 +54,10 @@ class ContactSet {
   void request_rebuild() { rebuild_due = true; }
 
   /// A rank's part of a decomposed model (partition/): the rank holds every tet within `reach`
-  /// (m) of its own tets (tet_owned, which must outlive the set) at the node positions `plan_x`
-  /// (the reference configuration at the start, the positions of the last growth of the contact
-  /// ghosts after one, partition/grow.hpp); check_reach() guards that.
-  void set_ownership(const std::vector<std::uint8_t>* tet_owned, real reach, const std::vector<Vec3>& plan_x);
+  /// (m) of its own tets (tet_owned, which must outlive the set) at the node positions set_plan
+  /// gives (the reference configuration at the start, the positions of the last growth of the
+  /// contact ghosts after one, partition/grow.hpp); check_reach() guards that.
+  void set_ownership(const std::vector<std::uint8_t>* tet_owned, real reach);
   /// Several ranks: throws RunError, naming the tet and a reach to try, when a node of an owned
   /// tet has moved half the contact reach from plan_x (a partner this rank lacks could have
   /// touched it).

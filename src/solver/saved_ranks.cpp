@@ -39,10 +39,10 @@ void SavedLayout::load(CheckpointIn& in) {
 namespace {
 
 /// Global -> local ids of one kind on this rank (identity on one rank).
-class LocalIds {
+class SavedLocalIds {
  public:
-  LocalIds() = default;
-  LocalIds(const std::vector<long>& global, std::size_t count) : count_(long(count)) {
+  SavedLocalIds() = default;
+  SavedLocalIds(const std::vector<long>& global, std::size_t count) : count_(long(count)) {
     for (std::size_t i = 0; i < global.size(); ++i) sorted_.push_back({global[i], int(i)});
     std::sort(sorted_.begin(), sorted_.end());
   }
@@ -99,7 +99,7 @@ struct SavedRankState {
 
 struct Solver::SavedRanks {
   int next_rank = 0, size = 0;
-  LocalIds node, tet, ce6;
+  SavedLocalIds node, tet, ce6;
   std::map<FaceKey, int> face;  // loaded faces here, by key
   // Per loaded face here: the saved ranks' powers (W) and works (J) of it added up. Each rank
   // keeps its own part of a face's (over the nodes it owns); the new owner takes the sum.
@@ -211,9 +211,9 @@ EntityMap Solver::read_saved_rank(CheckpointIn& in) {
     saved_ = std::make_shared<SavedRanks>();
     SavedRanks& g = *saved_;
     const Decomposition& dd = layout_.dd;
-    g.node = LocalIds(dd.node_global, model_.X.size());
-    g.tet = LocalIds(dd.tet_global, model_.tet_nodes.size());
-    g.ce6 = LocalIds(dd.ce6_global, model_.ce6_nodes.size());
+    g.node = SavedLocalIds(dd.node_global, model_.X.size());
+    g.tet = SavedLocalIds(dd.tet_global, model_.tet_nodes.size());
+    g.ce6 = SavedLocalIds(dd.ce6_global, model_.ce6_nodes.size());
   }
   SavedRanks& g = *saved_;
   SavedLayout l;
@@ -384,8 +384,8 @@ void Solver::place_saved_pairs() {
   // In the candidate builder's order: by the tets' global ids, the lower one first.
   const SavedRanks& g = *saved_;
   const Decomposition& dd = layout_.dd;
-  const LocalIds tet(dd.distributed() ? dd.tet_global : std::vector<long>{}, model_.tet_nodes.size());
-  const LocalIds ce6(dd.distributed() ? dd.ce6_global : std::vector<long>{}, model_.ce6_nodes.size());
+  const SavedLocalIds tet(dd.distributed() ? dd.tet_global : std::vector<long>{}, model_.tet_nodes.size());
+  const SavedLocalIds ce6(dd.distributed() ? dd.ce6_global : std::vector<long>{}, model_.ce6_nodes.size());
   ContactSet& c = contacts;
   for (const auto& [ab, s] : g.pairs) {
     const int a = tet.find(ab.first), b = tet.find(ab.second);

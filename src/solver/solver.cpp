@@ -42,7 +42,7 @@ LoopParts Solver::loop_parts() {
 }
 
 void Solver::setup(Decomposition dd) {
-  set_up_layout(std::move(dd));
+  set_up_layout(std::move(dd), false);
   const SolverSettings& sol = scene_.solver;
   stable_ = stable_step_bound(model_, scene_, laws_, loads_.platens.k, layout_);
   stable_.dt = sol.time_step_safety * stable_.dt;
@@ -62,14 +62,17 @@ void Solver::setup(Decomposition dd) {
   energy_.cohesive_start = in_situ_cohesive_energy();
 }
 
-void Solver::set_up_layout(Decomposition dd) {
+void Solver::set_up_layout(Decomposition dd, bool keep_state) {
   const SolverSettings& sol = scene_.solver;
   if (sol.threads > 0) omp_set_num_threads(sol.threads);
   laws_ = make_element_laws(scene_);
-  state.start(model_.X, model_.ce6_nodes.size());
+  if (!keep_state) state.start(model_.X, model_.ce6_nodes.size());
   layout_.set_up(model_, std::move(dd), scene_.contact.enabled());
   contacts = ContactSet(model_, scene_);
-  if (layout_.distributed()) contacts.set_ownership(&layout_.own_tet, layout_.dd.reach, model_.X);
+  if (layout_.distributed()) {
+    contacts.set_ownership(&layout_.own_tet, layout_.dd.reach);
+    if (!keep_state) contacts.set_plan(model_.X);  // (a growth sets it from the positions reached)
+  }
 
   check_law_indices();
   break_frictional_joints();
@@ -157,30 +160,27 @@ void Solver::break_frictional_joints() {
 void Solver::grow_contact_ghosts() {
   const double t0 = MPI_Wtime();
   sync_host();
-  GhostState now;
-  now.x = state.x, now.v = state.v, now.ce6 = state.ce6.states(), now.active = contacts.tet_flags;
-  // The model grows in place; the loop, which reads its arrays, is not used again before
-  // relayout() or restart_device() replaces it.
+  const GhostStateNow now{state.x, state.v, state.ce6.damage, state.ce6.anchors, contacts.tet_flags};
+  // The model, then the state, grow in place; the loop, which reads their arrays, is not used
+  // again before relayout() or restart_device() replaces it.
   const GhostGrowth g = fdem::grow_contact_ghosts(layout_.comm, model_, layout_.dd, now);
   ++growth_.count;
   growth_.step = state.step;
   if (g.added_total == 0) {
     ++growth_.unchanged;  // no rank lacked a tet: the layout stays
   } else {
-    // The layout is set up for the grown model. The state of the nodes, the CE6s and the
-    // contact pairs, the bulk of it, moves over and takes the ghosts' appended. The loads'
-    // state, a few arrays, goes through a checkpoint's payload.
-    SolverState kept = std::move(state);
-    ContactSet moved = std::move(contacts);
-    CheckpointOut kept_loads;
-    loads_.save(kept_loads);
-    relayout(std::move(layout_.dd));
-    state = std::move(kept);
+    // The layout is set up for the grown model. The state of the nodes and the CE6s stays and
+    // takes the ghosts' appended; the contact pairs, the bulk of the rest, move over. The
+    // loads' state, a few arrays, goes through a checkpoint's payload.
     state.append(g.added);
     if (state.x.size() != model_.X.size() || state.ce6.size() != model_.ce6_nodes.size())
       throw RunError("contact ghosts: the grown model has " + std::to_string(model_.X.size()) + " nodes and " +
                      std::to_string(model_.ce6_nodes.size()) + " CE6s, the state " + std::to_string(state.x.size()) +
                      " and " + std::to_string(state.ce6.size()));
+    ContactSet moved = std::move(contacts);
+    CheckpointOut kept_loads;
+    loads_.save(kept_loads);
+    relayout(std::move(layout_.dd), true);
     CheckpointIn in(kept_loads.payload(), "the loads' state before the contact ghosts grew");
     loads_.load(in, true);
     in.finish();
@@ -195,15 +195,15 @@ void Solver::grow_contact_ghosts() {
 
 void Solver::adopt_layout(RankModel rm) {
   model_ = std::move(rm.model);
-  relayout(std::move(rm.dd));
+  relayout(std::move(rm.dd), false);
 }
 
-void Solver::relayout(Decomposition dd) {
+void Solver::relayout(Decomposition dd, bool keep_state) {
   dev_.reset();
   layout_.halo.reset();                                         // (it refers to the model's connectivity)
   std::vector<NodePush> push = std::move(loads_.gravity.push);  // (the ghosts' nodes appended: none)
   const real relax_start = loads_.gravity.relax_start, relax_time = loads_.gravity.relax_time;
-  set_up_layout(std::move(dd));
+  set_up_layout(std::move(dd), keep_state);
   loads_.gravity.relax_start = relax_start, loads_.gravity.relax_time = relax_time;
   if (!push.empty()) push.resize(model_.X.size()), loads_.gravity.push = std::move(push);
 }

@@ -190,18 +190,21 @@ class Solver : private StepBookkeeping {
   /// derived part (set_up_layout's, then the stable step and the energies' reference values);
   /// not the forces and not the device loop.
   void setup(Decomposition dd);
-  /// The initial state and the parts derived from the model's layout: the layout with its halo,
-  /// the contact set, the loads.
-  void set_up_layout(Decomposition dd);
+  /// The initial state (unless `keep_state`: a growth's, which matches the grown model) and the
+  /// parts derived from the model's layout: the layout with its halo, the contact set (without
+  /// the positions the reach counts from where `keep_state`), the loads.
+  void set_up_layout(Decomposition dd, bool keep_state);
   /// Every rank together: the contact ghosts gathered again (partition/grow.hpp). Where tets
-  /// were added, the model grew in place and the layout is set up for it, the state moved over.
+  /// were added, the model grew in place and the layout is set up for it; the state is kept,
+  /// the ghosts' state appended.
   void grow_contact_ghosts();
   /// A rank model replaces the one running (a checkpoint of grown contact ghosts): relayout().
   void adopt_layout(RankModel rm);
   /// The layout set up afresh for model_ (grown) and dd, halo and contact set included, the
-  /// device loop dropped. The time step, the stable bound and the energies' reference values
-  /// stay: they are the partition's, and a rank never computes its contact ghosts.
-  void relayout(Decomposition dd);
+  /// device loop dropped; the state started afresh at rest, unless `keep_state`. The time step, the stable bound
+  /// and the energies' reference values stay: they are the partition's, and a rank never
+  /// computes its contact ghosts.
+  void relayout(Decomposition dd, bool keep_state);
   /// A new loop for the layout, with the host state uploaded.
   void restart_device();
   /// The evolving state in checkpoint order: the nodes' and CE6s', the loads', the energies'
@@ -249,7 +252,8 @@ class Solver : private StepBookkeeping {
   /// A point's columns: u and v interpolated in its tet, and the tet's stress.
   std::array<real, HistoryPoint::kColumns> history_point_values(const HistoryProbe& p) const;
   /// A frictional joint's CE6s start broken (kCe6NeverBonded), their vicinity a contact candidate
-  /// and their faces released, as a break leaves them.
+  /// and their faces released, as a break leaves them. Idempotent: a growth of the contact
+  /// ghosts runs it again on the state it keeps.
   void break_frictional_joints();
   /// Throws RunError when the kinetic energy ke (J) far exceeds the work put in.
   void check_runaway(real ke) const;

@@ -21,7 +21,7 @@ void SolverState::save(CheckpointOut& out) const {
   out.put(x);
   out.put(v);
   out.put(f);
-  // The bytes of ce6.states(), one state at a time: no copy of all of them beside the payload.
+  // Each CE6's state as one value (Ce6State), one at a time: no copy of all of them beside the payload.
   out.put(std::uint64_t(ce6.size()));
   for (std::size_t c = 0; c < ce6.size(); ++c) out.put(ce6[c]);
   out.put(ce6_broke);
